@@ -1,0 +1,245 @@
+"""`pendkit/SwingUp-v0`: the one Gymnasium env, for the MuJoCo twin and (later) the real rig."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from pendkit.errors import ActionError, ConfigError
+from pendkit.features import PAPER_FEATURES, angle_from_upright_rad, feature_vector, resolve_features, reward
+from pendkit.rig import RigParams
+from pendkit.sim.backend import STARTS, SimBackend
+from pendkit.sim.fidelity import Fidelity
+from pendkit.state import RigState, ServoCommand
+
+ENV_ID = "pendkit/SwingUp-v0"
+ACTION_MODES = ("discrete", "continuous")
+DISCRETE_ACTION_NAMES = ("stop", "left slow", "left fast", "right slow", "right fast")
+EPISODE_STEPS = 500
+_RANGE_TOLERANCE = 1e-6  # float32 policies may land a hair outside [-1, 1]
+
+
+class SwingUpEnv(gym.Env):
+    """Swing up and balance a rotary (Furuta) pendulum driven by a hobby position servo.
+
+    ## Description
+    A servo turns a 400 mm arm in the horizontal plane; a 400 mm dowel hangs from an absolute encoder at
+    the arm's end. The agent moves the servo's *target position*; the servo slews towards it at its rated
+    speed. The goal is to bring the pendulum upright and keep it there. The same env drives the MuJoCo
+    twin (`backend="sim"`) and, through the rig link, the real rig.
+
+    ## Action Space
+    `action_mode="discrete"`: `Discrete(5)`; the servo target moves on every 10 ms acting tick until the
+    next action (or the arm's limit):
+
+    | action | meaning    | target change per acting tick (D645MW) |
+    |--------|------------|----------------------------------------|
+    | 0      | stop       | 0                                      |
+    | 1      | left slow  | -2 counts (-1.2 deg)                   |
+    | 2      | left fast  | -4 counts (-2.4 deg)                   |
+    | 3      | right slow | +2 counts                              |
+    | 4      | right fast | +4 counts                              |
+
+    `action_mode="continuous"`: `Box(-1, 1, (1,))`, the target from leftmost (-1, -90 deg) to rightmost
+    (+1, +90 deg), passed through the filter `a_t = c*a_(t-1) + (1-c)*u_t` (c = 0.85) before it is sent.
+
+    ## Observation Space
+    `Box` of float32, features chosen with `observation=` (default: the paper's seven):
+
+    | feature               | unit    | range        | meaning                                          |
+    |-----------------------|---------|--------------|--------------------------------------------------|
+    | pendulum_angle        | rad     | [-pi, pi)    | from upright (0 = upright, -pi = hanging)        |
+    | arm_angle             | rad     | [-pi/2, pi/2]| arm angle (servo command on the realistic twin)  |
+    | pendulum_velocity     | rad/s   | unbounded    | pendulum rate                                    |
+    | pendulum_acceleration | rad/s^2 | unbounded    | pendulum angular acceleration                    |
+    | arm_velocity          | rad/s   | unbounded    | arm rate                                         |
+    | time_since_action     | s       | [0, inf)     | from sending the last action to this observation |
+    | observation_age       | s       | [0, inf)     | from receiving the observation to using it       |
+
+    Also available: `pendulum_cos`, `pendulum_sin`, `servo_target`.
+
+    ## Rewards
+    `-theta^2 - 0.5 * omega^2` per step, theta from upright in rad, omega in rev/s (the paper's reward),
+    from the observed state. 0 is upright and still; hanging still is about -9.87.
+
+    ## Starting State
+    `start="random"` (default): pendulum angle uniform in +-3.01 rad from hanging, rate in +-2.01 rad/s, arm
+    at rest within half its range (the authors' reset). `"rest"`: hanging still, arm centred.
+    `"upright"`: within 0.05 rad of upright, still (for balance experiments).
+
+    ## Episode End
+    Never terminates; truncates after `max_episode_steps` (500) steps, about 30 s at 60 ms a step.
+
+    ## Arguments
+    backend ("sim"), action_mode ("discrete" | "continuous"), fidelity ("ideal" | "paper-delayed" |
+    "realistic" | a `Fidelity`), observation (feature names or "paper"), start, params (`RigParams`),
+    filter_coefficient (default `params.filter_coefficient`), max_episode_steps, render_mode ("rgb_array").
+
+    ## Version History
+    v0: first release.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 16}
+
+    def __init__(self, backend: str = "sim", action_mode: str = "discrete", fidelity: str | Fidelity = "ideal",
+                 observation: tuple[str, ...] | str = PAPER_FEATURES, start: str = "random",
+                 params: RigParams | None = None, filter_coefficient: float | None = None,
+                 max_episode_steps: int = EPISODE_STEPS, render_mode: str | None = None) -> None:
+        if action_mode not in ACTION_MODES:
+            raise ConfigError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
+        if start not in STARTS:
+            raise ConfigError(f"start must be one of {STARTS}, got {start!r}")
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise ConfigError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        if not (isinstance(max_episode_steps, int) and max_episode_steps >= 1):
+            raise ConfigError(f"max_episode_steps must be a positive int, got {max_episode_steps!r}")
+        self.params = params or RigParams()
+        self.filter_coefficient = self.params.filter_coefficient if filter_coefficient is None \
+            else float(filter_coefficient)
+        if not 0.0 <= self.filter_coefficient < 1.0:
+            raise ConfigError(f"filter_coefficient must be in [0, 1), got {self.filter_coefficient}")
+        self.backend = _make_backend(backend, self.params, fidelity)
+        self.action_mode = action_mode
+        self.features = resolve_features(observation)
+        self.start = start
+        self.max_episode_steps = max_episode_steps
+        self.render_mode = render_mode
+        self.dt = self.backend.nominal_step_s
+        self.metadata = {**self.metadata, "render_fps": max(1, round(1 / self.dt))}
+        p = self.params
+        self._increments = (0, -p.discrete_slow_step_counts, -p.discrete_fast_step_counts,
+                            p.discrete_slow_step_counts, p.discrete_fast_step_counts)
+        if action_mode == "discrete":
+            self.action_space = gym.spaces.Discrete(len(self._increments))
+        else:
+            self.action_space = gym.spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
+        self.observation_space = gym.spaces.Box(
+            np.array([f.low for f in self.features], dtype=np.float32),
+            np.array([f.high for f in self.features], dtype=np.float32), dtype=np.float32)
+        self._state: RigState | None = None
+        self._filtered_unit = 0.0
+        self._steps = 0
+        self._gl_renderer = None
+        self._drawn_frames = None
+
+    # --- Gymnasium API ---
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        start = (options or {}).get("start", self.start)
+        self._state = self.backend.reset(self.np_random, start)
+        self._filtered_unit = self._state.servo_target_rad / self.params.servo_range_rad
+        self._steps = 0
+        return self._observation(), self._info()
+
+    def step(self, action):
+        if self._state is None:
+            raise gym.error.ResetNeeded("call reset() before step()")
+        command = self._command_for(action)  # validates; raises before any state changes
+        if command.mode == "continuous":
+            self._filtered_unit = command.target_unit
+        self._state = self.backend.step(command)
+        self._steps += 1
+        truncated = self._steps >= self.max_episode_steps
+        return self._observation(), reward(self._state), False, truncated, self._info()
+
+    def render(self):
+        if self.render_mode != "rgb_array" or self._state is None:
+            return None
+        if isinstance(self.backend, SimBackend):
+            if self._gl_renderer is None and self._drawn_frames is None:
+                from pendkit.sim.render import mujoco_renderer
+
+                self._gl_renderer = mujoco_renderer(self.backend.model)
+            if self._gl_renderer is not None:
+                self._gl_renderer.update_scene(self.backend.data, camera="front")
+                return self._gl_renderer.render()
+        if self._drawn_frames is None:
+            from pendkit.sim.render import DrawnFrames
+
+            self._drawn_frames = DrawnFrames(self.params)
+        true = self.backend.true_state() if isinstance(self.backend, SimBackend) else None
+        arm = true["arm_angle_rad"] if true else self._state.arm_angle_rad
+        pendulum = true["pendulum_angle_rad"] if true else self._state.pendulum_angle_rad
+        return self._drawn_frames.frame(arm, pendulum)
+
+    def close(self) -> None:
+        if self._gl_renderer is not None:
+            self._gl_renderer.close()
+            self._gl_renderer = None
+        self.backend.close()
+
+    # --- action mapping ---
+    def _command_for(self, action) -> ServoCommand:
+        if self.action_mode == "discrete":
+            return ServoCommand("discrete", increment_counts=self._increments[self._discrete_index(action)])
+        value = _continuous_value(action)
+        c = self.filter_coefficient
+        return ServoCommand("continuous", target_unit=c * self._filtered_unit + (1 - c) * value)
+
+    def _discrete_index(self, action) -> int:
+        n = len(self._increments)
+        array = np.asarray(action) if isinstance(action, (np.ndarray, np.generic)) else None
+        if isinstance(action, (bool, np.bool_)) or (array is not None and array.dtype == bool):
+            raise ActionError(f"Discrete action must be an integer in [0, {n - 1}], got a boolean {action!r}")
+        if isinstance(action, int):
+            index = action
+        elif array is not None and np.issubdtype(array.dtype, np.integer) and array.size == 1 \
+                and array.ndim <= 1:
+            index = int(array.reshape(()))
+        else:
+            kind = f"array of shape {array.shape} and dtype {array.dtype}" if array is not None else \
+                f"{type(action).__name__} {action!r}"
+            raise ActionError(f"Discrete action must be an integer in [0, {n - 1}], got {kind}")
+        if not 0 <= index < n:
+            raise ActionError(f"Discrete action out of range: expected 0..{n - 1} "
+                              f"({', '.join(DISCRETE_ACTION_NAMES)}), got {index}")
+        return index
+
+    # --- observation ---
+    def _observation(self) -> np.ndarray:
+        return feature_vector(self._state, self.features)
+
+    def _info(self) -> dict[str, Any]:
+        state = self._state
+        info = {
+            "angle_from_upright_rad": angle_from_upright_rad(state),
+            "observation_age_s": state.observation_age_s,
+            "time_since_action_s": state.time_since_action_s,
+            "servo_target_rad": state.servo_target_rad,
+            "safety_flags": state.safety_flags,
+            "state": state,
+        }
+        if isinstance(self.backend, SimBackend):
+            info["true_state"] = self.backend.true_state()
+        return info
+
+
+def _continuous_value(action) -> float:
+    try:
+        array = np.asarray(action)
+    except Exception:
+        raise ActionError(f"Continuous action must be a float array of shape (1,), got {action!r}") from None
+    if array.dtype.kind not in "fiu" or array.dtype == bool:
+        raise ActionError(f"Continuous action must be numeric with shape (1,), got dtype {array.dtype}")
+    if array.shape not in ((1,), ()):
+        raise ActionError(f"Action shape mismatch: expected (1,), got {array.shape}")
+    value = float(array.reshape(()))
+    if not math.isfinite(value):
+        raise ActionError(f"Continuous action must be finite, got {value}")
+    if abs(value) > 1.0 + _RANGE_TOLERANCE:
+        raise ActionError(f"Continuous action out of range: expected [-1, 1], got {value}")
+    return max(-1.0, min(1.0, value))
+
+
+def _make_backend(backend, params: RigParams, fidelity):
+    if backend == "sim":
+        return SimBackend(params, fidelity)
+    if backend == "rig":
+        raise ConfigError("backend='rig' needs the rig link (pendkit.link), which this version does not "
+                          "ship yet; use backend='sim'")
+    if hasattr(backend, "reset") and hasattr(backend, "step") and hasattr(backend, "nominal_step_s"):
+        return backend  # a custom backend object
+    raise ConfigError(f"backend must be 'sim' or 'rig', got {backend!r}")

@@ -1,0 +1,81 @@
+"""Observation features and the reward, as functions of a `RigState` (no MuJoCo, no broker)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from pendkit.errors import ConfigError
+from pendkit.state import RigState
+
+TWO_PI = 2 * math.pi
+# Reward weight of the squared pendulum rate in (rev/s)^2 (paper, "Reward Calculation").
+VELOCITY_PENALTY_WEIGHT = 0.5
+
+
+def angle_from_upright_rad(state: RigState) -> float:
+    """Pendulum angle from upright, wrapped to [-pi, pi)."""
+    return (state.pendulum_angle_rad % TWO_PI) - math.pi
+
+
+@dataclass(frozen=True)
+class Feature:
+    name: str
+    unit: str
+    low: float
+    high: float
+    read: Callable[[RigState], float]
+    description: str
+
+
+_INF = math.inf
+FEATURES: dict[str, Feature] = {f.name: f for f in (
+    Feature("pendulum_angle", "rad", -math.pi, math.pi, angle_from_upright_rad,
+            "pendulum angle from upright, wrapped to [-pi, pi)"),
+    Feature("pendulum_cos", "-", -1.0, 1.0, lambda s: math.cos(angle_from_upright_rad(s)),
+            "cosine of the angle from upright (1 = upright)"),
+    Feature("pendulum_sin", "-", -1.0, 1.0, lambda s: math.sin(angle_from_upright_rad(s)),
+            "sine of the angle from upright"),
+    Feature("arm_angle", "rad", -math.pi / 2, math.pi / 2, lambda s: s.arm_angle_rad,
+            "arm angle (the servo command on a servo without feedback)"),
+    Feature("pendulum_velocity", "rad/s", -_INF, _INF, lambda s: s.pendulum_velocity_rad_s,
+            "pendulum angular velocity"),
+    Feature("pendulum_acceleration", "rad/s^2", -_INF, _INF, lambda s: s.pendulum_acceleration_rad_s2,
+            "pendulum angular acceleration"),
+    Feature("arm_velocity", "rad/s", -_INF, _INF, lambda s: s.arm_velocity_rad_s, "arm angular velocity"),
+    Feature("servo_target", "rad", -math.pi / 2, math.pi / 2, lambda s: s.servo_target_rad,
+            "the servo's current target (after the action filter)"),
+    Feature("time_since_action", "s", 0.0, _INF, lambda s: s.time_since_action_s,
+            "time from sending the last action to this observation"),
+    Feature("observation_age", "s", 0.0, _INF, lambda s: s.observation_age_s,
+            "time from receiving this observation to using it"),
+)}
+
+# The paper's observation: two sensor readings, three derived rates, two timing values.
+PAPER_FEATURES = ("pendulum_angle", "arm_angle", "pendulum_velocity", "pendulum_acceleration",
+                  "arm_velocity", "time_since_action", "observation_age")
+
+
+def resolve_features(names: tuple[str, ...] | list[str] | str) -> tuple[Feature, ...]:
+    if isinstance(names, str):
+        names = PAPER_FEATURES if names == "paper" else (names,)
+    unknown = [n for n in names if n not in FEATURES]
+    if unknown or not names:
+        raise ConfigError(f"unknown observation features {unknown}; choose from {sorted(FEATURES)}")
+    if len(set(names)) != len(names):
+        raise ConfigError(f"observation features repeat: {list(names)}")
+    return tuple(FEATURES[n] for n in names)
+
+
+def feature_vector(state: RigState, features: tuple[Feature, ...]) -> np.ndarray:
+    return np.array([f.read(state) for f in features], dtype=np.float32)
+
+
+def reward(state: RigState) -> float:
+    """-theta^2 - 0.5 * omega^2, theta from upright in rad, omega in rev/s (0 is the best)."""
+    theta = angle_from_upright_rad(state)
+    omega_rev_s = state.pendulum_velocity_rad_s / TWO_PI
+    return -(theta * theta) - VELOCITY_PENALTY_WEIGHT * omega_rev_s * omega_rev_s

@@ -1,0 +1,64 @@
+"""Named fidelity presets of the twin: each imperfection is a setting, not an `if` inside `step()`."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+from pendkit.errors import ConfigError
+from pendkit.sim.latency import CLASSROOM_WIFI, NO_LATENCY, LatencyModel
+
+
+@dataclass(frozen=True)
+class Fidelity:
+    """How closely the twin imitates the real rig's sensing and actuation.
+
+    substeps_per_step: physics steps before the observation is taken (None: RigParams.frame_skip).
+    post_observation_substeps_max: after the observation, 0..this many more physics steps run with the
+        same action before the next one arrives (the paper's delayed sim uses 2).
+    mcu_pipeline: run the firmware's loop (acting and streaming ticks, counts, quantised encoder,
+        estimated velocities, PWM frames, safety stops) instead of reading the true state.
+    encoder_mount_offset_counts: raw encoder reading when the pendulum hangs (calibrated away by the MCU).
+    latency: one-way network latency, both directions (only with `mcu_pipeline`).
+    """
+
+    name: str
+    substeps_per_step: int | None = None
+    post_observation_substeps_max: int = 0
+    mcu_pipeline: bool = False
+    encoder_mount_offset_counts: int = 0
+    latency: LatencyModel = NO_LATENCY
+
+    def __post_init__(self) -> None:
+        if self.substeps_per_step is not None and self.substeps_per_step < 1:
+            raise ConfigError(f"substeps_per_step must be >= 1, got {self.substeps_per_step}")
+        if not 0 <= self.post_observation_substeps_max <= 100:
+            raise ConfigError(f"post_observation_substeps_max must be in [0, 100], got "
+                              f"{self.post_observation_substeps_max}")
+        if not self.mcu_pipeline and not self.latency.is_zero:
+            raise ConfigError("latency needs mcu_pipeline=True (latency applies to MQTT messages)")
+
+    def replace(self, **changes) -> "Fidelity":
+        return dataclasses.replace(self, **changes)
+
+
+FIDELITY_PRESETS: dict[str, Fidelity] = {
+    # The paper's easy sim: perfect sensing, 12 x 5 ms per step.
+    "ideal": Fidelity("ideal"),
+    # The paper's hard sim: observe after 6 substeps, then 0-2 more substeps with the same action.
+    "paper-delayed": Fidelity("paper-delayed", substeps_per_step=6, post_observation_substeps_max=2),
+    # The MCU's pipeline with the rig's periods and an assumed classroom WiFi latency.
+    "realistic": Fidelity("realistic", mcu_pipeline=True, encoder_mount_offset_counts=317,
+                          latency=CLASSROOM_WIFI),
+}
+
+
+def resolve_fidelity(fidelity: str | Fidelity) -> Fidelity:
+    """A preset by name, or a custom `Fidelity` as given."""
+    if isinstance(fidelity, Fidelity):
+        return fidelity
+    try:
+        return FIDELITY_PRESETS[fidelity]
+    except (KeyError, TypeError):
+        raise ConfigError(f"unknown fidelity {fidelity!r}; expected one of {sorted(FIDELITY_PRESETS)} "
+                          f"or a pendkit.sim.Fidelity") from None

@@ -1,0 +1,68 @@
+"""Network latency between the MCU and the host: a parametric default or samples measured on a rig."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from pendkit.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class LatencyModel:
+    """One-way latency in ms: `floor_ms` + lognormal(median `median_ms`, shape `spread`), or drawn
+    from `samples_ms` when given (e.g. measured with the rig backend's episode logs).
+
+    The default realistic figures (2 ms floor, 6 ms median above it, spread 0.6: p99 about 18 ms) are an
+    assumption for an ESP32 on a busy classroom WiFi; load your own measurement with `from_file`.
+    """
+
+    floor_ms: float = 0.0
+    median_ms: float = 0.0
+    spread: float = 0.0
+    samples_ms: tuple[float, ...] = ()
+
+    def __post_init__(self) -> None:
+        for name in ("floor_ms", "median_ms", "spread"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ConfigError(f"LatencyModel.{name} must be finite and >= 0, got {value!r}")
+        if any(not (math.isfinite(s) and s >= 0) for s in self.samples_ms):
+            raise ConfigError("LatencyModel.samples_ms must all be finite and >= 0")
+
+    @property
+    def is_zero(self) -> bool:
+        return not self.samples_ms and self.floor_ms == 0 and self.median_ms == 0
+
+    def sample_ms(self, rng: np.random.Generator) -> float:
+        if self.samples_ms:
+            return float(self.samples_ms[rng.integers(len(self.samples_ms))])
+        if self.median_ms == 0:
+            return self.floor_ms
+        return self.floor_ms + self.median_ms * math.exp(self.spread * rng.standard_normal())
+
+    @classmethod
+    def from_file(cls, path: str | Path) -> "LatencyModel":
+        """Load samples in ms: a JSON list, or a text/CSV file with one number per line (header allowed)."""
+        text = Path(path).read_text()
+        try:
+            values = json.loads(text)
+        except json.JSONDecodeError:
+            values = []
+            for line in text.splitlines():
+                cell = line.split(",")[0].strip()
+                try:
+                    values.append(float(cell))
+                except ValueError:
+                    continue
+        if not values:
+            raise ConfigError(f"no latency samples (ms) found in {path}")
+        return cls(samples_ms=tuple(float(v) for v in values))
+
+
+NO_LATENCY = LatencyModel()
+CLASSROOM_WIFI = LatencyModel(floor_ms=2.0, median_ms=6.0, spread=0.6)

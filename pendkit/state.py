@@ -1,0 +1,50 @@
+"""Plain records exchanged between a backend (twin or rig) and the env.
+
+A backend turns `ServoCommand`s into `RigState`s; the env computes observations and rewards from
+`RigState` alone, so the task logic is testable without MuJoCo or a broker.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+SAFETY_FLAGS = ("arm_limit", "overspin", "stuck_encoder", "watchdog")
+
+
+@dataclass(frozen=True)
+class ServoCommand:
+    """What the host asks of the device, in the firmware's own terms.
+
+    mode "discrete": move the servo target by `increment_counts` on every acting tick (0 = stop).
+    mode "continuous": hold the servo target at `target_unit` in [-1, 1] (leftmost..rightmost).
+    """
+
+    mode: Literal["discrete", "continuous"]
+    increment_counts: int = 0
+    target_unit: float = 0.0
+
+
+STOP = ServoCommand("discrete", 0)
+
+
+@dataclass(frozen=True)
+class RigState:
+    """One observation of the rig as the host sees it. Angles in radians, rates per second.
+
+    `pendulum_angle_rad` is measured from the bottom in [0, 2*pi) as the encoder reports it.
+    `arm_angle_rad` is the best knowledge of the arm: the true angle on an ideal twin, the servo command
+    on a hobby servo (which has no position feedback).
+    """
+
+    time_s: float
+    pendulum_angle_rad: float
+    pendulum_velocity_rad_s: float
+    pendulum_acceleration_rad_s2: float
+    arm_angle_rad: float
+    arm_velocity_rad_s: float
+    servo_target_rad: float
+    observation_age_s: float = 0.0
+    time_since_action_s: float = 0.0
+    encoder_counts: int | None = None
+    safety_flags: frozenset[str] = field(default_factory=frozenset)
