@@ -58,6 +58,8 @@ class RigParams:
     # of its position loop. Hobby servos do not publish these; lab 03 identifies them from step responses.
     servo_full_torque_error_deg: float = 5.0
     servo_damping_ratio: float = 0.7
+    # Assumed: rotor inertia reflected through the gear train (about 1.5e-7 kg m^2 x a 200:1 ratio^2).
+    servo_reflected_inertia_kg_m2: float = 0.006
     # PCA9685 at 50 Hz: 4096 counts per 20 ms. The D645MW shares the Hitec pulse range (150..450).
     pwm_period_ms: float = 20.0
     pwm_resolution_counts: int = 4096
@@ -93,6 +95,7 @@ class RigParams:
         _check_range("encoder_offset_counts", self.encoder_offset_counts, 0, self.encoder_counts - 1)
         _check_range("servo_range_deg", self.servo_range_deg, 1.0, 180.0)
         _check_range("servo_damping_ratio", self.servo_damping_ratio, 0.0, 5.0)
+        _check_range("servo_reflected_inertia_kg_m2", self.servo_reflected_inertia_kg_m2, 0.0, 1.0)
         _check_range("servo_min_counts", self.servo_min_counts, 0, self.pwm_resolution_counts - 1)
         _check_range("servo_max_counts", self.servo_max_counts, self.servo_min_counts + 1,
                      self.pwm_resolution_counts - 1)
@@ -134,7 +137,11 @@ class RigParams:
 
     @property
     def servo_back_emf_damping_n_m_s_per_rad(self) -> float:
-        """Linear torque-speed curve: torque falls from stall to zero at the no-load speed."""
+        """Linear torque-speed curve: torque falls from stall to zero at the datasheet's no-load speed.
+
+        So the servo never drives the arm faster than its rating; an outside torque (the swinging
+        pendulum) can drag it faster by torque / damping, as on the real rig.
+        """
         return self.servo_stall_torque_n_m / self.servo_speed_rad_s
 
     @property
@@ -144,7 +151,8 @@ class RigParams:
     @property
     def servo_kv_n_m_s_per_rad(self) -> float:
         """Derivative gain giving the loop its damping ratio, on top of back-EMF damping."""
-        wanted = 2 * self.servo_damping_ratio * math.sqrt(self.servo_kp_n_m_per_rad * self.arm_inertia_kg_m2)
+        inertia = self.arm_inertia_kg_m2 + self.servo_reflected_inertia_kg_m2
+        wanted = 2 * self.servo_damping_ratio * math.sqrt(self.servo_kp_n_m_per_rad * inertia)
         return max(0.0, wanted - self.servo_back_emf_damping_n_m_s_per_rad)
 
     @property

@@ -7,7 +7,7 @@ pendulum angle 0 is hanging and pi is upright. Positive arm angle is counter-clo
 The servo is one actuator: an integrator whose state is the target angle (so a discrete "move at this
 rate" command needs no per-substep Python), a proportional-derivative drive clipped at the stall
 torque, and back-EMF damping on the joint, which together give a linear torque-speed curve that
-tops out at the datasheet's no-load speed.
+tops out at the datasheet's no-load speed. The gear train's reflected rotor inertia is joint armature.
 """
 
 from __future__ import annotations
@@ -46,7 +46,8 @@ _TEMPLATE = """
     <camera name="front" pos="{cam_x} -1.1 0.15" xyaxes="1 0 0 0 0.2 1"/>
     <camera name="top" pos="{cam_x} 0 1.1" xyaxes="1 0 0 0 1 0"/>
     <body name="arm">
-      <joint name="{arm}" type="hinge" axis="0 0 1" range="-{range_rad} {range_rad}" damping="{arm_damping}"/>
+      <joint name="{arm}" type="hinge" axis="0 0 1" range="-{range_rad} {range_rad}" damping="{arm_damping}"
+             armature="{armature}"/>
       <geom name="arm_tube" type="box" pos="{arm_half} 0 0" size="{arm_half} {tube_half_w} {tube_half_h}"
             mass="{arm_mass}" material="aluminium"/>
       <geom name="servo_horn" type="cylinder" size="0.012 0.002" pos="0 0 {horn_z}" mass="{horn_mass}" material="dark"/>
@@ -84,7 +85,7 @@ def model_xml(params: RigParams, *, lock_arm: bool = False, energy: bool = False
         servo_height=SERVO_HEIGHT_M, stand_half=stand_half, stand_centre=stand_half + 0.02,
         cam_x=params.pivot_radius_m / 2,
         arm=ARM_JOINT, pendulum=PENDULUM_JOINT, servo=SERVO_ACTUATOR,
-        range_rad=params.servo_range_rad, arm_damping=params.servo_back_emf_damping_n_m_s_per_rad,
+        range_rad=params.servo_range_rad, armature=params.servo_reflected_inertia_kg_m2, arm_damping=params.servo_back_emf_damping_n_m_s_per_rad,
         arm_half=params.arm_length_m / 2, tube_half_w=params.arm_tube_width_m / 2,
         tube_half_h=params.arm_tube_height_m / 2, arm_mass=params.arm_mass_kg,
         horn_z=params.arm_tube_height_m / 2 + 0.002, horn_mass=params.servo_horn_mass_kg,

@@ -1,0 +1,116 @@
+"""The `pendkit` command: thin subcommands over library calls."""
+
+from __future__ import annotations
+
+import json
+import platform
+import sys
+from pathlib import Path
+
+import click
+
+FIDELITIES = ("ideal", "paper-delayed", "realistic")
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="pendkit", message="pendkit %(version)s")
+def main() -> None:
+    """pendkit: the swing-up pendulum teaching kit (twin, rig link, labs, grader)."""
+
+
+@main.command()
+@click.option("--fidelity", type=click.Choice(FIDELITIES), default="realistic", show_default=True,
+              help="How closely the twin imitates the real rig.")
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the episode's start state.")
+@click.option("--start", type=click.Choice(("rest", "random")), default="rest", show_default=True,
+              help="Start hanging still, or from the authors' random state.")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
+              default=Path("pendkit-output"), show_default=True, help="Where to write the plot.")
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+def demo(fidelity: str, seed: int, start: str, out_dir: Path, quiet: bool) -> None:
+    """Run one episode on the MuJoCo twin with a demo policy and save a plot of it."""
+    import pendkit
+    from pendkit.episode import energy_pumping_policy, plot_episode, run_episode
+
+    env = pendkit.make(fidelity=fidelity, start=start)
+    trace = run_episode(env, energy_pumping_policy(env), seed=seed, progress=not quiet)
+    env.close()
+    path = out_dir / f"demo-{fidelity}-seed{seed}.png"
+    plot_episode(trace, path, title=f"Demo on the twin ({fidelity})")
+    best = min(abs(a) for a in trace.pendulum_from_upright_rad)
+    click.echo(f"{len(trace.time_s) - 1} steps, {trace.time_s[-1]:.1f} s simulated, return "
+               f"{trace.episode_return:.1f}, closest to upright {best:.2f} rad")
+    click.echo(f"plot: {path}")
+
+
+@main.command()
+@click.option("--json", "as_json", is_flag=True, help="Machine-readable output.")
+@click.option("--preset", default="hitec-d645mw", show_default=True, help="Rig preset to show.")
+def info(as_json: bool, preset: str) -> None:
+    """Versions, the GL backend for rendering, and the rig's parameters."""
+    import pendkit
+    from pendkit.errors import ConfigError
+
+    try:
+        params = pendkit.RigParams.preset(preset)
+    except ConfigError as error:
+        raise click.BadParameter(str(error), param_hint="--preset") from None
+    report = {
+        "pendkit": pendkit.__version__,
+        "python": platform.python_version(),
+        "platform": platform.platform(),
+        "packages": _versions(("numpy", "mujoco", "gymnasium", "control", "paho-mqtt", "matplotlib", "torch")),
+        "gl_backend": _gl_status(),
+        "rig": {"preset": preset, **params.to_dict()},
+        "derived": {
+            "frame_skip": params.frame_skip,
+            "servo_speed_rad_s": round(params.servo_speed_rad_s, 4),
+            "servo_stall_torque_n_m": round(params.servo_stall_torque_n_m, 4),
+            "pendulum_natural_frequency_rad_s": round(params.pendulum_natural_frequency_rad_s, 4),
+            "small_oscillation_period_s": round(2 * 3.141592653589793
+                                                / params.pendulum_natural_frequency_rad_s, 4),
+        },
+    }
+    if as_json:
+        click.echo(json.dumps(report, indent=2))
+        return
+    click.echo(f"pendkit {report['pendkit']} on Python {report['python']} ({report['platform']})")
+    for name, ver in report["packages"].items():
+        click.echo(f"  {name:<11} {ver}")
+    click.echo(f"rendering: {report['gl_backend']}")
+    click.echo(f"rig preset {preset}:")
+    for name, value in {**report["rig"], **report["derived"]}.items():
+        click.echo(f"  {name:<34} {value}")
+
+
+def _versions(names) -> dict[str, str]:
+    from importlib.metadata import PackageNotFoundError, version
+
+    found = {}
+    for name in names:
+        try:
+            found[name] = version(name)
+        except PackageNotFoundError:
+            found[name] = "not installed"
+    return found
+
+
+def _gl_status() -> str:
+    import pendkit  # noqa: F401  (chooses MUJOCO_GL before mujoco loads)
+    from pendkit.sim.model import build_model
+    from pendkit.sim.render import mujoco_renderer
+    import os
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        renderer = mujoco_renderer(build_model(pendkit.RigParams()), 64, 48)
+    backend = os.environ.get("MUJOCO_GL", "default")
+    if renderer is None:
+        return f"MuJoCo {backend} unavailable: frames are drawn with matplotlib"
+    renderer.close()
+    return f"MuJoCo offscreen ({backend})"
+
+
+if __name__ == "__main__":
+    sys.exit(main())

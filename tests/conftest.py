@@ -1,0 +1,5 @@
+"""Shared fixtures: headless plotting for every test."""
+
+import os
+
+os.environ.setdefault("MPLBACKEND", "Agg")
