@@ -1,0 +1,54 @@
+import numpy as np
+import pytest
+
+from pendkit.errors import ConfigError
+from pendkit.sim.fidelity import FIDELITY_PRESETS, Fidelity
+from pendkit.sim.latency import CLASSROOM_WIFI, LatencyModel
+
+
+def test_default_classroom_latency_percentiles():
+    rng = np.random.default_rng(0)
+    samples = np.array([CLASSROOM_WIFI.sample_ms(rng) for _ in range(20000)])
+    assert samples.min() >= 2.0
+    assert np.median(samples) == pytest.approx(8.0, rel=0.05)
+    assert 12 < np.percentile(samples, 99) < 30
+
+
+def test_measured_samples_load_from_csv_and_json(tmp_path):
+    csv = tmp_path / "latency.csv"
+    csv.write_text("latency_ms\n3.5\n4.0\n12.0\n")
+    model = LatencyModel.from_file(csv)
+    rng = np.random.default_rng(1)
+    assert {model.sample_ms(rng) for _ in range(200)} == {3.5, 4.0, 12.0}
+    js = tmp_path / "latency.json"
+    js.write_text("[1, 2]")
+    assert LatencyModel.from_file(js).samples_ms == (1.0, 2.0)
+    (tmp_path / "empty.csv").write_text("header\n")
+    with pytest.raises(ConfigError, match="no latency samples"):
+        LatencyModel.from_file(tmp_path / "empty.csv")
+
+
+def staleness_s(fidelity):
+    import pendkit
+
+    env = pendkit.make(fidelity=fidelity)
+    env.reset(seed=0)
+    lags = []
+    for _ in range(50):
+        info = env.step(0)[4]
+        lags.append(info["true_state"]["time_s"] - info["state"].time_s)  # now - when the MCU read it
+    return np.array(lags)
+
+
+def test_measured_latency_drives_the_realistic_twin():
+    slow = FIDELITY_PRESETS["realistic"].replace(name="slow-wifi", latency=LatencyModel(samples_ms=(40.0,)))
+    slow_lag, default_lag = staleness_s(slow), staleness_s("realistic")
+    assert slow_lag.min() >= 0.040
+    assert slow_lag.mean() > default_lag.mean() + 0.025
+
+
+def test_bad_settings():
+    with pytest.raises(ConfigError, match="median_ms"):
+        LatencyModel(median_ms=-1)
+    with pytest.raises(ConfigError, match="mcu_pipeline"):
+        Fidelity("x", latency=CLASSROOM_WIFI)

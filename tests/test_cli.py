@@ -1,0 +1,34 @@
+import json
+
+from click.testing import CliRunner
+
+from pendkit.cli import main
+
+
+def test_help_everywhere():
+    runner = CliRunner()
+    for args in ([], ["demo"], ["info"]):
+        result = runner.invoke(main, [*args, "--help"])
+        assert result.exit_code == 0 and "Usage" in result.output
+
+
+def test_demo_writes_a_plot(tmp_path):
+    result = CliRunner().invoke(main, ["demo", "--fidelity", "ideal", "--out", str(tmp_path), "--quiet"])
+    assert result.exit_code == 0, result.output
+    plot = tmp_path / "demo-ideal-seed0.png"
+    assert plot.exists() and plot.read_bytes()[:4] == b"\x89PNG"
+    assert "500 steps" in result.output
+
+
+def test_info_json_has_versions_and_rig():
+    result = CliRunner().invoke(main, ["info", "--json"])
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.output)
+    assert report["rig"]["encoder_counts"] == 1024
+    assert report["derived"]["frame_skip"] == 12
+    assert "mujoco" in report["packages"] and report["gl_backend"]
+
+
+def test_info_rejects_unknown_preset():
+    result = CliRunner().invoke(main, ["info", "--preset", "nope"])
+    assert result.exit_code == 2 and "unknown rig preset" in result.output
