@@ -125,6 +125,17 @@ def wrap_delta_counts(new_counts, old_counts, counts: int = ENCODER_COUNTS):
     return np.where(delta > half, delta - counts, np.where(delta < -half, delta + counts, delta))
 
 
+def wrap_delta(new_counts: int, old_counts: int, counts: int = ENCODER_COUNTS) -> int:
+    """Scalar `wrap_delta_counts` for the per-reading hot path (same rule)."""
+    delta = new_counts - old_counts
+    half = counts // 2
+    if delta > half:
+        return delta - counts
+    if delta < -half:
+        return delta + counts
+    return delta
+
+
 def velocity_rev_s(delta_counts, dt_ms, counts: int = ENCODER_COUNTS):
     """Counts moved in `dt_ms` -> revolutions per second (the firmware's delta / dt_ms / 1.024)."""
     return np.asarray(delta_counts, dtype=float) * 1000.0 / (counts * np.asarray(dt_ms, dtype=float))
@@ -178,7 +189,7 @@ class FirmwareVelocityEstimator:
             raw, dt_ms = 0.0, None
         else:
             dt_ms = now_ms - self._last_time_ms
-            delta = int(wrap_delta_counts(position_counts, self._last_position, self.counts))
+            delta = wrap_delta(position_counts, self._last_position, self.counts)
             raw = delta * 1000.0 / (self.counts * dt_ms) if dt_ms > 0 else 0.0
         self._ring[self._index] = raw
         self._index = (self._index + 1) % self.window

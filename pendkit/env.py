@@ -112,6 +112,7 @@ class SwingUpEnv(gym.Env):
         p = self.params
         self._increments = (0, -p.discrete_slow_step_counts, -p.discrete_fast_step_counts,
                             p.discrete_slow_step_counts, p.discrete_fast_step_counts)
+        self._discrete_commands = tuple(ServoCommand("discrete", increment_counts=n) for n in self._increments)
         if action_mode == "discrete":
             self.action_space = gym.spaces.Discrete(len(self._increments))
         else:
@@ -174,7 +175,7 @@ class SwingUpEnv(gym.Env):
     # --- action mapping ---
     def _command_for(self, action) -> ServoCommand:
         if self.action_mode == "discrete":
-            return ServoCommand("discrete", increment_counts=self._increments[self._discrete_index(action)])
+            return self._discrete_commands[self._discrete_index(action)]
         value = _continuous_value(action)
         c = self.filter_coefficient
         return ServoCommand("continuous", target_unit=c * self._filtered_unit + (1 - c) * value)

@@ -71,7 +71,7 @@ def resolve_features(names: tuple[str, ...] | list[str] | str) -> tuple[Feature,
 
 
 def feature_vector(state: RigState, features: tuple[Feature, ...]) -> np.ndarray:
-    return np.array([f.read(state) for f in features], dtype=np.float32)
+    return np.fromiter((f.read(state) for f in features), dtype=np.float32, count=len(features))
 
 
 def reward(state: RigState) -> float:

@@ -7,6 +7,7 @@ Defaults are the paper's rig (Hitec D645MW servo); `RigParams.preset(name)` give
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -108,34 +109,34 @@ class RigParams:
         for name in ("control_step_ms", "streaming_period_ms", "acting_period_ms", "pwm_period_ms"):
             _check_multiple(name, getattr(self, name), self.physics_step_ms)
 
-    # --- derived quantities (derive, don't repeat) ---
-    @property
+    # --- derived quantities (derive, don't repeat; cached: frozen dataclasses keep a __dict__) ---
+    @functools.cached_property
     def frame_skip(self) -> int:
         """Physics steps per control step (12 for the paper's 60 ms / 5 ms)."""
         return round(self.control_step_ms / self.physics_step_ms)
 
-    @property
+    @functools.cached_property
     def servo_range_rad(self) -> float:
         return math.radians(self.servo_range_deg)
 
-    @property
+    @functools.cached_property
     def servo_span_counts(self) -> int:
         return self.servo_max_counts - self.servo_min_counts
 
-    @property
+    @functools.cached_property
     def servo_rad_per_count(self) -> float:
         return 2 * self.servo_range_rad / self.servo_span_counts
 
-    @property
+    @functools.cached_property
     def servo_speed_rad_s(self) -> float:
         """No-load slew rate from the datasheet's seconds per 60 degrees."""
         return math.radians(60.0) / self.servo_speed_s_per_60deg
 
-    @property
+    @functools.cached_property
     def servo_stall_torque_n_m(self) -> float:
         return self.servo_stall_torque_kg_cm * KG_CM_TO_N_M
 
-    @property
+    @functools.cached_property
     def servo_back_emf_damping_n_m_s_per_rad(self) -> float:
         """Linear torque-speed curve: torque falls from stall to zero at the datasheet's no-load speed.
 
@@ -144,11 +145,11 @@ class RigParams:
         """
         return self.servo_stall_torque_n_m / self.servo_speed_rad_s
 
-    @property
+    @functools.cached_property
     def servo_kp_n_m_per_rad(self) -> float:
         return self.servo_stall_torque_n_m / math.radians(self.servo_full_torque_error_deg)
 
-    @property
+    @functools.cached_property
     def servo_kv_n_m_s_per_rad(self) -> float:
         """Derivative gain giving the loop its damping ratio, on top of back-EMF damping."""
         inertia = self.arm_inertia_kg_m2 + self.servo_reflected_inertia_kg_m2
@@ -178,7 +179,7 @@ class RigParams:
         moment = self.dowel_mass_kg * self.dowel_length_m / 2 + self.tip_mass_kg * self.tip_centre_from_pivot_m
         return moment / self.pendulum_mass_kg
 
-    @property
+    @functools.cached_property
     def pendulum_inertia_about_pivot_kg_m2(self) -> float:
         """Compound-pendulum inertia about the encoder axis: dowel rod + tip cylinder + coupler sphere."""
         dowel_radius = self.dowel_diameter_m / 2
@@ -189,20 +190,20 @@ class RigParams:
         coupler = self.coupler_mass_kg * 0.4 * self.coupler_radius_m**2
         return dowel + tip + coupler
 
-    @property
+    @functools.cached_property
     def pendulum_natural_frequency_rad_s(self) -> float:
         """Small-oscillation frequency with the arm held: sqrt(m g d / I)."""
         return math.sqrt(self.pendulum_mass_kg * GRAVITY_M_S2 * self.pendulum_com_from_pivot_m
                          / self.pendulum_inertia_about_pivot_kg_m2)
 
-    @property
+    @functools.cached_property
     def arm_inertia_kg_m2(self) -> float:
         """Inertia about the servo axis of everything the servo turns (pendulum hanging)."""
         arm = self.arm_mass_kg * (self.arm_length_m**2 / 3 + self.arm_tube_width_m**2 / 12)
         at_pivot = (self.pivot_point_masses_kg + self.pendulum_mass_kg) * self.pivot_radius_m**2
         return arm + at_pivot
 
-    @property
+    @functools.cached_property
     def servo_centre_counts(self) -> float:
         return (self.servo_min_counts + self.servo_max_counts) / 2
 

@@ -6,8 +6,8 @@ A backend turns `ServoCommand`s into `RigState`s; the env computes observations 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Literal
+from dataclasses import dataclass
+from typing import Literal, NamedTuple
 
 SAFETY_FLAGS = ("arm_limit", "overspin", "stuck_encoder", "watchdog")
 
@@ -28,13 +28,12 @@ class ServoCommand:
 STOP = ServoCommand("discrete", 0)
 
 
-@dataclass(frozen=True)
-class RigState:
+class RigState(NamedTuple):
     """One observation of the rig as the host sees it. Angles in radians, rates per second.
 
     `pendulum_angle_rad` is measured from the bottom in [0, 2*pi) as the encoder reports it.
     `arm_angle_rad` is the best knowledge of the arm: the true angle on an ideal twin, the servo command
-    on a hobby servo (which has no position feedback).
+    on a hobby servo (which has no position feedback). A NamedTuple: cheap to make on every step.
     """
 
     time_s: float
@@ -47,4 +46,4 @@ class RigState:
     observation_age_s: float = 0.0
     time_since_action_s: float = 0.0
     encoder_counts: int | None = None
-    safety_flags: frozenset[str] = field(default_factory=frozenset)
+    safety_flags: frozenset[str] = frozenset()

@@ -9,7 +9,6 @@ from typing import Literal
 import mujoco
 import numpy as np
 
-from pendkit.encoder import counts_to_rad, rad_to_counts
 from pendkit.errors import ConfigError
 from pendkit.mcu import McuLogic, McuObservation, calibrate_position
 from pendkit.rig import RigParams
@@ -44,6 +43,9 @@ class SimBackend:
         self._rate_per_increment = (self.params.servo_rad_per_count * 1000.0 / self.params.acting_period_ms)
         self._rng = np.random.default_rng(0)
         self._mcu = McuLogic(self.params) if self.fidelity.mcu_pipeline else None
+        self._acting_ticks = round(self.params.acting_period_ms / self.params.physics_step_ms)
+        self._pwm_ticks = round(self.params.pwm_period_ms / self.params.physics_step_ms)
+        self._stream_ticks = round(self.params.streaming_period_ms / self.params.physics_step_ms)
         self._tick = 0
 
     @property
@@ -77,6 +79,7 @@ class SimBackend:
         if self._mcu is None:
             return self._observe_true(0.0, 0.0)
         self._mcu.reset(servo_counts, 0)
+        self._next_acting_tick = 0
         self._in_flight: deque[tuple[float, McuObservation]] = deque()
         self._commands: deque[tuple[float, ServoCommand]] = deque()
         self._last_delivery_ms = self._last_command_arrival_ms = 0.0
@@ -105,19 +108,19 @@ class SimBackend:
             if more:
                 mujoco.mj_step(self.model, data, more)
                 self._tick += more
-                state = _with_age(state, more * self.physics_step_s)
+                state = state._replace(observation_age_s=more * self.physics_step_s)
         return state
 
     def _observe_true(self, age_s: float, since_action_s: float) -> RigState:
-        qpos, qvel, qacc = self.data.qpos, self.data.qvel, self.data.qacc
+        qpos, qvel, qacc = self.data.qpos.tolist(), self.data.qvel.tolist(), self.data.qacc.tolist()
         return RigState(
             time_s=self.data.time,
-            pendulum_angle_rad=float(qpos[self._pend_q]) % (2 * math.pi),
-            pendulum_velocity_rad_s=float(qvel[self._pend_v]),
-            pendulum_acceleration_rad_s2=float(qacc[self._pend_v]),
-            arm_angle_rad=float(qpos[self._arm_q]),
-            arm_velocity_rad_s=float(qvel[self._arm_v]),
-            servo_target_rad=float(self.data.act[0]),
+            pendulum_angle_rad=qpos[self._pend_q] % (2 * math.pi),
+            pendulum_velocity_rad_s=qvel[self._pend_v],
+            pendulum_acceleration_rad_s2=qacc[self._pend_v],
+            arm_angle_rad=qpos[self._arm_q],
+            arm_velocity_rad_s=qvel[self._arm_v],
+            servo_target_rad=self.data.act.item(0),
             observation_age_s=age_s,
             time_since_action_s=since_action_s,
         )
@@ -133,32 +136,49 @@ class SimBackend:
         return self._observe_mcu(time_since_action_s=self.substeps * self.physics_step_s)
 
     def _run_mcu_substeps(self, count: int) -> None:
-        p, mcu, data = self.params, self._mcu, self.data
-        physics_ms = p.physics_step_ms
-        acting_ticks = round(p.acting_period_ms / physics_ms)
-        pwm_ticks = round(p.pwm_period_ms / physics_ms)
-        stream_ticks = round(p.streaming_period_ms / physics_ms)
-        offset = self.fidelity.encoder_mount_offset_counts
-        for _ in range(count):
+        """Advance the physics, stopping only where it meets the MCU: PWM frames and streaming ticks.
+
+        Acting ticks in between change only the MCU's target counter, which the servo sees at the next
+        PWM frame, so they are caught up there (in order with command arrivals) rather than one by one.
+        """
+        p, mcu, data, model = self.params, self._mcu, self.data, self.model
+        pwm_ticks, stream_ticks = self._pwm_ticks, self._stream_ticks
+        end = self._tick + count
+        while self._tick < end:
             tick = self._tick
-            now_ms = tick * physics_ms
-            while self._commands and self._commands[0][0] <= now_ms:
-                mcu.receive(self._commands.popleft()[1], now_ms)
-            if tick % acting_ticks == 0:
-                mcu.acting_tick(now_ms)
-            if tick % pwm_ticks == 0:
+            at_pwm, at_stream = tick % pwm_ticks == 0, tick % stream_ticks == 0
+            if at_pwm or at_stream:
+                self._catch_up_acting(tick)
+            if at_pwm:
                 data.act[0] = p.servo_counts_to_rad(mcu.servo_counts)
-            if tick % stream_ticks == 0:
-                raw = int(rad_to_counts(data.qpos[self._pend_q], offset, p.encoder_counts))
-                observation = mcu.streaming_tick(calibrate_position(raw, offset, p.encoder_counts), int(now_ms))
-                delivery = max(now_ms + self.fidelity.latency.sample_ms(self._rng), self._last_delivery_ms)
-                self._last_delivery_ms = delivery
-                self._in_flight.append((delivery, observation))
-            mujoco.mj_step(self.model, data)
-            self._tick += 1
-        now_ms = self._tick * physics_ms
+            if at_stream:
+                self._stream(tick)
+            next_event = min(end, (tick // pwm_ticks + 1) * pwm_ticks, (tick // stream_ticks + 1) * stream_ticks)
+            mujoco.mj_step(model, data, next_event - tick)
+            self._tick = next_event
+        now_ms = self._tick * p.physics_step_ms
         while self._in_flight and self._in_flight[0][0] <= now_ms:
             self._newest = self._in_flight.popleft()
+
+    def _catch_up_acting(self, up_to_tick: int) -> None:
+        physics_ms, commands, mcu = self.params.physics_step_ms, self._commands, self._mcu
+        while self._next_acting_tick <= up_to_tick:
+            now_ms = self._next_acting_tick * physics_ms
+            while commands and commands[0][0] <= now_ms:
+                mcu.receive(commands.popleft()[1], now_ms)
+            mcu.acting_tick(now_ms)
+            self._next_acting_tick += self._acting_ticks
+
+    def _stream(self, tick: int) -> None:
+        p = self.params
+        now_ms = tick * p.physics_step_ms
+        counts = p.encoder_counts
+        offset = self.fidelity.encoder_mount_offset_counts
+        raw = (math.floor(self.data.qpos[self._pend_q] * counts / (2 * math.pi)) + offset) % counts
+        observation = self._mcu.streaming_tick(calibrate_position(raw, offset, counts), int(now_ms))
+        delivery = max(now_ms + self.fidelity.latency.sample_ms(self._rng), self._last_delivery_ms)
+        self._last_delivery_ms = delivery  # TCP keeps order: no overtaking
+        self._in_flight.append((delivery, observation))
 
     def _observe_mcu(self, time_since_action_s: float) -> RigState:
         p = self.params
@@ -166,7 +186,7 @@ class SimBackend:
         now_ms = self._tick * p.physics_step_ms
         return RigState(
             time_s=obs.millis / 1000.0,
-            pendulum_angle_rad=float(counts_to_rad(obs.position_counts, 0, p.encoder_counts)),
+            pendulum_angle_rad=obs.position_counts * (2 * math.pi / p.encoder_counts),
             pendulum_velocity_rad_s=obs.omega_rev_s * 2 * math.pi,
             pendulum_acceleration_rad_s2=obs.acceleration_rev_s2 * 2 * math.pi,
             arm_angle_rad=p.servo_counts_to_rad(obs.servo_counts),
@@ -181,19 +201,15 @@ class SimBackend:
     # --- inspection ---
     def true_state(self) -> dict[str, float]:
         """The twin's exact joint state (for info and tests; a real rig has no such thing)."""
+        qpos, qvel = self.data.qpos.tolist(), self.data.qvel.tolist()
         return {
-            "arm_angle_rad": float(self.data.qpos[self._arm_q]),
-            "arm_velocity_rad_s": float(self.data.qvel[self._arm_v]),
-            "pendulum_angle_rad": float(self.data.qpos[self._pend_q]),
-            "pendulum_velocity_rad_s": float(self.data.qvel[self._pend_v]),
-            "time_s": float(self.data.time),
+            "arm_angle_rad": qpos[self._arm_q],
+            "arm_velocity_rad_s": qvel[self._arm_v],
+            "pendulum_angle_rad": qpos[self._pend_q],
+            "pendulum_velocity_rad_s": qvel[self._pend_v],
+            "time_s": self.data.time,
         }
 
     def close(self) -> None:
         """Nothing to release; present for symmetry with the rig backend."""
 
-
-def _with_age(state: RigState, age_s: float) -> RigState:
-    from dataclasses import replace
-
-    return replace(state, observation_age_s=age_s)
