@@ -96,11 +96,12 @@ def _versions(names) -> dict[str, str]:
 
 
 def _gl_status() -> str:
+    import os
+    import warnings
+
     import pendkit  # noqa: F401  (chooses MUJOCO_GL before mujoco loads)
     from pendkit.sim.model import build_model
     from pendkit.sim.render import mujoco_renderer
-    import os
-    import warnings
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -8,10 +8,9 @@ no command can override them.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
-from pendkit.encoder import FirmwareVelocityEstimator, wrap_delta_counts
+from pendkit.encoder import FirmwareVelocityEstimator
 from pendkit.rig import RigParams
 from pendkit.state import STOP, ServoCommand
 
@@ -95,9 +94,3 @@ def calibrate_position(raw_counts: int, offset_counts: int, counts: int = 1024) 
     """Raw encoder reading -> position with 0 at the bottom (the firmware's `o<int>` offset)."""
     return (raw_counts - offset_counts) % counts
 
-
-def pendulum_rad_s(omega_rev_s: float) -> float:
-    return omega_rev_s * 2 * math.pi
-
-
-__all__ = ["McuLogic", "McuObservation", "calibrate_position", "wrap_delta_counts"]

@@ -216,12 +216,12 @@ class RigParams:
         counts = round(self.servo_centre_counts + angle_rad / self.servo_rad_per_count)
         return min(max(counts, self.servo_min_counts), self.servo_max_counts)
 
-    def replace(self, **changes: Any) -> "RigParams":
+    def replace(self, **changes: Any) -> RigParams:
         """A copy with some fields changed (validated again)."""
         return dataclasses.replace(self, **changes)
 
     @classmethod
-    def preset(cls, name: str) -> "RigParams":
+    def preset(cls, name: str) -> RigParams:
         """Parameters for a named servo preset; see `SERVO_PRESETS`."""
         try:
             return cls(**SERVO_PRESETS[name])

@@ -14,7 +14,7 @@ from pendkit.mcu import McuLogic, McuObservation, calibrate_position
 from pendkit.rig import RigParams
 from pendkit.sim.fidelity import Fidelity, resolve_fidelity
 from pendkit.sim.model import ARM_JOINT, PENDULUM_JOINT, build_model
-from pendkit.state import STOP, RigState, ServoCommand
+from pendkit.state import RigState, ServoCommand
 
 Start = Literal["random", "rest", "upright"]
 STARTS = ("random", "rest", "upright")

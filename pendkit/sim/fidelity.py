@@ -38,7 +38,7 @@ class Fidelity:
         if not self.mcu_pipeline and not self.latency.is_zero:
             raise ConfigError("latency needs mcu_pipeline=True (latency applies to MQTT messages)")
 
-    def replace(self, **changes) -> "Fidelity":
+    def replace(self, **changes) -> Fidelity:
         return dataclasses.replace(self, **changes)
 
 

@@ -46,7 +46,7 @@ class LatencyModel:
         return self.floor_ms + self.median_ms * math.exp(self.spread * rng.standard_normal())
 
     @classmethod
-    def from_file(cls, path: str | Path) -> "LatencyModel":
+    def from_file(cls, path: str | Path) -> LatencyModel:
         """Load samples in ms: a JSON list, or a text/CSV file with one number per line (header allowed)."""
         text = Path(path).read_text()
         try:
