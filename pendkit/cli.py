@@ -83,6 +83,82 @@ def info(as_json: bool, preset: str) -> None:
         click.echo(f"  {name:<34} {value}")
 
 
+@main.group()
+def labs() -> None:
+    """Build the student labs from solutions/ and check they are current."""
+
+
+@labs.command("build")
+@click.option("--solutions", "solutions_dir", type=click.Path(file_okay=False, path_type=Path),
+              default=Path("solutions"), show_default=True, help="Solution notebooks (the single source).")
+@click.option("--out", "labs_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("labs"),
+              show_default=True, help="Where to write the student copies.")
+def labs_build(solutions_dir: Path, labs_dir: Path) -> None:
+    """Write labs/NN_name.ipynb from solutions/ (stubs for solutions, no instructor cells)."""
+    from pendkit.errors import ConfigError
+    from pendkit.labs.build import build
+
+    try:
+        written = build(solutions_dir, labs_dir)
+    except ConfigError as error:
+        raise click.ClickException(str(error)) from None
+    for path in written:
+        click.echo(f"wrote {path}")
+
+
+@labs.command("check")
+@click.option("--solutions", "solutions_dir", type=click.Path(file_okay=False, path_type=Path),
+              default=Path("solutions"), show_default=True)
+@click.option("--labs", "labs_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("labs"),
+              show_default=True)
+def labs_check(solutions_dir: Path, labs_dir: Path) -> None:
+    """Fail if labs/ differs from what `pendkit labs build` would write."""
+    from pendkit.errors import ConfigError
+    from pendkit.labs.build import stale
+
+    try:
+        problems = stale(solutions_dir, labs_dir)
+    except ConfigError as error:
+        raise click.ClickException(str(error)) from None
+    if problems:
+        for problem in problems:
+            click.echo(problem, err=True)
+        raise click.ClickException("labs/ is stale: run `pendkit labs build`")
+    click.echo("labs/ is up to date")
+
+
+@main.command()
+@click.argument("submissions", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.option("--lab", default=None, help="Grade only this lab (NN); default: from each notebook.")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("grades"),
+              show_default=True, help="Where results.json files and grades.csv go.")
+@click.option("--hidden", "hidden_dir", type=click.Path(file_okay=False, path_type=Path),
+              default=Path("solutions/tests"), show_default=True, help="Hidden tests (labNN_*.py).")
+@click.option("--cell-timeout", type=float, default=120.0, show_default=True, help="Seconds per cell.")
+@click.option("--notebook-timeout", type=float, default=600.0, show_default=True, help="Seconds per notebook.")
+@click.option("--check-timeout", type=float, default=None,
+              help="Cap on each test's own time limit, in seconds (default: the test's, usually 10).")
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+def grade(submissions: Path, lab: str | None, out_dir: Path, hidden_dir: Path, cell_timeout: float,
+          notebook_timeout: float, check_timeout: float | None, quiet: bool) -> None:
+    """Run and grade every submitted notebook; write Gradescope results.json files and a CSV."""
+    from pendkit.grading.report import grade_folder
+
+    if lab is not None and not (len(lab) == 2 and lab.isdigit()):
+        raise click.BadParameter(f"expected two digits such as 01, got {lab!r}", param_hint="--lab")
+    hidden = hidden_dir if hidden_dir.exists() else None
+    if hidden is None:
+        click.echo(f"no hidden tests at {hidden_dir}: grading with public tests only", err=True)
+    grades = grade_folder(submissions, out_dir, lab, hidden, cell_timeout, notebook_timeout, check_timeout,
+                          progress=not quiet)
+    if not grades:
+        raise click.ClickException(f"no notebooks found in {submissions}")
+    for result in grades:
+        click.echo(f"{result.student:<24} lab {result.lab}  {result.score:g}/{result.max_score:g}"
+                   + (f"  ({len(result.notes)} notes)" if result.notes else ""))
+    click.echo(f"reports: {out_dir / 'grades.csv'} and {out_dir}/<student>/results.json")
+
+
 def _versions(names) -> dict[str, str]:
     from importlib.metadata import PackageNotFoundError, version
 

@@ -1,0 +1,55 @@
+"""The autograder the labs call: `check("01.decode_frame", decode_frame)` in a check cell."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from pendkit.grading.core import (
+    TASKS,
+    Failed,
+    GradingError,
+    Task,
+    TestResult,
+    expect,
+    format_report,
+    load_hidden,
+    load_lab,
+    run_task,
+    task,
+)
+from pendkit.grading.modes import budget, mode, strict
+
+
+def check(task_id: str, fn: Any) -> float | None:
+    """Run the public tests of `task_id` on `fn`, print a table, and return the score.
+
+    Raises `GradingError` short of full marks only in strict mode (PENDKIT_GRADER_STRICT=1), so a
+    student's notebook always runs to the end. Under `pendkit grade` the grader runs its own tests
+    after the notebook, so checks only say so.
+    """
+    if mode() == "grade":
+        print(f"{task_id}: graded by `pendkit grade` after the notebook has run")
+        return None
+    results = run_task(task_id, fn)
+    print(format_report(task_id, results))
+    score = sum(r.points for r in results)
+    total = sum(r.max_points for r in results)
+    if strict() and score < total:
+        failed = "; ".join(f"{r.name}: {r.message}" for r in results if not r.passed)
+        raise GradingError(f"{task_id} scored {score:g}/{total:g} in strict mode ({failed})")
+    return score
+
+
+def attempt(fn: Callable, *args, **kwargs) -> Any:
+    """Call a student's function for a demo cell; None (with a note) while it is not implemented yet."""
+    try:
+        return fn(*args, **kwargs)
+    except NotImplementedError:
+        print(f"{getattr(fn, '__name__', 'this function')} is not implemented yet: the plot below uses "
+              "nothing from it")
+        return None
+
+
+__all__ = ["TASKS", "Failed", "GradingError", "Task", "TestResult", "attempt", "budget", "check", "expect",
+           "format_report", "load_hidden", "load_lab", "mode", "run_task", "strict", "task"]

@@ -1,0 +1,184 @@
+"""Graded tasks: tests declared in Python with points, a time limit and feedback; running and reporting.
+
+A lab's suite module declares its tasks:
+
+    decode = task("01.decode_frame", function="decode_frame", title="Decode an SSI frame")
+
+    @decode.test(points=2, hint="Position is in bits 15..6, most significant bit first.")
+    def clean_frames(fn, rng):
+        got = fn(0x8020)
+        expect(got == 512, f"decode_frame(0x8020) should be 512, got {got!r}")
+
+Hidden tests (instructor material) attach to the same tasks with `hidden=True`.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import os
+import zlib
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pendkit.errors import ConfigError, PendkitError
+from pendkit.grading.timeouts import CheckTimeout, call_with_timeout
+
+DEFAULT_TIMEOUT_S = 10.0
+TIMEOUT_CAP_VARIABLE = "PENDKIT_CHECK_TIMEOUT_S"  # `pendkit grade --check-timeout` caps every test with it
+
+
+class Failed(AssertionError):
+    """A test's specific feedback for the student."""
+
+
+class GradingError(PendkitError):
+    """Strict mode: a check scored less than full marks."""
+
+
+def expect(condition: bool, message: str) -> None:
+    """Fail the current test with `message` unless `condition` holds."""
+    if not condition:
+        raise Failed(message)
+
+
+@dataclass
+class TestCase:
+    name: str
+    points: float
+    run: Callable[[Callable, np.random.Generator], None]
+    hint: str = ""
+    timeout_s: float = DEFAULT_TIMEOUT_S
+    hidden: bool = False
+
+    @property
+    def seed(self) -> int:
+        return zlib.crc32(self.name.encode())  # fixed per test, so a score never depends on luck
+
+
+@dataclass
+class TestResult:
+    name: str
+    points: float
+    max_points: float
+    passed: bool
+    message: str = ""
+    hidden: bool = False
+
+
+@dataclass
+class Task:
+    id: str
+    function: str
+    title: str
+    tests: list[TestCase] = field(default_factory=list)
+
+    def test(self, points: float, hint: str = "", timeout_s: float = DEFAULT_TIMEOUT_S, hidden: bool = False):
+        """Decorator declaring a test of this task."""
+        if points < 0 or timeout_s <= 0:
+            raise ConfigError(f"test points must be >= 0 and timeout_s > 0, got {points}, {timeout_s}")
+
+        def register(run: Callable) -> Callable:
+            if any(t.name == run.__name__ for t in self.tests):
+                raise ConfigError(f"task {self.id} already has a test named {run.__name__}")
+            self.tests.append(TestCase(run.__name__, points, run, hint, timeout_s, hidden))
+            return run
+
+        return register
+
+    def max_points(self, hidden: bool = False) -> float:
+        return sum(t.points for t in self.tests if hidden or not t.hidden)
+
+
+TASKS: dict[str, Task] = {}
+
+
+def task(task_id: str, function: str, title: str) -> Task:
+    """Declare (or fetch) a graded task. Ids are "NN.name": NN is the lab."""
+    if task_id in TASKS:
+        return TASKS[task_id]
+    TASKS[task_id] = Task(task_id, function, title)
+    return TASKS[task_id]
+
+
+def lab_of(task_id: str) -> str:
+    return task_id.split(".", 1)[0]
+
+
+def load_lab(lab: str) -> list[Task]:
+    """Import the public suite of lab `lab` ("01") and return its tasks in declaration order."""
+    try:
+        importlib.import_module(f"pendkit.grading.suites.lab{lab}")
+    except ModuleNotFoundError as error:
+        raise ConfigError(f"no graded suite for lab {lab!r}") from error
+    return [t for t in TASKS.values() if lab_of(t.id) == lab]
+
+
+def load_hidden(path: str | Path) -> None:
+    """Import an instructor's hidden-test module (it attaches tests with hidden=True)."""
+    path = Path(path)
+    spec = importlib.util.spec_from_file_location(f"pendkit_hidden_{path.stem}", path)
+    if spec is None or spec.loader is None:
+        raise ConfigError(f"cannot load hidden tests from {path}")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+
+
+def run_test(test: TestCase, fn: Callable) -> TestResult:
+    """Run one test; every outcome becomes a result, never an exception."""
+    rng = np.random.default_rng(test.seed)
+    timeout_s = test.timeout_s
+    if os.environ.get(TIMEOUT_CAP_VARIABLE):
+        timeout_s = min(timeout_s, float(os.environ[TIMEOUT_CAP_VARIABLE]))
+    try:
+        call_with_timeout(lambda: test.run(fn, rng), timeout_s)
+    except Failed as failure:
+        return _failed(test, str(failure) or "wrong result")
+    except CheckTimeout as timeout:
+        return _failed(test, f"{timeout}: is there an endless loop?")
+    except NotImplementedError:
+        return _failed(test, "not implemented yet", with_hint=False)
+    except Exception as error:
+        return _failed(test, f"raised {type(error).__name__}: {error}")
+    return TestResult(test.name, test.points, test.points, True, "", test.hidden)
+
+
+def run_task(task_id: str, fn: Any, include_hidden: bool = False) -> list[TestResult]:
+    """Run the task's tests (public, or public and hidden) on `fn`."""
+    current = TASKS.get(task_id) or _task_after_loading(task_id)
+    tests = [t for t in current.tests if include_hidden or not t.hidden]
+    if not callable(fn):
+        message = f"expected the function {current.function}, got {type(fn).__name__}"
+        return [_failed(t, message, with_hint=False) for t in tests]
+    return [run_test(t, fn) for t in tests]
+
+
+def _task_after_loading(task_id: str) -> Task:
+    load_lab(lab_of(task_id))
+    if task_id not in TASKS:
+        raise ConfigError(f"unknown task {task_id!r}; known: {sorted(TASKS)}")
+    return TASKS[task_id]
+
+
+def _failed(test: TestCase, message: str, with_hint: bool = True) -> TestResult:
+    if with_hint and test.hint:
+        message = f"{message}{'' if message.endswith(('.', '?', '!')) else '.'} Hint: {test.hint}"
+    return TestResult(test.name, 0.0, test.points, False, message, test.hidden)
+
+
+def format_report(task_id: str, results: list[TestResult]) -> str:
+    """A short plain-text table (test, pass/fail, points, feedback)."""
+    score = sum(r.points for r in results)
+    total = sum(r.max_points for r in results)
+    title = TASKS[task_id].title if task_id in TASKS else task_id
+    lines = [f"{task_id} {title}: {score:g}/{total:g} points"]
+    width = max((len(r.name) for r in results), default=4)
+    for r in results:
+        mark = "PASS" if r.passed else "FAIL"
+        line = f"  {mark}  {r.name:<{width}}  {r.points:g}/{r.max_points:g}"
+        lines.append(f"{line}  {r.message}" if r.message else line)
+    return "\n".join(lines)

@@ -1,0 +1,216 @@
+"""Execute one submitted notebook headless and grade its functions, whatever the notebook does.
+
+A cell that raises is noted and the run goes on. A cell that hangs or kills the kernel is left out and
+the notebook is run again from the top without it (tasks already graded keep their results), so one
+broken cell costs only what depends on it. Nothing that could not run scores a point.
+"""
+
+from __future__ import annotations
+
+import os
+import secrets
+import time
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import nbformat
+
+from pendkit.grading.core import TASKS, TIMEOUT_CAP_VARIABLE, TestResult, load_hidden, load_lab
+from pendkit.grading.kernel import MARKER
+
+MAX_RUNS = 5
+GRADING_SLACK_S = 20.0
+
+
+@dataclass
+class TaskGrade:
+    task: str
+    title: str
+    results: list[TestResult]
+
+    @property
+    def score(self) -> float:
+        return sum(r.points for r in self.results)
+
+    @property
+    def max_score(self) -> float:
+        return sum(r.max_points for r in self.results)
+
+
+@dataclass
+class SubmissionGrade:
+    student: str
+    notebook: str
+    lab: str
+    tasks: list[TaskGrade] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    execution_time_s: float = 0.0
+
+    @property
+    def score(self) -> float:
+        return sum(t.score for t in self.tasks)
+
+    @property
+    def max_score(self) -> float:
+        return sum(t.max_score for t in self.tasks)
+
+
+class _Restart(Exception):
+    """The kernel must be replaced: a cell hung or killed it."""
+
+
+def zero_grade(task_id: str, message: str) -> TaskGrade:
+    task = TASKS[task_id]
+    return TaskGrade(task_id, task.title, [TestResult(t.name, 0.0, t.points, False, message, t.hidden)
+                                          for t in task.tests])
+
+
+def grade_notebook(path: Path, student: str, lab: str, hidden_paths: list[Path], cell_timeout_s: float = 120.0,
+                   notebook_timeout_s: float = 600.0, check_timeout_s: float | None = None) -> SubmissionGrade:
+    """Run `path` and grade lab `lab`'s tasks in it. Never raises for anything the notebook does."""
+    started = time.monotonic()
+    task_ids = [t.id for t in load_lab(lab)]
+    hidden = [str(Path(p).resolve()) for p in hidden_paths if Path(p).exists()]
+    for hidden_path in hidden:
+        if hidden_path not in _LOADED:
+            load_hidden(hidden_path)
+            _LOADED.add(hidden_path)
+    grade = SubmissionGrade(student, str(path), lab)
+    try:
+        notebook = nbformat.read(path, as_version=4)
+    except Exception as error:
+        grade.notes.append(f"could not read the notebook ({type(error).__name__}: {error}); nothing was run")
+        grade.tasks = [zero_grade(t, "the notebook could not be read") for t in task_ids]
+        return grade
+    run = _Run(notebook, Path(path).parent, task_ids, hidden, cell_timeout_s, started + notebook_timeout_s, grade)
+    run.check_timeout_s = check_timeout_s
+    with _grading_environment(check_timeout_s):
+        for _ in range(MAX_RUNS):
+            try:
+                run.once()
+                break
+            except _Restart:
+                continue
+        else:
+            grade.notes.append(f"gave up after {MAX_RUNS} kernel restarts")
+    grade.tasks = [run.graded.get(t) or zero_grade(t, run.skipped.get(t, "not graded: the notebook did not "
+                                                                         "get this far"))
+                   for t in task_ids]
+    grade.execution_time_s = time.monotonic() - started
+    return grade
+
+
+_LOADED: set[str] = set()
+
+
+class _Run:
+    def __init__(self, notebook, workdir: Path, task_ids, hidden, cell_timeout_s, deadline, grade) -> None:
+        self.notebook, self.workdir, self.task_ids, self.hidden = notebook, workdir, task_ids, hidden
+        self.cell_timeout_s, self.deadline, self.grade = cell_timeout_s, deadline, grade
+        self.excluded: set[int] = set()
+        self.graded: dict[str, TaskGrade] = {}
+        self.skipped: dict[str, str] = {}
+        self.noted_errors: set[int] = set()
+        self.check_timeout_s: float | None = None
+
+    def once(self) -> None:
+        from nbclient import NotebookClient
+        from nbclient.exceptions import CellTimeoutError, DeadKernelError
+
+        notebook = nbformat.from_dict(self.notebook)  # a fresh copy per run
+        client = NotebookClient(notebook, timeout=self.cell_timeout_s, kernel_name="python3", allow_errors=True,
+                                interrupt_on_timeout=False, record_timing=False,
+                                resources={"metadata": {"path": str(self.workdir)}})
+        with client.setup_kernel():
+            for index, cell in enumerate(notebook.cells):
+                if cell.cell_type != "code" or index in self.excluded:
+                    continue
+                remaining = self.deadline - time.monotonic()
+                if remaining <= 1:
+                    self.grade.notes.append(f"the notebook's time limit was reached at {_where(index, cell)}; "
+                                            "later cells were not run")
+                    break
+                client.timeout = int(max(1, min(self.cell_timeout_s, remaining)))
+                try:
+                    client.execute_cell(cell, index)
+                except (CellTimeoutError, DeadKernelError) as error:
+                    what = "ran past its time limit" if isinstance(error, CellTimeoutError) else "killed the kernel"
+                    self.grade.notes.append(f"{_where(index, cell)} {what}; it was left out and the notebook "
+                                            "run again without it")
+                    self.excluded.add(index)
+                    raise _Restart from error
+                self._note_error(index, cell)
+            for task_id in self.task_ids:
+                if task_id in self.graded or task_id in self.skipped:
+                    continue
+                self._grade_task(client, notebook, task_id, CellTimeoutError, DeadKernelError)
+
+    def _grade_task(self, client, notebook, task_id: str, timeout_error, dead_error) -> None:
+        nonce = secrets.token_hex(8)
+        cell = nbformat.v4.new_code_cell(
+            "from pendkit.grading.kernel import report_task as _pendkit_report_task\n"
+            f"_pendkit_report_task({task_id!r}, globals(), {self.hidden!r}, {nonce!r})")
+        notebook.cells.append(cell)
+        limit = sum(min(t.timeout_s, self.check_timeout_s or t.timeout_s) for t in TASKS[task_id].tests)
+        limit += GRADING_SLACK_S
+        client.timeout = int(limit)
+        try:
+            client.execute_cell(cell, len(notebook.cells) - 1)
+        except (timeout_error, dead_error) as error:
+            what = "timed out" if isinstance(error, timeout_error) else "killed the kernel"
+            self.skipped[task_id] = f"testing `{TASKS[task_id].function}` {what}: 0 points for this task"
+            self.grade.notes.append(f"{task_id}: {self.skipped[task_id]}")
+            raise _Restart from error
+        payload = _find_payload(cell, nonce)
+        if payload is None:
+            self.skipped[task_id] = "the grader could not test this task (its cell failed): 0 points"
+            self.grade.notes.append(f"{task_id}: {self.skipped[task_id]}")
+            return
+        results = [TestResult(**r) for r in payload["results"]]
+        self.graded[task_id] = TaskGrade(task_id, payload["title"], results)
+
+    def _note_error(self, index: int, cell) -> None:
+        for output in cell.get("outputs", []):
+            if output.get("output_type") == "error" and index not in self.noted_errors:
+                self.noted_errors.add(index)
+                value = str(output.get("evalue", "")).splitlines()[0][:160] if output.get("evalue") else ""
+                self.grade.notes.append(f"{_where(index, cell)} raised {output.get('ename')}: {value}")
+
+
+def _where(index: int, cell) -> str:
+    first = next((line.strip() for line in cell.source.splitlines() if line.strip()), "")
+    return f"cell {index + 1} ({first[:50]})" if first else f"cell {index + 1}"
+
+
+def _find_payload(cell, nonce: str) -> dict | None:
+    import json
+
+    prefix = f"{MARKER}:{nonce}:"
+    for output in cell.get("outputs", []):
+        if output.get("output_type") != "stream":
+            continue
+        for line in str(output.get("text", "")).splitlines():
+            if line.startswith(prefix):
+                try:
+                    return json.loads(line[len(prefix):])
+                except ValueError:
+                    return None
+    return None
+
+
+@contextmanager
+def _grading_environment(check_timeout_s: float | None):
+    """The kernel inherits this process's environment: grade mode, never strict, no GUI backend."""
+    wanted = {"PENDKIT_MODE": "grade", "PENDKIT_GRADER_STRICT": "0", "MPLBACKEND": "Agg",
+              TIMEOUT_CAP_VARIABLE: "" if check_timeout_s is None else str(check_timeout_s)}
+    saved = {name: os.environ.get(name) for name in wanted}
+    os.environ.update(wanted)
+    try:
+        yield
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value

@@ -1,0 +1,46 @@
+"""Lab 00, the tour: public tests."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pendkit.grading.core import expect, task
+
+reward_task = task("00.reward", function="reward", title="The paper's reward")
+fraction_task = task("00.upright_fraction", function="upright_fraction", title="Fraction of time upright")
+
+
+@reward_task.test(points=2, hint="reward = -theta^2 - 0.5 * omega^2 with omega in revolutions per second.")
+def reward_values(fn, rng):
+    for theta, omega_rad_s in [(0.0, 0.0), (math.pi, 0.0), (0.3, 0.0), (0.0, 2 * math.pi), (-0.5, -math.pi)]:
+        expected = -theta**2 - 0.5 * (omega_rad_s / (2 * math.pi)) ** 2
+        got = fn(theta, omega_rad_s)
+        message = f"reward({theta:.3f}, {omega_rad_s:.3f}) should be {expected:.4f}, got {got!r}"
+        if isinstance(got, (int, float)) and omega_rad_s and abs(got - (-theta**2 - 0.5 * omega_rad_s**2)) < 1e-9:
+            message += ": convert the velocity from rad/s to rev/s first"
+        elif isinstance(got, (int, float)) and got > 0:
+            message += ": the reward is a penalty, never positive"
+        expect(isinstance(got, (int, float)) and abs(got - expected) < 1e-9, message)
+
+
+@fraction_task.test(points=2, hint="Count steps with |angle| < 0.3 rad and divide by the number of steps.")
+def fraction_of_steps(fn, rng):
+    angles = np.array([0.0, 0.1, -0.2, 0.29, -0.31, 1.0, -3.0, 0.5])
+    expected = 4 / 8
+    got = fn(angles)
+    message = f"upright_fraction({angles.tolist()}) should be {expected}, got {got!r}"
+    if isinstance(got, (int, float)) and abs(got - 5 / 8) < 1e-9:
+        message += ": use the absolute value: -3.0 rad is far from upright"
+    if isinstance(got, (int, float)) and abs(got - 4) < 1e-9:
+        message += ": that is a count; divide by the number of steps"
+    expect(isinstance(got, (int, float, np.floating)) and abs(float(got) - expected) < 1e-9, message)
+
+
+@fraction_task.test(points=1, hint="It must work for any length of trace.")
+def random_traces(fn, rng):
+    angles = rng.uniform(-math.pi, math.pi, 200)
+    expected = float(np.mean(np.abs(angles) < 0.3))
+    got = fn(angles)
+    expect(abs(float(got) - expected) < 1e-9, f"for 200 random angles expected {expected:.3f}, got {got!r}")

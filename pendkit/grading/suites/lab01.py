@@ -1,0 +1,162 @@
+"""Lab 01, encoder decoding: public tests."""
+
+from __future__ import annotations
+
+import math
+
+from pendkit.encoder import encode_ssi_frame
+from pendkit.grading.core import Failed, expect, task
+
+decode = task("01.decode_frame", function="decode_frame", title="Decode an EMS-22A SSI frame")
+to_angle = task("01.counts_to_angle", function="counts_to_angle", title="Counts to angle from the bottom")
+upright = task("01.angle_from_upright", function="angle_from_upright", title="Angle from upright")
+wrap = task("01.wrap_delta", function="wrap_delta", title="Wrap-aware difference")
+
+
+def _reversed_10_bits(value: int) -> int:
+    return int(f"{value:010b}"[::-1], 2)
+
+
+def _diagnose_position(frame: int, position: int, got) -> str:
+    message = f"decode_frame(0x{frame:04X}) should return {position}, got {got!r}"
+    if got == _reversed_10_bits(position):
+        return message + ": that is the position with its bits reversed; the first bit clocked out (bit 15) " \
+                         "is the most significant"
+    if got == frame:
+        return message + ": that is the whole frame; keep only the 10 position bits (15..6)"
+    if got in (frame >> 5, frame >> 7, (frame >> 6) + 1, frame & 0x3FF):
+        return message + ": the position is bits 15..6, i.e. frame >> 6"
+    return message
+
+
+def _rejects(fn, frame: int) -> bool:
+    try:
+        fn(frame)
+    except ValueError:
+        return True
+    except NotImplementedError:
+        raise
+    except Exception as error:
+        raise Failed(f"decode_frame(0x{frame:04X}) raised {type(error).__name__}; a bad frame should raise "
+                     "ValueError") from error
+    return False
+
+
+@decode.test(points=3, hint="Position = bits 15..6 of the 16-bit frame, most significant bit first.")
+def positions_of_clean_frames(fn, rng):
+    for position in (0, 1, 2, 511, 512, 700, 1023, *rng.integers(0, 1024, 5).tolist()):
+        frame = encode_ssi_frame(int(position))
+        got = fn(frame)
+        expect(got == position, _diagnose_position(frame, position, got))
+
+
+@decode.test(points=2, hint="Count the ones in all 16 bits: an odd count means a corrupted frame.")
+def bad_parity_is_rejected(fn, rng):
+    for position in (0, 300, 1023):
+        frame = encode_ssi_frame(position)
+        for bit in (0, 6, 15):
+            flipped = frame ^ (1 << bit)
+            if bit == 6 or bit == 15:
+                expect(_rejects(fn, flipped), f"decode_frame(0x{flipped:04X}) has an odd number of ones (bit {bit} "
+                       "flipped in transit) but was accepted: did you check the even parity bit?")
+            else:
+                expect(_rejects(fn, flipped), f"decode_frame(0x{flipped:04X}) has a wrong parity bit but was "
+                       "accepted: did you check the even parity bit?")
+
+
+@decode.test(points=2, hint="OCF (bit 5) must be 1; COF (bit 4) and LIN (bit 3) must be 0; MagINC and "
+                            "MagDEC (bits 2, 1) both set means the magnet is out of range.")
+def bad_status_is_rejected(fn, rng):
+    cases = [
+        ({"offset_compensated": False}, "OCF (bit 5) is 0: the encoder has not finished starting up"),
+        ({"cordic_overflow": True}, "COF (bit 4) is 1: the position is invalid"),
+        ({"linearity_alarm": True}, "LIN (bit 3) is 1: the magnet is misaligned"),
+        ({"magnet_closer": True, "magnet_away": True}, "MagINC and MagDEC are both 1: magnet out of range"),
+    ]
+    for flags, why in cases:
+        frame = encode_ssi_frame(420, **flags)
+        expect(_rejects(fn, frame), f"decode_frame(0x{frame:04X}) was accepted but {why}")
+
+
+@decode.test(points=1, hint="MagINC or MagDEC alone only says the magnet is moving; the reading is valid.")
+def one_magnet_bit_alone_is_valid(fn, rng):
+    for flags in ({"magnet_closer": True}, {"magnet_away": True}):
+        frame = encode_ssi_frame(123, **flags)
+        try:
+            got = fn(frame)
+        except ValueError as error:
+            raise Failed(f"decode_frame(0x{frame:04X}) was rejected ({error}) but only one magnet bit is set") \
+                from error
+        expect(got == 123, _diagnose_position(frame, 123, got))
+
+
+def _angle_message(call: str, expected: float, got) -> str:
+    message = f"{call} should be {expected:.4f} rad, got {got!r}"
+    if isinstance(got, (int, float)) and math.isfinite(got):
+        if abs(got - math.degrees(expected)) < 1e-3:
+            return message + ": that is degrees; the lab uses radians"
+        if abs(got - expected) < 2 * math.pi / 1024 * 2 and got != expected:
+            return message + ": off by a count or two; divide by 1024 (positions per turn), not 1023"
+        if got < 0:
+            return message + ": negative; wrap the difference into 0..1023 first (the % operator)"
+    return message
+
+
+@to_angle.test(points=2, hint="Subtract the offset, wrap into 0..1023, then scale: 1024 counts = 2 pi rad.")
+def calibrated_counts_scale_to_radians(fn, rng):
+    for raw, offset, expected in [(0, 0, 0.0), (512, 0, math.pi), (256, 0, math.pi / 2), (317, 317, 0.0),
+                                  (829, 317, math.pi), (600, 100, 500 * 2 * math.pi / 1024)]:
+        got = fn(raw, offset)
+        expect(isinstance(got, (int, float)) and abs(got - expected) < 1e-9,
+               _angle_message(f"counts_to_angle({raw}, offset={offset})", expected, got))
+
+
+@to_angle.test(points=2, hint="A reading just below the offset is just below a full turn, not negative.")
+def readings_below_the_offset_wrap(fn, rng):
+    for raw, offset in [(316, 317), (0, 317), (100, 900)]:
+        expected = ((raw - offset) % 1024) * 2 * math.pi / 1024
+        got = fn(raw, offset)
+        ok = isinstance(got, (int, float)) and abs(got - expected) < 1e-9
+        if not ok and isinstance(got, (int, float)) and abs(got - (raw + offset) % 1024 * 2 * math.pi / 1024) < 1e-9:
+            raise Failed(f"counts_to_angle({raw}, offset={offset}) should be {expected:.4f}, got {got!r}: "
+                         "you added the offset; subtract it")
+        expect(ok, _angle_message(f"counts_to_angle({raw}, offset={offset})", expected, got))
+
+
+@upright.test(points=2, hint="Upright is half a turn from the bottom; wrap the result into [-pi, pi).")
+def upright_is_zero_and_sides_have_signs(fn, rng):
+    for angle, expected in [(math.pi, 0.0), (math.pi + 0.1, 0.1), (math.pi - 0.1, -0.1), (0.0, -math.pi),
+                            (0.05, -math.pi + 0.05), (2 * math.pi - 0.05, math.pi - 0.05)]:
+        got = fn(angle)
+        ok = isinstance(got, (int, float)) and abs(got - expected) < 1e-9
+        if not ok and isinstance(got, (int, float)) and abs(got - (angle - math.pi)) < 1e-9:
+            raise Failed(f"angle_from_upright({angle:.3f}) should be {expected:.4f}, got {got!r}: close, "
+                         "but wrap into [-pi, pi)")
+        expect(ok, f"angle_from_upright({angle:.3f}) should be {expected:.4f} rad, got {got!r}")
+
+
+@wrap.test(points=1, hint="Without a wrap, the difference is simply new - old.")
+def plain_differences(fn, rng):
+    for new, old in [(10, 5), (5, 10), (600, 400), (0, 0)]:
+        got = fn(new, old)
+        expect(got == new - old, f"wrap_delta({new}, {old}) should be {new - old}, got {got!r}")
+
+
+@wrap.test(points=3, hint="A jump of more than half a turn really went the short way across 1023/0.")
+def differences_across_the_seam(fn, rng):
+    for new, old, expected in [(0, 1023, 1), (1023, 0, -1), (10, 1010, 24), (1010, 10, -24), (3, 1020, 7)]:
+        got = fn(new, old)
+        message = f"wrap_delta({new}, {old}) should be {expected}, got {got!r}"
+        if got == new - old:
+            message += ": that is the long way round; take the shorter way across the 1023 -> 0 seam"
+        elif isinstance(got, int) and got == -expected:
+            message += ": right size, wrong sign"
+        expect(got == expected, message)
+
+
+@wrap.test(points=1, hint="Only jumps strictly larger than 512 wrap; exactly 512 keeps its sign.")
+def half_a_turn_keeps_its_sign(fn, rng):
+    for new, old in [(512, 0), (0, 512)]:
+        got = fn(new, old)
+        expect(got == new - old, f"wrap_delta({new}, {old}) should be {new - old} (the firmware keeps exactly "
+               f"half a turn as it is), got {got!r}")

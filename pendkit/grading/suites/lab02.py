@@ -1,0 +1,128 @@
+"""Lab 02, velocity estimation: public tests."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pendkit import encoder
+from pendkit.grading.core import Failed, expect, task
+
+velocity = task("02.velocity_rev_s", function="velocity_rev_s", title="Wrap-aware velocity in rev/s")
+mean = task("02.firmware_mean", function="firmware_mean", title="The firmware's mean of the last N")
+smooth = task("02.low_pass", function="low_pass", title="First-order low-pass")
+limits = task("02.period_limits", function="period_limits", title="Quantisation step and aliasing limit")
+
+
+def _as_array(got, name: str, length: int) -> np.ndarray:
+    try:
+        array = np.asarray(got, dtype=float)
+    except (TypeError, ValueError) as error:
+        raise Failed(f"{name} should return an array of numbers, got {type(got).__name__}") from error
+    expect(array.shape == (length,), f"{name} should return {length} values, got shape {array.shape}")
+    return array
+
+
+def _velocity_hint(got: np.ndarray, expected: np.ndarray, positions, times) -> str:
+    if np.allclose(got, expected * 2 * math.pi, atol=1e-6):
+        return ": these are rad/s; the firmware reports revolutions per second (divide by 2 pi)"
+    if np.allclose(got, expected / 1000, atol=1e-9) or np.allclose(got, expected * 1000, atol=1e-6):
+        return ": off by a factor of 1000; times are in milliseconds"
+    plain = np.diff(np.asarray(positions, dtype=float)) * 1000 / (1024 * np.diff(np.asarray(times, float)))
+    if np.allclose(got, plain, atol=1e-6):
+        return ": huge jumps at the 1023 -> 0 seam; use a wrap-aware difference (lab 01)"
+    if np.allclose(got, expected * 1024 / 1023, atol=1e-6):
+        return ": a turn has 1024 positions, not 1023"
+    return ""
+
+
+@velocity.test(points=2, hint="(new - old) counts / 1024 = revolutions; divide by the interval in seconds.")
+def steady_rotation(fn, rng):
+    positions, times = [100, 110, 120, 130], [0.0, 25.0, 50.0, 75.0]
+    expected = np.full(3, 10 / 1024 / 0.025)
+    got = _as_array(fn(positions, times), "velocity_rev_s", 3)
+    expect(np.allclose(got, expected, atol=1e-9), f"velocity_rev_s({positions}, {times}) should be about "
+           f"{expected[0]:.4f} rev/s each, got {np.round(got, 4).tolist()}"
+           + _velocity_hint(got, expected, positions, times))
+
+
+@velocity.test(points=3, hint="Use the wrap-aware difference from lab 01 for every pair of readings.")
+def across_the_seam_both_ways(fn, rng):
+    for positions in ([1000, 1020, 16, 36], [30, 5, 1004, 980]):
+        times = [0.0, 25.0, 50.0, 75.0]
+        expected = encoder.finite_difference_rev_s(positions, times)
+        got = _as_array(fn(positions, times), "velocity_rev_s", 3)
+        expect(np.allclose(got, expected, atol=1e-9), f"velocity_rev_s({positions}, ...) should be "
+               f"{np.round(expected, 4).tolist()}, got {np.round(got, 4).tolist()}"
+               + _velocity_hint(got, expected, positions, times))
+
+
+@velocity.test(points=1, hint="Intervals need not be equal: use each pair's own time difference.")
+def uneven_intervals(fn, rng):
+    times = np.cumsum(rng.integers(20, 31, 8)).astype(float)
+    positions = rng.integers(0, 1024, 8)
+    expected = encoder.finite_difference_rev_s(positions, times)
+    got = _as_array(fn(positions.tolist(), times.tolist()), "velocity_rev_s", 7)
+    expect(np.allclose(got, expected, atol=1e-9), f"with uneven intervals {np.diff(times).tolist()} ms the "
+           f"velocities should be {np.round(expected, 3).tolist()}, got {np.round(got, 3).tolist()}")
+
+
+@mean.test(points=2, hint="Each output is the mean of the last `window` inputs, counting zeros before the start.")
+def mean_of_the_last_window(fn, rng):
+    values = [4.0, 8.0, 0.0, 4.0, 12.0, 4.0]
+    expected = np.array([1.0, 3.0, 3.0, 4.0, 6.0, 5.0])
+    got = _as_array(fn(values, 4), "firmware_mean", 6)
+    message = f"firmware_mean({values}, 4) should be {expected.tolist()}, got {np.round(got, 4).tolist()}"
+    if np.allclose(got[3:], expected[3:]) and not np.allclose(got[:3], expected[:3]):
+        message += ": the firmware's buffer starts full of zeros, so early outputs divide by 4 too"
+    elif np.allclose(got, np.convolve(values, np.ones(4) / 4, mode="same")):
+        message += ": np.convolve(mode='same') centres the window and looks ahead; use only past values"
+    expect(np.allclose(got, expected), message)
+
+
+@mean.test(points=1, hint="The window length is a parameter.")
+def other_window_lengths(fn, rng):
+    values = rng.normal(size=12)
+    for window in (1, 3):
+        padded = np.concatenate([np.zeros(window - 1), values])
+        expected = np.convolve(padded, np.ones(window) / window, mode="valid")
+        got = _as_array(fn(values.tolist(), window), "firmware_mean", 12)
+        expect(np.allclose(got, expected), f"firmware_mean(..., {window}) is wrong: expected "
+               f"{np.round(expected[:4], 3).tolist()}..., got {np.round(got[:4], 3).tolist()}...")
+
+
+@smooth.test(points=2, hint="y_k = y_(k-1) + alpha * (x_k - y_(k-1)), starting from y_0 = x_0.")
+def step_response(fn, rng):
+    values = [0.0, 1.0, 1.0, 1.0, 1.0]
+    expected = encoder.low_pass(values, 0.25)
+    got = _as_array(fn(values, 0.25), "low_pass", 5)
+    message = f"low_pass({values}, 0.25) should be {np.round(expected, 4).tolist()}, got {np.round(got, 4).tolist()}"
+    if np.allclose(got, encoder.low_pass(values, 0.75)):
+        message += ": alpha is the weight of the *new* value; you used 1 - alpha"
+    expect(np.allclose(got, expected), message)
+
+
+@smooth.test(points=1, hint="alpha = 1 must pass the signal through unchanged.")
+def alpha_one_is_identity(fn, rng):
+    values = rng.normal(size=10)
+    got = _as_array(fn(values.tolist(), 1.0), "low_pass", 10)
+    expect(np.allclose(got, values), "low_pass(x, 1.0) should return x unchanged")
+
+
+@limits.test(points=2, hint="One count per period is the smallest non-zero speed the estimate can show; "
+                            "half a turn per period is the fastest the shorter-way rule can tell apart.")
+def quantisation_and_aliasing(fn, rng):
+    for period_ms in (5.0, 25.0, 100.0):
+        got = fn(period_ms)
+        expect(isinstance(got, tuple) and len(got) == 2, f"period_limits({period_ms}) should return a pair "
+               f"(quantisation step, aliasing limit), got {got!r}")
+        step, limit = float(got[0]), float(got[1])
+        want_step, want_limit = 1 / 1024 / (period_ms / 1000), 0.5 / (period_ms / 1000)
+        message = (f"period_limits({period_ms}) should be ({want_step:.4f}, {want_limit:.2f}) rev/s, "
+                   f"got ({step:.4f}, {limit:.2f})")
+        if abs(limit - 2 * want_limit) < 1e-6:
+            message += ": a full turn per period would look like no motion at all; the limit is half a turn"
+        if abs(step - want_step * 2 * math.pi) < 1e-6:
+            message += ": rev/s please, not rad/s"
+        expect(abs(step - want_step) < 1e-9 and abs(limit - want_limit) < 1e-9, message)

@@ -1,0 +1,58 @@
+"""Run a student's code with a time limit, without needing a separate process (Windows has no fork)."""
+
+from __future__ import annotations
+
+import signal
+import threading
+from collections.abc import Callable
+from typing import Any
+
+
+class CheckTimeout(Exception):
+    """A check ran past its time limit."""
+
+
+def call_with_timeout(func: Callable[[], Any], timeout_s: float) -> Any:
+    """Call `func()`; raise `CheckTimeout` after `timeout_s` seconds.
+
+    On Unix in the main thread (a Jupyter kernel) an interval timer interrupts the code itself. Elsewhere
+    the call runs in a daemon thread that is abandoned on timeout (it cannot be killed), which is why
+    `pendkit grade` also bounds every cell with the kernel's own timeout.
+    """
+    if timeout_s <= 0:
+        return func()
+    if hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread():
+        return _with_alarm(func, timeout_s)
+    return _with_thread(func, timeout_s)
+
+
+def _with_alarm(func: Callable[[], Any], timeout_s: float) -> Any:
+    def on_alarm(signum, frame):
+        raise CheckTimeout(f"took longer than {timeout_s:g} s")
+
+    previous = signal.signal(signal.SIGALRM, on_alarm)
+    signal.setitimer(signal.ITIMER_REAL, timeout_s)
+    try:
+        return func()
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def _with_thread(func: Callable[[], Any], timeout_s: float) -> Any:
+    outcome: dict[str, Any] = {}
+
+    def target() -> None:
+        try:
+            outcome["value"] = func()
+        except BaseException as error:  # handed back to the caller below
+            outcome["error"] = error
+
+    worker = threading.Thread(target=target, daemon=True, name="pendkit-check")
+    worker.start()
+    worker.join(timeout_s)
+    if worker.is_alive():
+        raise CheckTimeout(f"took longer than {timeout_s:g} s (still running in the background)")
+    if "error" in outcome:
+        raise outcome["error"]
+    return outcome.get("value")

@@ -1,0 +1,25 @@
+"""Hidden tests for lab 00 (instructor material: never copied into labs/)."""
+
+import math
+
+import numpy as np
+
+from pendkit.grading import expect, task
+
+reward = task("00.reward", function="reward", title="The paper's reward")
+fraction = task("00.upright_fraction", function="upright_fraction", title="Fraction of time upright")
+
+
+@reward.test(points=1, hidden=True, hint="Both terms are squared: the sign of the angle or velocity does not matter.")
+def reward_is_symmetric(fn, rng):
+    for theta, omega in rng.uniform(-3, 3, (20, 2)):
+        expect(abs(fn(theta, omega) - fn(-theta, -omega)) < 1e-12, "reward should not depend on the signs")
+        expected = -theta**2 - 0.5 * (omega / (2 * math.pi)) ** 2
+        expect(abs(fn(theta, omega) - expected) < 1e-9, f"reward({theta:.3f}, {omega:.3f}) is wrong")
+
+
+@fraction.test(points=1, hidden=True, hint="Accept lists as well as arrays; the bound is strict.")
+def lists_and_the_boundary(fn, rng):
+    got = fn([0.3, -0.3, 0.2999])
+    expect(abs(float(got) - 1 / 3) < 1e-9, f"upright_fraction([0.3, -0.3, 0.2999]) should be 1/3, got {got!r}")
+    expect(abs(float(fn(np.zeros(7))) - 1.0) < 1e-9, "all-upright traces should give 1.0")

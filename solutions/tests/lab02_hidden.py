@@ -1,0 +1,30 @@
+"""Hidden tests for lab 02 (instructor material: never copied into labs/)."""
+
+import numpy as np
+
+from pendkit import encoder
+from pendkit.grading import expect, task
+
+velocity = task("02.velocity_rev_s", function="velocity_rev_s", title="Wrap-aware velocity in rev/s")
+mean = task("02.firmware_mean", function="firmware_mean", title="The firmware's mean of the last N")
+
+
+@velocity.test(points=2, hidden=True, hint="Check against the shared firmware test vectors.")
+def matches_the_firmware_on_a_twin_log(fn, rng):
+    from pendkit.sim.sampling import free_swing_readings
+
+    readings = free_swing_readings(period_ms=25.0, duration_s=2.0, offset_counts=int(rng.integers(0, 1024)))
+    expected = encoder.finite_difference_rev_s(readings.raw_counts, readings.times_ms)
+    got = np.asarray(fn(readings.raw_counts.tolist(), readings.times_ms.tolist()), dtype=float)
+    expect(got.shape == expected.shape and np.allclose(got, expected, atol=1e-9),
+           "velocities of a 2 s spin on the twin differ from the firmware's")
+
+
+@mean.test(points=1, hidden=True, hint="Feed your mean the raw velocities: it must equal the firmware's report.")
+def composes_to_the_firmware_estimate(fn, rng):
+    positions = rng.integers(0, 1024, 30)
+    times = np.arange(30) * 25.0
+    reference, _ = encoder.firmware_velocity(positions, times, 4)
+    raw = np.concatenate([[0.0], encoder.finite_difference_rev_s(positions, times)])
+    got = np.asarray(fn(raw.tolist(), 4), dtype=float)
+    expect(np.allclose(got, reference, atol=1e-9), "firmware_mean of raw velocities differs from the firmware")
