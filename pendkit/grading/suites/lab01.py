@@ -126,13 +126,17 @@ def readings_below_the_offset_wrap(fn, rng):
 @upright.test(points=2, hint="Upright is half a turn from the bottom; wrap the result into [-pi, pi).")
 def upright_is_zero_and_sides_have_signs(fn, rng):
     for angle, expected in [(math.pi, 0.0), (math.pi + 0.1, 0.1), (math.pi - 0.1, -0.1), (0.0, -math.pi),
-                            (0.05, -math.pi + 0.05), (2 * math.pi - 0.05, math.pi - 0.05)]:
+                            (0.05, -math.pi + 0.05), (2 * math.pi - 0.05, math.pi - 0.05),
+                            (3 * math.pi + 0.1, 0.1), (-math.pi / 2, math.pi / 2), (-5 * math.pi, 0.0)]:
         got = fn(angle)
         ok = isinstance(got, (int, float)) and abs(got - expected) < 1e-9
-        if not ok and isinstance(got, (int, float)) and abs(got - (angle - math.pi)) < 1e-9:
-            raise Failed(f"angle_from_upright({angle:.3f}) should be {expected:.4f}, got {got!r}: close, "
-                         "but wrap into [-pi, pi)")
-        expect(ok, f"angle_from_upright({angle:.3f}) should be {expected:.4f} rad, got {got!r}")
+        message = f"angle_from_upright({angle:.3f}) should be {expected:.4f} rad, got {got!r}"
+        if not ok and isinstance(got, (int, float)):
+            if abs(got - (angle - math.pi)) < 1e-9:
+                message += ": close, but the angle may have wound several turns: wrap into [-pi, pi)"
+            elif abs(got - angle) < 1e-9:
+                message += ": that is still the angle from the bottom; upright is half a turn away"
+        expect(ok, message)
 
 
 @wrap.test(points=1, hint="Without a wrap, the difference is simply new - old.")

@@ -1,0 +1,158 @@
+"""`pendkit grade` on a class of one correct and many broken submissions, and the invert check."""
+
+import csv
+import json
+import shutil
+from pathlib import Path
+
+import nbformat
+import pytest
+from click.testing import CliRunner
+
+from pendkit.cli import main
+from pendkit.grading.runner import grade_notebook
+
+ROOT = Path(__file__).resolve().parents[2]
+SOLUTION = ROOT / "solutions" / "01_encoder.ipynb"
+HIDDEN = ROOT / "solutions" / "tests"
+FULL = 24  # lab 01: public + hidden points
+
+
+def solution():
+    return nbformat.read(SOLUTION, as_version=4)
+
+
+def index_of(notebook, text):
+    return next(i for i, c in enumerate(notebook.cells) if c.cell_type == "code" and text in c.source)
+
+
+def insert_after_imports(notebook, source):
+    notebook.cells.insert(index_of(notebook, "import math") + 1, nbformat.v4.new_code_cell(source))
+    return notebook
+
+
+def replace_in(notebook, marker, old, new):
+    cell = notebook.cells[index_of(notebook, marker)]
+    cell.source = cell.source.replace(old, new)
+    return notebook
+
+
+def broken_class(folder: Path) -> None:
+    def save(student, notebook):
+        (folder / student).mkdir(parents=True)
+        nbformat.write(notebook, folder / student / "01_encoder.ipynb")
+
+    save("alice", solution())
+    shutil.copytree(ROOT / "labs", folder / "bob", ignore=shutil.ignore_patterns("00_*", "02_*"))
+    save("carol", insert_after_imports(solution(), "1 / 0"))
+    save("dave", insert_after_imports(solution(), "while True:\n    pass"))
+    save("erin", insert_after_imports(solution(), "import os\nos._exit(1)"))
+    save("frank", replace_in(solution(), "def decode_frame", '"""Position', 'import os; os._exit(3)\n    """Position'))
+    grace = solution()
+    del grace.cells[index_of(grace, "def wrap_delta")]
+    save("grace", grace)
+    heidi = replace_in(solution(), "def decode_frame", "def decode_frame(", "def decode_frames(")
+    save("heidi", replace_in(heidi, 'check("01.decode_frame"', "decode_frame)", "decode_frames)"))
+    ivan = solution()
+    ivan.cells = [nbformat.from_dict(dict(c)) for c in ivan.cells for _ in range(2)]
+    for i, cell in enumerate(ivan.cells):
+        cell["id"] = f"dup-{i}"
+    save("ivan", ivan)
+    (folder / "judy").mkdir()
+    (folder / "judy" / "01_encoder.ipynb").write_text("this is not a notebook")
+    save("kim", replace_in(solution(), "def decode_frame", '"""Position', 'while True:\n        pass\n    """Position'))
+
+
+@pytest.fixture(scope="module")
+def graded(tmp_path_factory):
+    folder, out = tmp_path_factory.mktemp("submissions"), tmp_path_factory.mktemp("grades")
+    broken_class(folder)
+    result = CliRunner().invoke(main, ["grade", str(folder), "--out", str(out), "--hidden", str(HIDDEN),
+                                       "--cell-timeout", "4", "--notebook-timeout", "90", "--check-timeout", "0.5",
+                                       "--quiet"])
+    assert result.exit_code == 0, result.output
+    rows = {row["student"]: row for row in csv.DictReader((out / "grades.csv").open())}
+    results = {student: json.loads((out / student / "results.json").read_text()) for student in rows}
+    return rows, results
+
+
+def messages(results, student):
+    return " ".join([results[student]["output"]] + [t["output"] for t in results[student]["tests"]])
+
+
+def test_correct_submission_gets_full_marks(graded):
+    rows, results = graded
+    assert results["alice"]["score"] == FULL and rows["alice"]["max_score"] == str(FULL)
+    assert results["alice"]["output"] == "Every cell ran."
+    assert {t["visibility"] for t in results["alice"]["tests"]} == {"visible", "after_published"}
+
+
+def test_untouched_lab_scores_zero(graded):
+    rows, results = graded
+    assert results["bob"]["score"] == 0
+    assert "not implemented yet" in messages(results, "bob")
+
+
+@pytest.mark.parametrize("student, note", [
+    ("carol", "raised ZeroDivisionError"),
+    ("dave", "ran past its time limit"),
+    ("erin", "killed the kernel"),
+])
+def test_a_broken_cell_outside_the_tasks_costs_nothing_but_is_reported(graded, student, note):
+    rows, results = graded
+    assert results[student]["score"] == FULL
+    assert note in results[student]["output"]
+
+
+def test_a_function_that_kills_the_kernel_scores_zero_for_its_task_only(graded):
+    rows, results = graded
+    assert rows["frank"]["01.decode_frame"] == "0"
+    assert results["frank"]["score"] == FULL - 11
+    assert "killed the kernel" in messages(results, "frank")
+
+
+def test_a_deleted_function_scores_zero_with_a_message(graded):
+    rows, results = graded
+    assert rows["grace"]["01.wrap_delta"] == "0" and results["grace"]["score"] == FULL - 6
+    assert "function `wrap_delta` not found" in messages(results, "grace")
+
+
+def test_a_renamed_function_is_named_in_the_feedback(graded):
+    rows, results = graded
+    assert rows["heidi"]["01.decode_frame"] == "0"
+    assert "found `decode_frames`: keep the name `decode_frame`" in messages(results, "heidi")
+
+
+def test_duplicated_cells_are_harmless(graded):
+    rows, results = graded
+    assert results["ivan"]["score"] == FULL
+
+
+def test_an_unreadable_file_scores_zero_with_a_reason(graded):
+    rows, results = graded
+    assert results["judy"]["score"] == 0 and "could not read the notebook" in results["judy"]["output"]
+
+
+def test_a_hanging_function_times_out(graded):
+    rows, results = graded
+    assert rows["kim"]["01.decode_frame"] == "0" and results["kim"]["score"] == FULL - 11
+    assert "took longer than 0.5 s" in messages(results, "kim")
+
+
+def test_feedback_never_shows_hidden_test_code(graded):
+    rows, results = graded
+    hidden_source = (HIDDEN / "lab01_hidden.py").read_text()
+    for student in results:
+        for test in results[student]["tests"]:
+            assert "rng.integers(0, 1 << 16, 400)" not in test["output"]
+    assert "rng.integers(0, 1 << 16, 400)" in hidden_source  # the probe itself is real
+
+
+@pytest.mark.parametrize("lab_file", sorted((ROOT / "labs").glob("*.ipynb")), ids=lambda p: p.name)
+def test_invert_untouched_labs_score_zero_on_every_task(lab_file):
+    lab = lab_file.name[:2]
+    grade = grade_notebook(lab_file, "nobody", lab, sorted(HIDDEN.glob(f"lab{lab}_*.py")), 60, 180)
+    assert grade.tasks and grade.max_score > 0
+    for task in grade.tasks:
+        assert task.score == 0, f"{task.task} scored {task.score} on the untouched lab"
+    assert not any("raised" in note for note in grade.notes), grade.notes

@@ -1,0 +1,195 @@
+"""Every graded task: correct answers get full marks; plausible mistakes lose points with a message that
+points at the mistake (public and hidden tests together)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from pendkit import encoder
+from pendkit.grading import run_task
+
+
+def score(task_id, fn):
+    results = run_task(task_id, fn, include_hidden=True)
+    return sum(r.points for r in results), sum(r.max_points for r in results), \
+        " ".join(r.message for r in results if not r.passed)
+
+
+# --- reference answers ---
+def decode_frame(frame):
+    status = encoder.frame_status(frame)
+    if status != "ok":
+        raise ValueError(status)
+    return frame >> 6
+
+
+def wrap_delta(new, old):
+    return int(encoder.wrap_delta_counts(new, old))
+
+
+CORRECT = {
+    "00.reward": lambda theta, omega: -theta**2 - 0.5 * (omega / (2 * math.pi)) ** 2,
+    "00.upright_fraction": lambda angles: float(np.mean(np.abs(np.asarray(angles)) < 0.3)),
+    "01.decode_frame": decode_frame,
+    "01.counts_to_angle": lambda raw, offset: float(encoder.counts_to_rad(raw, offset)),
+    "01.angle_from_upright": lambda angle: float(encoder.angle_from_upright_rad(angle)),
+    "01.wrap_delta": wrap_delta,
+    "02.velocity_rev_s": lambda p, t: encoder.finite_difference_rev_s(p, t),
+    "02.firmware_mean": lambda v, w: np.convolve(np.concatenate([np.zeros(w - 1), v]), np.ones(w) / w, "valid"),
+    "02.low_pass": lambda v, a: encoder.low_pass(v, a),
+    "02.period_limits": lambda ms: (1 / 1024 / (ms / 1000), 0.5 / (ms / 1000)),
+}
+
+
+@pytest.mark.parametrize("task_id", sorted(CORRECT))
+def test_correct_answers_get_full_marks(all_tests_loaded, task_id):
+    got, total, messages = score(task_id, CORRECT[task_id])
+    assert got == total > 0, messages
+
+
+# --- plausible mistakes: (task, function, words the feedback must contain) ---
+def decode_lsb_first(frame):
+    return int(f"{frame >> 6:010b}"[::-1], 2)
+
+
+def decode_ignoring_parity(frame):
+    status = encoder.frame_status(frame)
+    if status not in ("ok", "parity"):
+        raise ValueError(status)
+    return frame >> 6
+
+
+def decode_ignoring_status(frame):
+    if bin(frame).count("1") % 2:
+        raise ValueError("parity")
+    return frame >> 6
+
+
+def decode_rejecting_one_magnet_bit(frame):
+    if frame & 0b110:
+        raise ValueError("magnet")
+    return decode_frame(frame)
+
+
+def decode_whole_frame(frame):
+    decode_frame(frame)
+    return frame
+
+
+def decode_off_by_one_shift(frame):
+    decode_frame(frame)
+    return frame >> 5
+
+
+def counts_in_degrees(raw, offset):
+    return ((raw - offset) % 1024) * 360 / 1024
+
+
+def counts_adding_offset(raw, offset):
+    return ((raw + offset) % 1024) * 2 * math.pi / 1024
+
+
+def counts_over_1023(raw, offset):
+    return ((raw - offset) % 1024) * 2 * math.pi / 1023
+
+
+def counts_without_wrap(raw, offset):
+    return (raw - offset) * 2 * math.pi / 1024
+
+
+def velocity_no_wrap(p, t):
+    return np.diff(np.asarray(p, float)) * 1000 / (1024 * np.diff(np.asarray(t, float)))
+
+
+def velocity_rad_s(p, t):
+    return encoder.finite_difference_rev_s(p, t) * 2 * math.pi
+
+
+def velocity_seconds(p, t):
+    return encoder.finite_difference_rev_s(p, t) / 1000
+
+
+def velocity_1023(p, t):
+    return encoder.finite_difference_rev_s(p, t) * 1024 / 1023
+
+
+def mean_without_zero_padding(v, w):
+    v = np.asarray(v, float)
+    return np.array([v[max(0, k - w + 1): k + 1].mean() for k in range(len(v))])
+
+
+def mean_centred(v, w):
+    return np.convolve(v, np.ones(w) / w, mode="same")
+
+
+MISTAKES = [
+    ("00.reward", lambda theta, omega: -theta**2 - 0.5 * omega**2, "rev/s"),
+    ("00.reward", lambda theta, omega: theta**2 + 0.5 * (omega / (2 * math.pi)) ** 2, "never positive"),
+    ("00.upright_fraction", lambda angles: float(np.mean(np.asarray(angles) < 0.3)), "absolute value"),
+    ("00.upright_fraction", lambda angles: int(np.sum(np.abs(np.asarray(angles)) < 0.3)), "count"),
+    ("01.decode_frame", decode_lsb_first, "bits reversed"),
+    ("01.decode_frame", decode_ignoring_parity, "parity"),
+    ("01.decode_frame", decode_ignoring_status, "OCF"),
+    ("01.decode_frame", decode_rejecting_one_magnet_bit, "only one magnet bit"),
+    ("01.decode_frame", decode_whole_frame, "whole frame"),
+    ("01.decode_frame", decode_off_by_one_shift, "frame >> 6"),
+    ("01.counts_to_angle", counts_in_degrees, "degrees"),
+    ("01.counts_to_angle", counts_adding_offset, "added the offset"),
+    ("01.counts_to_angle", counts_over_1023, "not 1023"),
+    ("01.counts_to_angle", counts_without_wrap, "negative"),
+    ("01.angle_from_upright", lambda angle: angle - math.pi, "wrap into [-pi, pi)"),
+    ("01.angle_from_upright", lambda angle: angle, "still the angle from the bottom"),
+    ("01.wrap_delta", lambda new, old: new - old, "long way round"),
+    ("01.wrap_delta", lambda new, old: -wrap_delta(new, old), "wrong sign"),
+    ("01.wrap_delta", lambda new, old: (new - old + 512) % 1024 - 512, "exactly half a turn"),
+    ("02.velocity_rev_s", velocity_no_wrap, "wrap-aware"),
+    ("02.velocity_rev_s", velocity_rad_s, "rad/s"),
+    ("02.velocity_rev_s", velocity_seconds, "milliseconds"),
+    ("02.velocity_rev_s", velocity_1023, "not 1023"),
+    ("02.firmware_mean", mean_without_zero_padding, "full of zeros"),
+    ("02.firmware_mean", mean_centred, "looks ahead"),
+    ("02.low_pass", lambda v, a: encoder.low_pass(v, 1 - a) if a < 1 else np.asarray(v, float), "1 - alpha"),
+    ("02.period_limits", lambda ms: (1 / 1024 / (ms / 1000), 1 / (ms / 1000)), "half a turn"),
+    ("02.period_limits", lambda ms: (2 * math.pi / 1024 / (ms / 1000), 0.5 / (ms / 1000)), "rad/s"),
+]
+
+
+@pytest.mark.parametrize("task_id, fn, words", MISTAKES, ids=[f"{m[0]}-{m[2]}" for m in MISTAKES])
+def test_mistakes_lose_points_with_a_pointed_message(all_tests_loaded, task_id, fn, words):
+    got, total, messages = score(task_id, fn)
+    assert got < total
+    assert words in messages, messages
+
+
+def test_a_stub_scores_zero_and_says_not_implemented(all_tests_loaded):
+    def stub(*args):
+        raise NotImplementedError("not implemented yet")
+
+    for task_id in CORRECT:
+        got, total, messages = score(task_id, stub)
+        assert got == 0 and "not implemented yet" in messages, task_id
+
+
+def test_a_hanging_answer_times_out(all_tests_loaded, monkeypatch):
+    monkeypatch.setenv("PENDKIT_CHECK_TIMEOUT_S", "0.2")
+
+    def hang(theta, omega):
+        while True:
+            pass
+
+    got, total, messages = score("00.reward", hang)
+    assert got == 0 and "took longer than 0.2 s" in messages
+
+
+def test_check_prints_and_strict_mode_raises(all_tests_loaded, monkeypatch, capsys):
+    from pendkit.grading import GradingError, check
+
+    monkeypatch.setenv("PENDKIT_MODE", "interactive")
+    monkeypatch.setenv("PENDKIT_GRADER_STRICT", "0")
+    assert check("01.wrap_delta", lambda new, old: new - old) == 2
+    assert "FAIL  differences_across_the_seam" in capsys.readouterr().out
+    monkeypatch.setenv("PENDKIT_GRADER_STRICT", "1")
+    with pytest.raises(GradingError, match="01.wrap_delta scored 2/5"):
+        check("01.wrap_delta", lambda new, old: new - old)
+    assert check("01.wrap_delta", wrap_delta) == 5  # full marks never raise
