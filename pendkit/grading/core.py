@@ -118,9 +118,15 @@ def load_lab(lab: str) -> list[Task]:
     return [t for t in TASKS.values() if lab_of(t.id) == lab]
 
 
+_LOADED_HIDDEN: set[Path] = set()
+
+
 def load_hidden(path: str | Path) -> None:
-    """Import an instructor's hidden-test module (it attaches tests with hidden=True)."""
-    path = Path(path)
+    """Import an instructor's hidden-test module (it attaches tests with hidden=True); once per path."""
+    path = Path(path).resolve()
+    if path in _LOADED_HIDDEN:
+        return
+    _LOADED_HIDDEN.add(path)
     spec = importlib.util.spec_from_file_location(f"pendkit_hidden_{path.stem}", path)
     if spec is None or spec.loader is None:
         raise ConfigError(f"cannot load hidden tests from {path}")

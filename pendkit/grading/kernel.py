@@ -16,7 +16,6 @@ from typing import Any
 from pendkit.grading.core import TASKS, TestResult, load_hidden, load_lab, run_task
 
 MARKER = "PENDKIT-GRADE-RESULT"
-_loaded_hidden: set[str] = set()
 
 
 def report_task(task_id: str, namespace: dict[str, Any], hidden_paths: list[str], nonce: str) -> None:
@@ -26,9 +25,8 @@ def report_task(task_id: str, namespace: dict[str, Any], hidden_paths: list[str]
 def grade_task(task_id: str, namespace: dict[str, Any], hidden_paths: list[str]) -> dict[str, Any]:
     load_lab(task_id.split(".", 1)[0])
     for path in hidden_paths:
-        if path not in _loaded_hidden and Path(path).exists():
+        if Path(path).exists():
             load_hidden(path)
-            _loaded_hidden.add(path)
     task = TASKS[task_id]
     fn = namespace.get(task.function)
     if fn is None or not callable(fn):

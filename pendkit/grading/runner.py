@@ -73,9 +73,7 @@ def grade_notebook(path: Path, student: str, lab: str, hidden_paths: list[Path],
     task_ids = [t.id for t in load_lab(lab)]
     hidden = [str(Path(p).resolve()) for p in hidden_paths if Path(p).exists()]
     for hidden_path in hidden:
-        if hidden_path not in _LOADED:
-            load_hidden(hidden_path)
-            _LOADED.add(hidden_path)
+        load_hidden(hidden_path)
     grade = SubmissionGrade(student, str(path), lab)
     try:
         notebook = nbformat.read(path, as_version=4)
@@ -99,9 +97,6 @@ def grade_notebook(path: Path, student: str, lab: str, hidden_paths: list[Path],
                    for t in task_ids]
     grade.execution_time_s = time.monotonic() - started
     return grade
-
-
-_LOADED: set[str] = set()
 
 
 class _Run:

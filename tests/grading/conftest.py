@@ -1,4 +1,3 @@
-import sys
 from pathlib import Path
 
 import pytest
@@ -7,7 +6,6 @@ from pendkit.grading import load_hidden, load_lab
 
 ROOT = Path(__file__).resolve().parents[2]
 HIDDEN = ROOT / "solutions" / "tests"
-_loaded = set()
 
 
 @pytest.fixture(scope="session")
@@ -16,11 +14,6 @@ def all_tests_loaded():
     for lab in ("00", "01", "02"):
         load_lab(lab)
         for path in sorted(HIDDEN.glob(f"lab{lab}_*.py")):
-            if path not in _loaded:
-                load_hidden(path)
-                _loaded.add(path)
+            load_hidden(path)
     return True
 
-
-def notebook_python():
-    return sys.executable
