@@ -45,10 +45,15 @@ def spin_up(mcu, counts_per_tick, ticks=8):
         mcu.streaming_tick(position, 25 * (k + 1))
 
 
+def command_sequences(max_increment, max_target, max_size):
+    """Any mix of discrete increments and continuous targets, including out-of-range ones."""
+    discrete = st.builds(ServoCommand, st.just("discrete"), st.integers(-max_increment, max_increment))
+    continuous = st.builds(ServoCommand, st.just("continuous"), st.just(0), st.floats(-max_target, max_target))
+    return st.lists(st.one_of(discrete, continuous), min_size=1, max_size=max_size)
+
+
 @settings(max_examples=60, deadline=None)
-@given(st.lists(st.one_of(st.builds(ServoCommand, st.just("discrete"), st.integers(-50, 50)),
-                          st.builds(ServoCommand, st.just("continuous"), st.just(0),
-                                    st.floats(-1, 1))), min_size=1, max_size=20))
+@given(command_sequences(50, 1, 20))
 def test_no_command_sequence_moves_the_servo_while_over_spinning(commands):
     mcu = McuLogic(P)
     mcu.reset(300, 0)
@@ -60,9 +65,7 @@ def test_no_command_sequence_moves_the_servo_while_over_spinning(commands):
 
 
 @settings(max_examples=60, deadline=None)
-@given(st.lists(st.one_of(st.builds(ServoCommand, st.just("discrete"), st.integers(-1000, 1000)),
-                          st.builds(ServoCommand, st.just("continuous"), st.just(0),
-                                    st.floats(-1e6, 1e6))), min_size=1, max_size=30))
+@given(command_sequences(1000, 1e6, 30))
 def test_no_command_sequence_leaves_the_arm_range(commands):
     mcu = McuLogic(P)
     for k, command in enumerate(commands):
