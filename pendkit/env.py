@@ -68,7 +68,9 @@ class SwingUpEnv(gym.Env):
     ## Starting State
     `start="random"` (default): pendulum angle uniform in +-3.01 rad from hanging, rate in +-2.01 rad/s, arm
     at rest within half its range (the authors' reset). `"rest"`: hanging still, arm centred.
-    `"upright"`: within 0.05 rad of upright, still (for balance experiments).
+    `"upright"`: within 0.05 rad of upright, still (for balance experiments). `reset(options=...)` may
+    override `start` and set `arm_angle_rad`, `pendulum_angle_rad` (from the bottom) and
+    `pendulum_velocity_rad_s` exactly.
 
     ## Episode End
     Never terminates; truncates after `max_episode_steps` (500) steps, about 30 s at 60 ms a step.
@@ -129,8 +131,9 @@ class SwingUpEnv(gym.Env):
     # --- Gymnasium API ---
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
-        start = (options or {}).get("start", self.start)
-        self._state = self.backend.reset(self.np_random, start)
+        options = dict(options or {})
+        start = options.pop("start", self.start)
+        self._state = self.backend.reset(self.np_random, start, options)
         self._filtered_unit = self._state.servo_target_rad / self.params.servo_range_rad
         self._steps = 0
         return self._observation(), self._info()

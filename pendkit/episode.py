@@ -50,6 +50,8 @@ def run_episode(env, policy: Policy, *, seed: int | None = None, steps: int | No
     """Run `policy(observation, state) -> action` on `env` for one episode (or `steps` steps)."""
     base = env.unwrapped
     observation, info = env.reset(seed=seed, options=options)
+    if hasattr(policy, "reset"):
+        policy.reset(info["state"])  # stateful controllers (filters, modes) start afresh
     trace = EpisodeTrace()
     trace.add(info["state"], 0.0, 0.0, 0.0)
     limit = steps or base.max_episode_steps

@@ -24,6 +24,8 @@ RANDOM_PENDULUM_ANGLE_RAD = 3.01
 RANDOM_PENDULUM_VELOCITY_RAD_S = 2.01
 RANDOM_ARM_FRACTION_OF_RANGE = 0.5
 UPRIGHT_PERTURBATION_RAD = 0.05
+# reset(options=...) may set these; the pendulum angle is from the bottom (pi = upright).
+INITIAL_STATE_KEYS = ("arm_angle_rad", "pendulum_angle_rad", "pendulum_velocity_rad_s")
 
 
 class SimBackend:
@@ -55,9 +57,18 @@ class SimBackend:
         return (self.substeps + extra) * self.physics_step_s
 
     # --- reset ---
-    def reset(self, rng: np.random.Generator, start: Start = "random") -> RigState:
+    def reset(self, rng: np.random.Generator, start: Start = "random",
+              initial: dict[str, float] | None = None) -> RigState:
+        """Start as `start` says, then apply any of `INITIAL_STATE_KEYS` given in `initial`."""
         if start not in STARTS:
             raise ConfigError(f"start must be one of {STARTS}, got {start!r}")
+        initial = dict(initial or {})
+        unknown = set(initial) - set(INITIAL_STATE_KEYS)
+        if unknown:
+            raise ConfigError(f"unknown initial state keys {sorted(unknown)}; expected some of {INITIAL_STATE_KEYS}")
+        for key, value in initial.items():
+            if not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ConfigError(f"initial {key} must be a finite number, got {value!r}")
         self._rng = rng
         mujoco.mj_resetData(self.model, self.data)
         arm, pendulum, pendulum_velocity = 0.0, 0.0, 0.0
@@ -67,6 +78,11 @@ class SimBackend:
             pendulum_velocity = rng.uniform(-RANDOM_PENDULUM_VELOCITY_RAD_S, RANDOM_PENDULUM_VELOCITY_RAD_S)
         elif start == "upright":
             pendulum = math.pi + rng.uniform(-UPRIGHT_PERTURBATION_RAD, UPRIGHT_PERTURBATION_RAD)
+        arm = initial.get("arm_angle_rad", arm)
+        pendulum = initial.get("pendulum_angle_rad", pendulum)
+        pendulum_velocity = initial.get("pendulum_velocity_rad_s", pendulum_velocity)
+        if abs(arm) > self.params.servo_range_rad:
+            raise ConfigError(f"initial arm_angle_rad must be within +-{self.params.servo_range_rad:.3f}, got {arm}")
         if self._mcu is not None:
             servo_counts = self.params.servo_rad_to_counts(arm)
             arm = self.params.servo_counts_to_rad(servo_counts)
