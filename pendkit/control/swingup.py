@@ -2,10 +2,12 @@
 
 The pendulum's energy, normalised by m g l, is e = 0.5 (alpha'/w0)^2 - cos(alpha): -1 hanging still,
 +1 upright still. From the equations of motion (pendkit.control.model) the pivot's motion changes it at
-de/dt = -(m r l / m g l) cos(alpha) alpha' phi'' (plus damping), so accelerating the arm against
-sign(alpha' cos(alpha)) pumps energy in. Our input is the servo's target, a *position*: for a swing,
-position is half a period out of phase with acceleration, so the target goes *with*
-sign(alpha' cos(alpha)), by an amount that grows with the energy still missing.
+de/dt = -(m r l / m g l) cos(alpha) alpha' phi'' (plus damping), so an arm acceleration against
+alpha' cos(alpha) pumps energy in. Since d/dt sin(alpha) = alpha' cos(alpha), that acceleration
+integrates to an arm *velocity* against sin(alpha), at any amplitude. A position servo is good at
+velocities: the controller moves its target at a set rate, towards -sign(sin(alpha)), scaled by the
+energy still missing (and reversed to brake when there is too much), with a weak pull to the centre so
+the arm stays inside its range.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pendkit.control.lqr import LqrBalancer
+from pendkit.control.lqr import LqrBalancer, expected_delays_s
 from pendkit.errors import ConfigError
 from pendkit.features import angle_from_upright_rad
 from pendkit.rig import RigParams
@@ -24,25 +26,30 @@ from pendkit.state import RigState
 
 @dataclass(frozen=True)
 class SwingUpConfig:
-    """Swing-up law and hand-over thresholds.
+    """Swing-up law and hand-over thresholds. Defaults: chosen on 20 random starts of the twin
+    (benchmarks/bench_swingup.py has the figures); the rate is just under the D645MW's 5.24 rad/s.
 
-    energy_gain: arm target amplitude per unit of missing normalised energy (saturates at 1).
-    swing_amplitude_rad: the largest arm target while pumping; keep it inside the servo's range.
+    energy_gain: fraction of the full swing rate per unit of missing normalised energy (saturates at 1).
+    swing_rate_rad_s: how fast the target moves while pumping (at most the servo's rated speed).
+    centring_per_s: pull of the target back to the centre, as a rate per radian of target.
+    arm_limit_rad: the target never goes further out than this while pumping.
     target_energy: normalised energy to pump to; 1.0 is exactly enough to stand upright.
     catch_angle_rad, catch_velocity_rad_s: hand over to LQR inside both.
     fall_angle_rad: give the pendulum back to the swing-up beyond this angle from upright.
     phase_lead_rad: how far ahead in its swing (radians of phase at the natural frequency) the pendulum
-        is predicted when choosing the pumping side, to make up for the loop's lag from deciding to the
-        arm moving (filter, hold, delays, servo). None: estimated from the env by `loop_phase_lag_rad`.
+        is predicted when choosing the pumping side. The velocity law needs none on the twin (measured:
+        0 beats the position-loop lag estimate); None estimates it with `loop_phase_lag_rad`.
     """
 
-    energy_gain: float = 3.0
-    swing_amplitude_rad: float = 1.2
-    target_energy: float = 1.05
-    catch_angle_rad: float = 0.4
+    energy_gain: float = 1.0
+    swing_rate_rad_s: float = 5.0
+    centring_per_s: float = 1.0
+    arm_limit_rad: float = 1.2
+    target_energy: float = 1.0
+    catch_angle_rad: float = 0.8
     catch_velocity_rad_s: float = 5.0
-    fall_angle_rad: float = 0.9
-    phase_lead_rad: float | None = None
+    fall_angle_rad: float = 1.1
+    phase_lead_rad: float | None = 0.0
 
     def __post_init__(self) -> None:
         for name, value in self.__dict__.items():
@@ -53,9 +60,8 @@ class SwingUpConfig:
         if self.catch_angle_rad >= self.fall_angle_rad:
             raise ConfigError(f"catch_angle_rad ({self.catch_angle_rad}) must be below fall_angle_rad "
                               f"({self.fall_angle_rad}), or the controller would hand over and back at once")
-        if self.swing_amplitude_rad > math.pi / 2:
-            raise ConfigError(f"swing_amplitude_rad must be within the servo's range (pi/2), got "
-                              f"{self.swing_amplitude_rad}")
+        if self.arm_limit_rad > math.pi / 2:
+            raise ConfigError(f"arm_limit_rad must be within the servo's range (pi/2), got {self.arm_limit_rad}")
 
 
 def loop_phase_lag_rad(balancer: LqrBalancer, loop_delay_s: float = 0.0,
@@ -100,20 +106,20 @@ class SwingUpController:
                                else loop_phase_lag_rad(balancer, loop_delay_s, self.env_filter_coefficient))
         self.mode = "swing"
         self.switches = 0
-        self._filtered_rad = 0.0
+        self._filtered_rad = self._swing_target_rad = 0.0
 
     @classmethod
     def for_env(cls, env, config: SwingUpConfig | None = None, **lqr_kwargs) -> SwingUpController:
         balancer = LqrBalancer.for_env(env, **lqr_kwargs)
-        return cls(balancer, config, env.unwrapped.params, loop_delay_s=balancer.delay_s)
+        return cls(balancer, config, env.unwrapped.params, loop_delay_s=sum(expected_delays_s(env)))
 
     def reset(self, state: RigState) -> None:
         self.mode, self.switches = "swing", 0
-        self._filtered_rad = state.servo_target_rad
+        self._filtered_rad = self._swing_target_rad = state.servo_target_rad
         self.balancer.reset(state)
 
-    def swing_target_rad(self, state: RigState) -> float:
-        """The arm target that pumps energy towards `target_energy` (or bleeds off any excess)."""
+    def swing_rate_rad_s(self, state: RigState) -> float:
+        """The target's rate that pumps energy towards `target_energy` (or bleeds off any excess)."""
         cfg = self.config
         missing = cfg.target_energy - normalised_energy(state, self.natural_frequency_rad_s)
         # Rotate the swing's phase-space point (alpha, alpha'/w0) forward by the lead: exact for small swings.
@@ -121,35 +127,41 @@ class SwingUpController:
         angle = (state.pendulum_angle_rad + math.pi) % (2 * math.pi) - math.pi  # from the bottom, wrapped
         rate = state.pendulum_velocity_rad_s / w0
         alpha = angle * math.cos(lead) + rate * math.sin(lead)
-        alpha_dot = rate * math.cos(lead) - angle * math.sin(lead)
-        direction = math.copysign(1.0, alpha_dot * math.cos(alpha))
-        return direction * cfg.swing_amplitude_rad * max(-1.0, min(1.0, cfg.energy_gain * missing))
+        direction = -math.copysign(1.0, math.sin(alpha)) if alpha else 1.0
+        pumping = direction * cfg.swing_rate_rad_s * max(-1.0, min(1.0, cfg.energy_gain * missing))
+        return pumping - cfg.centring_per_s * self._swing_target_rad
 
     def action(self, state: RigState) -> np.ndarray:
-        theta = angle_from_upright_rad(state)
+        estimate = self.balancer.estimate(state)
+        theta = angle_from_upright_rad(estimate)
         cfg = self.config
         if self.mode == "swing" and abs(theta) < cfg.catch_angle_rad \
-                and abs(state.pendulum_velocity_rad_s) < cfg.catch_velocity_rad_s:
+                and abs(estimate.pendulum_velocity_rad_s) < cfg.catch_velocity_rad_s:
             self.mode, self.switches = "balance", self.switches + 1
             # With the filter inside the balancer it may start where the arm is, not at the last swing
             # target (which can be a full swing away); with the env's filter it must match the env's.
-            start = state.arm_angle_rad if self.balancer.internal_filter else self._filtered_rad
-            self.balancer.reset(state._replace(servo_target_rad=start))
+            start = estimate.arm_angle_rad if self.balancer.internal_filter else self._filtered_rad
+            self.balancer.reset(estimate._replace(servo_target_rad=start), keep_estimate=True)
         elif self.mode == "balance" and abs(theta) > cfg.fall_angle_rad:
             self.mode, self.switches = "swing", self.switches + 1
+            self._swing_target_rad = self._filtered_rad
         if self.mode == "balance":
-            action = self.balancer.action(state)
+            unit = self.balancer.control(estimate)
         else:
-            action = self._towards(self.swing_target_rad(state))
+            limit = cfg.arm_limit_rad
+            step = self.swing_rate_rad_s(estimate) * self.balancer.period_s
+            self._swing_target_rad = max(-limit, min(limit, self._swing_target_rad + step))
+            unit = self._towards(self._swing_target_rad)
         c = self.env_filter_coefficient
-        self._filtered_rad = c * self._filtered_rad + (1 - c) * float(action[0]) * self.params.servo_range_rad
-        return action
+        self._filtered_rad = c * self._filtered_rad + (1 - c) * unit * self.params.servo_range_rad
+        self.balancer.advance(self._filtered_rad)
+        return np.array([unit], dtype=np.float32)
 
-    def _towards(self, target_rad: float) -> np.ndarray:
+    def _towards(self, target_rad: float) -> float:
         """The raw action whose filtered value lands on `target_rad` (inverting the env's filter)."""
         c = self.env_filter_coefficient
         raw_rad = (target_rad - c * self._filtered_rad) / (1 - c)
-        return np.array([np.clip(raw_rad / self.params.servo_range_rad, -1.0, 1.0)], dtype=np.float32)
+        return float(np.clip(raw_rad / self.params.servo_range_rad, -1.0, 1.0))
 
     def __call__(self, observation, state: RigState) -> np.ndarray:
         return self.action(state)
