@@ -25,22 +25,26 @@ def main() -> None:
 @click.option("--start", type=click.Choice(("rest", "random")), default="rest", show_default=True,
               help="Start hanging still, or from the authors' random state.")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
-              default=Path("pendkit-output"), show_default=True, help="Where to write the plot.")
+              default=Path("pendkit-output"), show_default=True, help="Where to write the plot and animation.")
+@click.option("--no-animation", is_flag=True, help="Skip the GIF.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
-def demo(fidelity: str, seed: int, start: str, out_dir: Path, quiet: bool) -> None:
-    """Run one episode on the MuJoCo twin with a demo policy and save a plot of it."""
-    import pendkit
-    from pendkit.episode import energy_pumping_policy, plot_episode, run_episode
+def demo(fidelity: str, seed: int, start: str, out_dir: Path, no_animation: bool, quiet: bool) -> None:
+    """Swing up and balance on the MuJoCo twin (energy swing-up + LQR); save a plot and a GIF."""
+    import warnings
 
-    env = pendkit.make(fidelity=fidelity, start=start)
-    trace = run_episode(env, energy_pumping_policy(env), seed=seed, progress=not quiet)
-    env.close()
-    path = out_dir / f"demo-{fidelity}-seed{seed}.png"
-    plot_episode(trace, path, title=f"Demo on the twin ({fidelity})")
-    best = min(abs(a) for a in trace.pendulum_from_upright_rad)
+    from pendkit.demo import run_demo
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # no GL here: frames are drawn instead
+        result = run_demo(fidelity, seed, start, out_dir, progress=not quiet, animate=not no_animation)
+    trace = result.trace
+    upright = (f"upright after {result.time_to_upright_s:.2f} s and to the end"
+               if result.time_to_upright_s is not None else "not upright at the end")
     click.echo(f"{len(trace.time_s) - 1} steps, {trace.time_s[-1]:.1f} s simulated, return "
-               f"{trace.episode_return:.1f}, closest to upright {best:.2f} rad")
-    click.echo(f"plot: {path}")
+               f"{trace.episode_return:.1f}, {upright}")
+    click.echo(f"plot: {result.plot_path}")
+    if result.animation_path is not None:
+        click.echo(f"animation: {result.animation_path}")
 
 
 @main.command()

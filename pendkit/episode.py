@@ -94,13 +94,37 @@ def energy_pumping_policy(env) -> Policy:
     return policy
 
 
-def plot_episode(trace: EpisodeTrace, path: str | Path | None = None, title: str = "Episode"):
-    """Angles, action and reward against time; saved to `path` (PNG) when given. Returns the figure."""
+UPRIGHT_RAD = 0.3  # "upright" in the benchmarks and labs: within 0.3 rad of the top
+
+
+def time_to_upright_s(angles_from_upright_rad, dt_s: float) -> float | None:
+    """Start of the final run of |theta| < 0.3 rad that lasts to the end; None if the end is not upright."""
+    angles = np.abs(np.asarray(angles_from_upright_rad))
+    outside = np.nonzero(angles >= UPRIGHT_RAD)[0]
+    if len(outside) == 0:
+        return 0.0
+    if outside[-1] == len(angles) - 1:
+        return None
+    return float((outside[-1] + 1) * dt_s)
+
+
+def pendulum_energy(trace: EpisodeTrace, natural_frequency_rad_s: float) -> np.ndarray:
+    """Normalised pendulum energy per step: -1 hanging still, +1 upright still."""
+    data = trace.as_arrays()
+    return 0.5 * (data["pendulum_velocity_rad_s"] / natural_frequency_rad_s) ** 2 + np.cos(
+        data["pendulum_from_upright_rad"])
+
+
+def plot_episode(trace: EpisodeTrace, path: str | Path | None = None, title: str = "Episode",
+                 natural_frequency_rad_s: float | None = None):
+    """Angles, action, reward (and the pendulum's energy, given its natural frequency) against time;
+    saved to `path` (PNG) when given. Returns the figure."""
     from matplotlib.figure import Figure
 
     data = trace.as_arrays()
-    figure = Figure(figsize=(9, 6.5), layout="constrained")
-    axes = figure.subplots(3, 1, sharex=True)
+    rows = 4 if natural_frequency_rad_s else 3
+    figure = Figure(figsize=(9, 2.2 * rows), layout="constrained")
+    axes = figure.subplots(rows, 1, sharex=True)
     t = data["time_s"]
     axes[0].plot(t, np.degrees(data["pendulum_from_upright_rad"]), color=PALETTE["pendulum"],
                  label="pendulum from upright")
@@ -112,7 +136,11 @@ def plot_episode(trace: EpisodeTrace, path: str | Path | None = None, title: str
     axes[1].set_ylabel("action")
     axes[2].plot(t, data["reward"], color=PALETTE["reward"])
     axes[2].set_ylabel("reward")
-    axes[2].set_xlabel("time (s)")
+    if natural_frequency_rad_s:
+        axes[3].plot(t, pendulum_energy(trace, natural_frequency_rad_s), color=PALETTE["pendulum"])
+        axes[3].axhline(1.0, color=PALETTE["limit"], lw=0.8, linestyle=":")
+        axes[3].set_ylabel("energy (upright = 1)")
+    axes[-1].set_xlabel("time (s)")
     figure.suptitle(f"{title}: return {trace.episode_return:.1f}")
     if path is not None:
         Path(path).parent.mkdir(parents=True, exist_ok=True)
