@@ -78,7 +78,8 @@ class SwingUpEnv(gym.Env):
     ## Arguments
     backend ("sim"), action_mode ("discrete" | "continuous"), fidelity ("ideal" | "paper-delayed" |
     "realistic" | a `Fidelity`), observation (feature names or "paper"), start, params (`RigParams`),
-    filter_coefficient (default `params.filter_coefficient`), max_episode_steps, render_mode ("rgb_array").
+    filter_coefficient (default `params.filter_coefficient`), max_episode_steps, render_mode ("rgb_array"),
+    log_dir (realistic twin: every message of each episode to `log_dir/episode-NNNN.jsonl`).
 
     ## Version History
     v0: first release.
@@ -89,7 +90,8 @@ class SwingUpEnv(gym.Env):
     def __init__(self, backend: str = "sim", action_mode: str = "discrete", fidelity: str | Fidelity = "ideal",
                  observation: tuple[str, ...] | str = PAPER_FEATURES, start: str = "random",
                  params: RigParams | None = None, filter_coefficient: float | None = None,
-                 max_episode_steps: int = EPISODE_STEPS, render_mode: str | None = None) -> None:
+                 max_episode_steps: int = EPISODE_STEPS, render_mode: str | None = None,
+                 log_dir: str | None = None) -> None:
         if action_mode not in ACTION_MODES:
             raise ConfigError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
         if start not in STARTS:
@@ -103,7 +105,7 @@ class SwingUpEnv(gym.Env):
             else float(filter_coefficient)
         if not 0.0 <= self.filter_coefficient < 1.0:
             raise ConfigError(f"filter_coefficient must be in [0, 1), got {self.filter_coefficient}")
-        self.backend = _make_backend(backend, self.params, fidelity)
+        self.backend = _make_backend(backend, self.params, fidelity, log_dir)
         self.action_mode = action_mode
         self.features = resolve_features(observation)
         self.start = start
@@ -238,9 +240,9 @@ def _continuous_value(action) -> float:
     return max(-1.0, min(1.0, value))
 
 
-def _make_backend(backend, params: RigParams, fidelity):
+def _make_backend(backend, params: RigParams, fidelity, log_dir):
     if backend == "sim":
-        return SimBackend(params, fidelity)
+        return SimBackend(params, fidelity, log_dir)
     if backend == "rig":
         raise ConfigError("backend='rig' needs the rig link (pendkit.link), which this version does not "
                           "ship yet; use backend='sim'")

@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from pathlib import Path
 from typing import Literal
 
 import mujoco
 import numpy as np
 
 from pendkit.errors import ConfigError
+from pendkit.link.log import EpisodeLog
+from pendkit.link.protocol import format_command_v1, format_observation_v1
 from pendkit.mcu import McuLogic, McuObservation, calibrate_position
 from pendkit.rig import RigParams
 from pendkit.sim.fidelity import Fidelity, resolve_fidelity
@@ -24,6 +27,7 @@ RANDOM_PENDULUM_ANGLE_RAD = 3.01
 RANDOM_PENDULUM_VELOCITY_RAD_S = 2.01
 RANDOM_ARM_FRACTION_OF_RANGE = 0.5
 UPRIGHT_PERTURBATION_RAD = 0.05
+TWIN_OBS_TOPIC, TWIN_ACT_TOPIC = "pendulum-r/obs/twin", "pendulum-r/act/twin"
 # reset(options=...) may set these; the pendulum angle is from the bottom (pi = upright).
 INITIAL_STATE_KEYS = ("arm_angle_rad", "pendulum_angle_rad", "pendulum_velocity_rad_s")
 
@@ -31,8 +35,15 @@ INITIAL_STATE_KEYS = ("arm_angle_rad", "pendulum_angle_rad", "pendulum_velocity_
 class SimBackend:
     """The twin. `reset(rng, start)` and `step(command)` return what the host would observe."""
 
-    def __init__(self, params: RigParams | None = None, fidelity: str | Fidelity = "ideal") -> None:
+    def __init__(self, params: RigParams | None = None, fidelity: str | Fidelity = "ideal",
+                 log_dir: str | Path | None = None) -> None:
         self.params = params or RigParams()
+        self.log_dir = Path(log_dir) if log_dir is not None else None
+        if self.log_dir is not None and not resolve_fidelity(fidelity).mcu_pipeline:
+            raise ConfigError("log_dir needs a fidelity with the MCU pipeline (e.g. 'realistic'): only it "
+                              "exchanges messages")
+        self._log: EpisodeLog | None = None
+        self._episodes = 0
         self.fidelity = resolve_fidelity(fidelity)
         self.model = build_model(self.params)
         self.data = mujoco.MjData(self.model)
@@ -96,6 +107,11 @@ class SimBackend:
             return self._observe_true(0.0, 0.0)
         self._mcu.reset(servo_counts, 0)
         self._next_acting_tick = 0
+        if self.log_dir is not None:
+            if self._log is not None:
+                self._log.close()
+            self._episodes += 1
+            self._log = EpisodeLog(self.log_dir / f"episode-{self._episodes:04d}.jsonl")
         self._in_flight: deque[tuple[float, McuObservation]] = deque()
         self._commands: deque[tuple[float, ServoCommand]] = deque()
         self._last_delivery_ms = self._last_command_arrival_ms = 0.0
@@ -147,6 +163,8 @@ class SimBackend:
         arrival = max(now_ms + self.fidelity.latency.sample_ms(self._rng), self._last_command_arrival_ms)
         self._last_command_arrival_ms = arrival  # TCP keeps order: no overtaking
         self._commands.append((arrival, command))
+        if self._log is not None:
+            self._log.write(now_ms / 1000, "tx", TWIN_ACT_TOPIC, format_command_v1(command, self.params))
         self._sent_ms = now_ms
         self._run_mcu_substeps(self.substeps)
         return self._observe_mcu(time_since_action_s=self.substeps * self.physics_step_s)
@@ -175,6 +193,8 @@ class SimBackend:
         now_ms = self._tick * p.physics_step_ms
         while self._in_flight and self._in_flight[0][0] <= now_ms:
             self._newest = self._in_flight.popleft()
+            if self._log is not None:
+                self._log.write(self._newest[0] / 1000, "rx", TWIN_OBS_TOPIC, format_observation_v1(self._newest[1]))
 
     def _catch_up_acting(self, up_to_tick: int) -> None:
         physics_ms, commands, mcu = self.params.physics_step_ms, self._commands, self._mcu
@@ -227,5 +247,8 @@ class SimBackend:
         }
 
     def close(self) -> None:
-        """Nothing to release; present for symmetry with the rig backend."""
+        """Close the episode log, if any."""
+        if self._log is not None:
+            self._log.close()
+            self._log = None
 

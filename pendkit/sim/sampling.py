@@ -61,3 +61,30 @@ def firmware_estimate_error_rev_s(period_ms: float, duration_s: float = 4.0, win
     estimate, _ = firmware_velocity(readings.raw_counts, readings.times_ms, window)
     settled = slice(window, None)  # skip the buffer's start-up zeros
     return float(np.sqrt(np.mean((estimate[settled] - readings.true_velocity_rev_s[settled]) ** 2)))
+
+
+@dataclass(frozen=True)
+class ServoStepReadings:
+    times_s: np.ndarray
+    commanded_rad: np.ndarray
+    arm_rad: np.ndarray
+
+
+def servo_step_readings(steps_rad=(0.6, -0.6, 0.2), hold_s: float = 0.6,
+                        params: RigParams | None = None) -> ServoStepReadings:
+    """Step the servo's target through `steps_rad` (holding each for `hold_s`) with the pendulum hanging,
+    and record the commanded and the true arm angle every physics step (5 ms)."""
+    params = params or RigParams()
+    model = fresh_model(params)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    per_step = round(hold_s * 1000 / params.physics_step_ms)
+    times, commands, arms = [], [], []
+    for target in (0.0, *steps_rad):
+        data.act[0] = target
+        for _ in range(per_step):
+            times.append(data.time)
+            commands.append(target)
+            arms.append(data.qpos[0])
+            mujoco.mj_step(model, data)
+    return ServoStepReadings(np.array(times), np.array(commands), np.array(arms))

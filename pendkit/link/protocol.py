@@ -1,0 +1,63 @@
+"""Message formats shared by the host and the device.
+
+Version 1 is the authors' protocol. An observation line is
+`S<millis>,<position>,<servo counts>,<omega rev/s>,<acceleration rev/s^2>,<arm velocity counts/s>`.
+Decoding is total: anything malformed raises `ProtocolError` with the reason, and nothing else.
+"""
+
+from __future__ import annotations
+
+import math
+
+from pendkit.errors import PendkitError
+from pendkit.mcu import McuObservation
+from pendkit.rig import RigParams
+from pendkit.state import ServoCommand
+
+OBSERVATION_V1_FIELDS = 6
+
+
+class ProtocolError(PendkitError, ValueError):
+    """A payload that does not follow the protocol; the message says why."""
+
+
+def format_observation_v1(observation: McuObservation) -> str:
+    return (f"S{observation.millis},{observation.position_counts},{observation.servo_counts},"
+            f"{observation.omega_rev_s:.4f},{observation.acceleration_rev_s2:.4f},"
+            f"{observation.arm_velocity_counts_s:.1f}")
+
+
+def parse_observation_v1(payload: str | bytes) -> McuObservation:
+    """Decode one v1 observation line; `ProtocolError` with the reason if it is malformed."""
+    if isinstance(payload, bytes):
+        try:
+            payload = payload.decode("ascii")
+        except UnicodeDecodeError:
+            raise ProtocolError("observation is not ASCII text") from None
+    text = payload.strip()
+    if not text.startswith("S"):
+        raise ProtocolError(f"observation must start with 'S', got {text[:12]!r}")
+    fields = text[1:].split(",")
+    if len(fields) != OBSERVATION_V1_FIELDS:
+        raise ProtocolError(f"observation needs {OBSERVATION_V1_FIELDS} fields, got {len(fields)}")
+    try:
+        millis, position, servo = (int(f) for f in fields[:3])
+        omega, accel, arm = (float(f) for f in fields[3:])
+    except ValueError:
+        raise ProtocolError(f"observation has a field that is not a number: {text[:60]!r}") from None
+    if not 0 <= position < 1024:
+        raise ProtocolError(f"position must be in 0..1023, got {position}")
+    if millis < 0 or servo < 0 or not all(math.isfinite(v) for v in (omega, accel, arm)):
+        raise ProtocolError(f"observation has an out-of-range value: {text[:60]!r}")
+    return McuObservation(millis, position, servo, omega, accel, arm, frozenset())
+
+
+def format_command_v1(command: ServoCommand, params: RigParams) -> str:
+    """A command as the authors' firmware takes it: a/s/d/f/g (fast left .. fast right) or b<target>."""
+    if command.mode == "continuous":
+        return f"b{command.target_unit:.4f}"
+    letters = {0: "d", -params.discrete_slow_step_counts: "s", -params.discrete_fast_step_counts: "a",
+               params.discrete_slow_step_counts: "f", params.discrete_fast_step_counts: "g"}
+    if command.increment_counts not in letters:
+        raise ProtocolError(f"v1 has no letter for an increment of {command.increment_counts} counts")
+    return letters[command.increment_counts]
