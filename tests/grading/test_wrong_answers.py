@@ -3,6 +3,7 @@ points at the mistake (public and hidden tests together)."""
 
 import math
 
+import control
 import numpy as np
 import pytest
 
@@ -39,7 +40,62 @@ CORRECT = {
     "02.firmware_mean": lambda v, w: np.convolve(np.concatenate([np.zeros(w - 1), v]), np.ones(w) / w, "valid"),
     "02.low_pass": lambda v, a: encoder.low_pass(v, a),
     "02.period_limits": lambda ms: (1 / 1024 / (ms / 1000), 0.5 / (ms / 1000)),
+    "03.natural_frequency": lambda m, com, j: math.sqrt(m * 9.81 * com / j),
+    "03.period_from_crossings": lambda t, a: float(np.mean(np.diff(up_crossings(t, a)))),
+    "03.damping_ratio": lambda p: log_decrement(p) / math.sqrt(4 * math.pi**2 + log_decrement(p) ** 2),
+    "04.upright_matrices": lambda model: tuple(np.asarray(m) for m in (model.linearise("upright").A,
+                                                                        model.linearise("upright").B)),
+    "04.lqr_gain": lambda a, b, q, r: np.asarray(control.dlqr(a, b, np.diag(q), [[r]])[0]),
+    "04.closed_loop_poles": lambda a, b, k: np.linalg.eigvals(a - b @ k),
+    "05.pendulum_energy": lambda alpha, w, w0: 0.5 * (w / w0) ** 2 - math.cos(alpha),
+    "05.pumping_direction": lambda alpha, w: -1 if w * math.cos(alpha) > 0 else 1,
+    "05.next_mode": lambda mode, theta, w: next_mode(mode, theta, w),
 }
+
+
+def up_crossings(t, a, interpolate=True):
+    t, a = np.asarray(t, float), np.asarray(a, float)
+    up = np.nonzero((a[:-1] < 0) & (a[1:] >= 0))[0]
+    if not interpolate:
+        return t[up + 1]
+    return t[up] - a[up] * (t[up + 1] - t[up]) / (a[up + 1] - a[up])
+
+
+def log_decrement(peaks, log=np.log):
+    peaks = np.asarray(peaks, float)
+    return float(np.mean(log(peaks[:-1] / peaks[1:])))
+
+
+def period_counting_both_directions(t, a):
+    crossings = np.sort(np.concatenate([up_crossings(t, a), up_crossings(t, -np.asarray(a))]))
+    return float(np.mean(np.diff(crossings)))
+
+
+def damping_with_log10(peaks):
+    delta = log_decrement(peaks, np.log10)
+    return delta / math.sqrt(4 * math.pi**2 + delta**2)
+
+
+def next_mode(mode, theta, w, catch=0.8, fall=1.1, check_velocity=True):
+    if mode == "swing" and abs(theta) < catch and (abs(w) < 5.0 or not check_velocity):
+        return "balance"
+    if mode == "balance" and abs(theta) > fall:
+        return "swing"
+    return mode
+
+
+def upright_matrices_with(model, gravity_sign=1.0, coupling=True):
+    mass = np.array([[model.arm_inertia_kg_m2, -model.coupling_kg_m2 if coupling else 0.0],
+                     [-model.coupling_kg_m2 if coupling else 0.0, model.pendulum_inertia_kg_m2]])
+    forces = np.array([
+        [-model.servo_kp_n_m_per_rad, 0, -(model.servo_kv_n_m_s_per_rad + model.arm_damping_n_m_s_per_rad), 0],
+        [0, gravity_sign * model.gravity_torque_n_m, 0, -model.pendulum_damping_n_m_s_per_rad]])
+    a = np.zeros((4, 4))
+    a[0, 2] = a[1, 3] = 1
+    a[2:] = np.linalg.inv(mass) @ forces
+    b = np.zeros((4, 1))
+    b[2:, 0] = np.linalg.inv(mass) @ [model.servo_kp_n_m_per_rad, 0]
+    return a, b
 
 
 @pytest.mark.parametrize("task_id", sorted(CORRECT))
@@ -152,6 +208,27 @@ MISTAKES = [
     ("02.low_pass", lambda v, a: encoder.low_pass(v, 1 - a) if a < 1 else np.asarray(v, float), "1 - alpha"),
     ("02.period_limits", lambda ms: (1 / 1024 / (ms / 1000), 1 / (ms / 1000)), "half a turn"),
     ("02.period_limits", lambda ms: (2 * math.pi / 1024 / (ms / 1000), 0.5 / (ms / 1000)), "rad/s"),
+    ("03.natural_frequency", lambda m, com, j: m * 9.81 * com / j, "square root"),
+    ("03.natural_frequency", lambda m, com, j: math.sqrt(m * 9.81 * com / j) / (2 * math.pi), "Hz"),
+    ("03.natural_frequency", lambda m, com, j: math.sqrt(9.81 / com), "point mass"),
+    ("03.period_from_crossings", lambda t, a: period_counting_both_directions(t, a), "both directions"),
+    ("03.period_from_crossings", lambda t, a: float(np.mean(np.diff(up_crossings(t, a, interpolate=False)))),
+     "interpolation"),
+    ("03.damping_ratio", lambda p: log_decrement(p), "decrement itself"),
+    ("03.damping_ratio", lambda p: log_decrement(p) / (2 * math.pi), "light damping"),
+    ("03.damping_ratio", lambda p: damping_with_log10(p), "log10"),
+    ("04.upright_matrices", lambda model: upright_matrices_with(model, gravity_sign=-1.0), "wrong sign"),
+    ("04.upright_matrices", lambda model: upright_matrices_with(model, coupling=False), "coupling"),
+    ("04.lqr_gain", lambda a, b, q, r: np.asarray(control.lqr(a, b, np.diag(q), [[r]])[0]), "continuous-time"),
+    ("04.lqr_gain", lambda a, b, q, r: -np.asarray(control.dlqr(a, b, np.diag(q), [[r]])[0]), "wrong sign"),
+    ("04.closed_loop_poles", lambda a, b, k: np.linalg.eigvals(a + b @ k), "A + B K"),
+    ("05.pendulum_energy", lambda alpha, w, w0: 0.5 * (w / w0) ** 2 + math.cos(alpha), "sign is flipped"),
+    ("05.pendulum_energy", lambda alpha, w, w0: (w / w0) ** 2 - math.cos(alpha), "factor 1/2"),
+    ("05.pendulum_energy", lambda alpha, w, w0: 0.5 * w**2 - math.cos(alpha), "natural frequency"),
+    ("05.pumping_direction", lambda alpha, w: 1 if w * math.cos(alpha) > 0 else -1, "against"),
+    ("05.pumping_direction", lambda alpha, w: -1 if w > 0 else 1, "above horizontal"),
+    ("05.next_mode", lambda mode, theta, w: next_mode(mode, theta, w, fall=0.8), "hysteresis"),
+    ("05.next_mode", lambda mode, theta, w: next_mode(mode, theta, w, check_velocity=False), "fly through"),
 ]
 
 

@@ -1,0 +1,87 @@
+"""Lab 04, LQR balance: public tests."""
+
+from __future__ import annotations
+
+import control
+import numpy as np
+
+from pendkit.control.model import FurutaModel, discretise
+from pendkit.grading.core import Failed, expect, task
+
+matrices = task("04.upright_matrices", function="upright_matrices", title="A and B about upright")
+gain = task("04.lqr_gain", function="lqr_gain", title="A discrete LQR gain")
+poles = task("04.closed_loop_poles", function="closed_loop_poles", title="Closed-loop poles")
+
+
+def _reference(model: FurutaModel):
+    system = model.linearise("upright")
+    return np.asarray(system.A), np.asarray(system.B)
+
+
+def _pair(got, name: str):
+    if not (isinstance(got, tuple) and len(got) == 2):
+        raise Failed(f"{name} should return a pair (A, B), got {type(got).__name__}")
+    a, b = (np.asarray(x, dtype=float) for x in got)
+    expect(a.shape == (4, 4) and b.reshape(-1).shape == (4,), f"A should be 4x4 and B 4x1, got {a.shape} and "
+           f"{b.shape}")
+    return a, b.reshape(4, 1)
+
+
+@matrices.test(points=3, hint="Solve M [phi'', theta''] = forces: both rows of A's lower half come from M^-1.")
+def match_the_linearisation(fn, rng):
+    model = FurutaModel.from_rig()
+    a, b = _pair(fn(model), "upright_matrices(model)")
+    ref_a, ref_b = _reference(model)
+    message = "A or B differ from the linearisation about upright"
+    if np.allclose(a[2:, 1], -ref_a[2:, 1], rtol=1e-3) and not np.allclose(a[2:, 1], ref_a[2:, 1], rtol=1e-3):
+        message += ": the gravity column has the wrong sign (upright is unstable: gravity pushes away from it)"
+    elif abs(a[2, 1]) < 1e-9 and abs(ref_a[2, 1]) > 1e-3:
+        message += ": the arm row has no gravity term; you left out the coupling through the mass matrix"
+    elif not np.allclose(a[:2], ref_a[:2]):
+        message += ": the top two rows say that the angles' rates are the rate states"
+    expect(np.allclose(a, ref_a, rtol=1e-6, atol=1e-9) and np.allclose(b, ref_b, rtol=1e-6, atol=1e-9), message)
+
+
+@matrices.test(points=1, hint="Use the model's fields, not numbers copied from the lab.")
+def follows_the_parameters(fn, rng):
+    from pendkit.rig import RigParams
+
+    model = FurutaModel.from_rig(RigParams().replace(tip_mass_kg=0.02, pendulum_damping_n_m_s_per_rad=0.004))
+    a, b = _pair(fn(model), "upright_matrices(heavier model)")
+    ref_a, ref_b = _reference(model)
+    expect(np.allclose(a, ref_a, rtol=1e-6, atol=1e-9) and np.allclose(b, ref_b, rtol=1e-6, atol=1e-9),
+           "with a heavier tip and more damping your A and B did not change as they should")
+
+
+def _discrete():
+    model = FurutaModel.from_rig()
+    system = discretise(model.linearise("upright"), 0.06)
+    return np.asarray(system.A), np.asarray(system.B)
+
+
+@gain.test(points=2, hint="control.dlqr(A, B, Q, R) solves the discrete problem; it returns (K, S, E).")
+def matches_dlqr(fn, rng):
+    a, b = _discrete()
+    q, r = [2.0, 40.0, 0.05, 0.5], 3.0
+    expected, _, _ = control.dlqr(a, b, np.diag(q), [[r]])
+    got = np.asarray(fn(a, b, q, r), dtype=float).reshape(1, -1)
+    message = "K differs from control.dlqr's"
+    if got.shape == (1, 4):
+        continuous, _, _ = control.lqr(a, b, np.diag(q), [[r]])
+        if np.allclose(got, continuous, rtol=1e-3):
+            message += ": that is control.lqr, the continuous-time problem; these A, B are discrete"
+        elif np.allclose(got, -np.asarray(expected), rtol=1e-6):
+            message += ": right size, wrong sign (u = -K x)"
+    expect(got.shape == (1, 4) and np.allclose(got, expected, rtol=1e-6), message)
+
+
+@poles.test(points=2, hint="The closed loop is x_(k+1) = (A - B K) x_k.")
+def eigenvalues_of_the_closed_loop(fn, rng):
+    a, b = _discrete()
+    k, _, _ = control.dlqr(a, b, np.diag([2.0, 40.0, 0.05, 0.5]), [[3.0]])
+    expected = np.sort_complex(np.linalg.eigvals(a - b @ k))
+    got = np.sort_complex(np.asarray(fn(a, b, np.asarray(k)), dtype=complex).reshape(-1))
+    message = f"expected poles with magnitudes {np.round(np.abs(expected), 3).tolist()}"
+    if got.shape == expected.shape and np.allclose(got, np.sort_complex(np.linalg.eigvals(a + b @ k)), atol=1e-9):
+        message += ": you used A + B K; the feedback is u = -K x"
+    expect(got.shape == expected.shape and np.allclose(got, expected, atol=1e-9), message)

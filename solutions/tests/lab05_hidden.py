@@ -1,0 +1,24 @@
+"""Hidden tests for lab 05 (instructor material: never copied into labs/)."""
+
+import math
+
+from pendkit.grading import expect, task
+
+energy = task("05.pendulum_energy", function="pendulum_energy", title="Normalised pendulum energy")
+direction = task("05.pumping_direction", function="pumping_direction", title="Which way to accelerate the arm")
+
+
+@energy.test(points=1, hidden=True, hint="Angles past a full turn are the same pendulum position.")
+def wound_up_angles(fn, rng):
+    for alpha in (2 * math.pi, 3 * math.pi, -math.pi / 3):
+        expected = -math.cos(alpha)
+        got = fn(alpha, 0.0, 5.3)
+        expect(abs(got - expected) < 1e-9, f"pendulum_energy({alpha:.3f}, 0, 5.3) should be {expected:.4f}")
+
+
+@direction.test(points=1, hidden=True, hint="Check every quadrant and both directions of swing.")
+def all_quadrants(fn, rng):
+    for alpha in rng.uniform(-math.pi, math.pi, 40):
+        for omega in (-2.0, 2.0):
+            expected = -1 if omega * math.cos(alpha) > 0 else 1
+            expect(fn(float(alpha), omega) == expected, f"pumping_direction({alpha:.3f}, {omega}) is wrong")
