@@ -12,12 +12,13 @@ def test_help_everywhere():
         assert result.exit_code == 0 and "Usage" in result.output
 
 
-def test_demo_writes_a_plot(tmp_path):
+def test_demo_swings_up_and_writes_a_plot_and_an_animation(tmp_path):
     result = CliRunner().invoke(main, ["demo", "--fidelity", "ideal", "--out", str(tmp_path), "--quiet"])
     assert result.exit_code == 0, result.output
     plot = tmp_path / "demo-ideal-seed0.png"
     assert plot.exists() and plot.read_bytes()[:4] == b"\x89PNG"
-    assert "500 steps" in result.output
+    assert (tmp_path / "demo-ideal-seed0.gif").read_bytes()[:3] == b"GIF"
+    assert "500 steps" in result.output and "upright after" in result.output
 
 
 def test_info_json_has_versions_and_rig():
