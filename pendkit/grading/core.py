@@ -40,6 +40,14 @@ class GradingError(PendkitError):
     """Strict mode: a check scored less than full marks."""
 
 
+def as_number(got, call: str) -> float:
+    """A student's return value as a float, or a failure saying what came back instead."""
+    try:
+        return float(got)
+    except (TypeError, ValueError):
+        raise Failed(f"{call} should return a number, got {type(got).__name__}") from None
+
+
 def expect(condition: bool, message: str) -> None:
     """Fail the current test with `message` unless `condition` holds."""
     if not condition:

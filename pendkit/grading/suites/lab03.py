@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from pendkit.grading.core import Failed, expect, task
+from pendkit.grading.core import as_number, expect, task
 
 frequency = task("03.natural_frequency", function="natural_frequency", title="Compound-pendulum frequency")
 period = task("03.period_from_crossings", function="period_from_crossings", title="Period from zero crossings")
@@ -15,20 +15,12 @@ damping = task("03.damping_ratio", function="damping_ratio", title="Damping from
 G = 9.81
 
 
-def _number(got, call: str) -> float:
-    try:
-        value = float(got)
-    except (TypeError, ValueError):
-        raise Failed(f"{call} should return a number, got {type(got).__name__}") from None
-    return value
-
-
 @frequency.test(points=2, hint="w0 = sqrt(m g l / J), J about the pivot, l from the pivot to the centre of mass.")
 def compound_pendulum(fn, rng):
     for mass, com, inertia in [(0.0355, 0.2097, 0.002063), (0.1, 0.5, 0.1 * 0.5**2), (0.02, 0.1, 0.0004)]:
         expected = math.sqrt(mass * G * com / inertia)
         call = f"natural_frequency({mass}, {com}, {inertia})"
-        got = _number(fn(mass, com, inertia), call)
+        got = as_number(fn(mass, com, inertia), call)
         message = f"{call} should be {expected:.4f} rad/s, got {got:.4f}"
         if abs(got - expected**2) < 1e-6 * expected**2:
             message += ": that is w0 squared; take the square root"
@@ -47,7 +39,7 @@ def _swing(period_s: float, samples: int = 1000, dt: float = 0.005, phase: float
 @period.test(points=2, hint="Use only upward crossings (negative to positive): one per period.")
 def one_crossing_per_period(fn, rng):
     t, angle = _swing(1.18)
-    got = _number(fn(t, angle), "period_from_crossings(t, angle)")
+    got = as_number(fn(t, angle), "period_from_crossings(t, angle)")
     message = f"for a 1.18 s swing the period should be 1.180 s, got {got:.4f}"
     if abs(got - 0.59) < 0.01:
         message += ": that is half a period; you counted crossings in both directions"
@@ -57,7 +49,7 @@ def one_crossing_per_period(fn, rng):
 @period.test(points=2, hint="Interpolate between the samples on either side of each crossing.")
 def interpolated_crossings(fn, rng):
     t, angle = _swing(1.183, samples=80, dt=0.06, phase=0.77)  # coarse 60 ms samples, like env steps
-    got = _number(fn(t, angle), "period_from_crossings(t, angle)")
+    got = as_number(fn(t, angle), "period_from_crossings(t, angle)")
     expect(abs(got - 1.183) < 2e-3, f"with 60 ms samples the period should still come out as 1.183 s, got "
            f"{got:.4f}: without interpolation each crossing is only known to within a sample")
 
@@ -67,7 +59,7 @@ def from_peak_amplitudes(fn, rng):
     for zeta in (0.02, 0.07, 0.3):
         delta = 2 * math.pi * zeta / math.sqrt(1 - zeta**2)
         peaks = 0.5 * np.exp(-delta * np.arange(6))
-        got = _number(fn(peaks), "damping_ratio(peaks)")
+        got = as_number(fn(peaks), "damping_ratio(peaks)")
         message = f"peaks decaying by a factor {math.exp(delta):.3f} per cycle mean zeta = {zeta}, got {got:.5f}"
         if abs(got - delta) < 1e-6:
             message += ": that is the logarithmic decrement itself; convert it to a damping ratio"

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from pendkit.grading.core import Failed, expect, task
+from pendkit.grading.core import as_number, expect, task
 
 energy = task("05.pendulum_energy", function="pendulum_energy", title="Normalised pendulum energy")
 direction = task("05.pumping_direction", function="pumping_direction", title="Which way to accelerate the arm")
@@ -13,19 +13,12 @@ switch = task("05.next_mode", function="next_mode", title="Hand-over between swi
 W0 = 5.3
 
 
-def _number(got, call: str) -> float:
-    try:
-        return float(got)
-    except (TypeError, ValueError):
-        raise Failed(f"{call} should return a number, got {type(got).__name__}") from None
-
-
 @energy.test(points=2, hint="e = 0.5 (omega / w0)^2 - cos(alpha), alpha from the bottom: -1 hanging, +1 upright.")
 def hanging_upright_and_moving(fn, rng):
     for alpha, omega, expected in [(0.0, 0.0, -1.0), (math.pi, 0.0, 1.0), (math.pi / 2, 0.0, 0.0),
                                    (0.0, 2 * W0, 1.0), (0.3, -4.0, 0.5 * (4.0 / W0) ** 2 - math.cos(0.3))]:
         call = f"pendulum_energy({alpha:.3f}, {omega}, {W0})"
-        got = _number(fn(alpha, omega, W0), call)
+        got = as_number(fn(alpha, omega, W0), call)
         message = f"{call} should be {expected:.4f}, got {got:.4f}"
         if abs(got + expected) < 1e-9 and expected:
             message += ": the sign is flipped; measure alpha from the bottom, so hanging still is -1"
