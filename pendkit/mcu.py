@@ -1,23 +1,33 @@
-"""The firmware's control loop in Python, with time passed in (the C++ core follows the same rules).
+"""The firmware's control loop in Python, with time passed in; the C++ core (firmware/lib/pendcore)
+follows the same rules, and tests/vectors/device.json holds both to them.
 
-Used by the twin's `realistic` fidelity and, later, by the virtual rig. Two independent ticks, as on
-the device: the acting tick moves the servo target; the streaming tick reads the encoder, estimates
-velocities and produces an observation. Safety stops are applied last, right before actuation, and
-no command can override them.
+Two independent ticks, as on the device: the acting tick moves the servo target; the streaming tick
+reads the encoder, estimates velocities and produces an observation. Safety stops are applied last,
+right before actuation, and no command can override them:
+- watchdog: no command or heartbeat for `watchdog_timeout_ms` -> hold the servo;
+- over-spin: |omega| above the limit -> hold the servo (the limit can be set to 0 = off);
+- stuck encoder: 8 bad frames in a row, or no change while the arm travelled 60 counts -> hold;
+- arm limits: the target is clipped to the servo's counts, and a discrete action ends there.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
-from pendkit.encoder import FirmwareVelocityEstimator
+from pendkit.encoder import FirmwareVelocityEstimator, frame_status
 from pendkit.rig import RigParams
 from pendkit.state import STOP, ServoCommand
+
+FLAG_BITS = {"arm_limit": 1, "overspin": 2, "stuck_encoder": 4, "watchdog": 8, "frame_error": 16}
+HOLDING_FLAGS = ("watchdog", "overspin", "stuck_encoder")
+STUCK_BAD_FRAMES = 8
+STUCK_TRAVEL_COUNTS = 60
 
 
 @dataclass(frozen=True)
 class McuObservation:
-    """One observation line, in the device's units (the protocol's fields)."""
+    """One observation, in the device's units (the protocol's fields)."""
 
     millis: int
     position_counts: int
@@ -27,14 +37,27 @@ class McuObservation:
     arm_velocity_counts_s: float
     flags: frozenset[str]
 
+    @property
+    def flag_bits(self) -> int:
+        return sum(FLAG_BITS[f] for f in self.flags)
+
+
+def round_half_up(value: float) -> int:
+    """floor(x + 0.5): the rounding the C++ core uses (Python's round() rounds halves to even)."""
+    return math.floor(value + 0.5)
+
 
 class McuLogic:
-    """Servo command, velocity estimation and safety of one device."""
+    """Servo command, velocity estimation, settings and safety of one device."""
 
     def __init__(self, params: RigParams) -> None:
         self.params = params
         self.estimator = FirmwareVelocityEstimator(params.velocity_mean_window, params.encoder_counts)
-        self.reset(round(params.servo_centre_counts), 0)
+        self.offset_counts = params.encoder_offset_counts
+        self.watchdog_timeout_ms = params.watchdog_timeout_ms
+        self.overspin_limit_rev_s = params.overspin_limit_rev_s
+        self.device_filter = 0.0  # the kit filters on the host; `e<c>` restores the authors' device filter
+        self.reset(round_half_up(params.servo_centre_counts), 0)
 
     def reset(self, servo_counts: int, now_ms: int) -> None:
         self.servo_counts = servo_counts
@@ -42,27 +65,57 @@ class McuLogic:
         self.last_command_ms = now_ms
         self.estimator.reset()
         self.omega_rev_s = 0.0
-        self._last_stream_counts: int | None = None
+        self._filtered_unit = (servo_counts - self.params.servo_centre_counts) * 2 / self.params.servo_span_counts
         self._last_stream_servo = servo_counts
         self._last_stream_ms = now_ms
+        self._last_raw: int | None = None
+        self._bad_frames = 0
+        self._servo_at_last_change = servo_counts
         self.flags: set[str] = set()
 
+    # --- commands ---
     def receive(self, command: ServoCommand, now_ms: int) -> None:
         self.command = command
+        self.heartbeat(now_ms)
+
+    def heartbeat(self, now_ms: int) -> None:
         self.last_command_ms = now_ms
         self.flags.discard("watchdog")
 
+    def handle(self, command, now_ms: int) -> None:
+        """Apply a parsed `pendkit.link.commands.DeviceCommand` (settings, actions, heartbeat)."""
+        p, kind, value = self.params, command.kind, command.value
+        if kind == "action":
+            increments = (0, -p.discrete_slow_step_counts, -p.discrete_fast_step_counts,
+                          p.discrete_slow_step_counts, p.discrete_fast_step_counts)
+            self.receive(ServoCommand("discrete", increments[int(value)]), now_ms)
+        elif kind == "target":
+            self.receive(ServoCommand("continuous", target_unit=value), now_ms)
+        elif kind == "heartbeat":
+            self.heartbeat(now_ms)
+        elif kind == "encoder_offset":
+            self.offset_counts = int(value)
+        elif kind == "filter":
+            self.device_filter = value
+        elif kind == "watchdog_timeout":
+            self.watchdog_timeout_ms = value
+        elif kind == "overspin_limit":
+            self.overspin_limit_rev_s = value
+        # periods, streaming on/off, modes, status requests belong to the scheduler and the link
+
+    # --- acting tick ---
     def acting_tick(self, now_ms: int) -> int:
         """Advance the servo target by the current command; return the counts to actuate."""
         p = self.params
-        if now_ms - self.last_command_ms > p.watchdog_timeout_ms:
+        if now_ms - self.last_command_ms > self.watchdog_timeout_ms:
             self.flags.add("watchdog")
         if self.command.mode == "continuous":
-            wanted = round(p.servo_centre_counts + self.command.target_unit * p.servo_span_counts / 2)
+            c = self.device_filter
+            self._filtered_unit = c * self._filtered_unit + (1 - c) * self.command.target_unit
+            wanted = round_half_up(p.servo_centre_counts + self._filtered_unit * p.servo_span_counts / 2)
         else:
             wanted = self.servo_counts + self.command.increment_counts
-        # Safety last: the watchdog and over-spin stops hold the servo where it is; limits clip it.
-        if "watchdog" in self.flags or "overspin" in self.flags:
+        if any(flag in self.flags for flag in HOLDING_FLAGS):  # safety last: hold the servo where it is
             wanted = self.servo_counts
         clipped = min(max(wanted, p.servo_min_counts), p.servo_max_counts)
         if clipped != wanted or clipped in (p.servo_min_counts, p.servo_max_counts):
@@ -74,23 +127,47 @@ class McuLogic:
         self.servo_counts = clipped
         return clipped
 
-    def streaming_tick(self, position_counts: int, now_ms: int) -> McuObservation:
-        """Read the (calibrated) encoder position and build an observation."""
+    # --- streaming tick ---
+    def streaming_frame(self, frame: int, now_ms: int) -> McuObservation:
+        """Decode an SSI frame and stream; a bad frame repeats the last good reading and is flagged."""
+        if frame_status(frame) != "ok":
+            self._bad_frames += 1
+            if self._bad_frames >= STUCK_BAD_FRAMES:
+                self.flags.add("stuck_encoder")
+            raw = self._last_raw if self._last_raw is not None else self.offset_counts
+            return self._stream(raw, now_ms, frame_error=True)
+        self._bad_frames = 0
+        return self._stream(frame >> 6, now_ms, frame_error=False)
+
+    def streaming_tick(self, raw_counts: int, now_ms: int) -> McuObservation:
+        """Stream from a raw (uncalibrated) encoder position."""
+        self._bad_frames = 0
+        return self._stream(raw_counts, now_ms, frame_error=False)
+
+    def _stream(self, raw_counts: int, now_ms: int, frame_error: bool) -> McuObservation:
         p = self.params
-        omega, accel = self.estimator.update(position_counts, now_ms)
+        if not frame_error:
+            if raw_counts != self._last_raw:
+                self._servo_at_last_change = self.servo_counts
+                if self._bad_frames == 0:
+                    self.flags.discard("stuck_encoder")
+            elif abs(self.servo_counts - self._servo_at_last_change) >= STUCK_TRAVEL_COUNTS:
+                self.flags.add("stuck_encoder")
+            self._last_raw = raw_counts
+        position = (raw_counts - self.offset_counts) % p.encoder_counts
+        omega, accel = self.estimator.update(position, now_ms)
         self.omega_rev_s = omega
-        if abs(omega) > p.overspin_limit_rev_s:
+        if self.overspin_limit_rev_s > 0 and abs(omega) > self.overspin_limit_rev_s:
             self.flags.add("overspin")
         else:
             self.flags.discard("overspin")
         dt_ms = now_ms - self._last_stream_ms
         arm_velocity = ((self.servo_counts - self._last_stream_servo) * 1000.0 / dt_ms) if dt_ms > 0 else 0.0
         self._last_stream_servo, self._last_stream_ms = self.servo_counts, now_ms
-        return McuObservation(now_ms, position_counts, self.servo_counts, omega, accel, arm_velocity,
-                              frozenset(self.flags))
+        flags = frozenset(self.flags | ({"frame_error"} if frame_error else set()))
+        return McuObservation(now_ms, position, self.servo_counts, omega, accel, arm_velocity, flags)
 
 
 def calibrate_position(raw_counts: int, offset_counts: int, counts: int = 1024) -> int:
     """Raw encoder reading -> position with 0 at the bottom (the firmware's `o<int>` offset)."""
     return (raw_counts - offset_counts) % counts
-

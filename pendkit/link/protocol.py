@@ -61,3 +61,18 @@ def format_command_v1(command: ServoCommand, params: RigParams) -> str:
     if command.increment_counts not in letters:
         raise ProtocolError(f"v1 has no letter for an increment of {command.increment_counts} counts")
     return letters[command.increment_counts]
+
+
+OBSERVATION_V2_FIELDS = 10
+
+
+def format_observation_v2(observation: McuObservation, observation_seq: int, command_seq: int = 0,
+                          echo_host_ms: int = 0) -> str:
+    """`R<millis>,<obs seq>,<position>,<servo>,<omega>,<accel>,<arm vel>,<flag bits>,<cmd seq>,<echo ms>`.
+
+    The last command's sequence number and host time come back, so the host can match replies and
+    measure the round trip; the flag bits are pendkit.mcu.FLAG_BITS.
+    """
+    return (f"R{observation.millis},{observation_seq},{observation.position_counts},{observation.servo_counts},"
+            f"{observation.omega_rev_s:.4f},{observation.acceleration_rev_s2:.4f},"
+            f"{observation.arm_velocity_counts_s:.1f},{observation.flag_bits},{command_seq},{echo_host_ms}")

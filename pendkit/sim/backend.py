@@ -13,7 +13,7 @@ import numpy as np
 from pendkit.errors import ConfigError
 from pendkit.link.log import EpisodeLog
 from pendkit.link.protocol import format_command_v1, format_observation_v1
-from pendkit.mcu import McuLogic, McuObservation, calibrate_position
+from pendkit.mcu import McuLogic, McuObservation
 from pendkit.rig import RigParams
 from pendkit.sim.fidelity import Fidelity, resolve_fidelity
 from pendkit.sim.model import ARM_JOINT, PENDULUM_JOINT, build_model
@@ -56,6 +56,8 @@ class SimBackend:
         self._rate_per_increment = (self.params.servo_rad_per_count * 1000.0 / self.params.acting_period_ms)
         self._rng = np.random.default_rng(0)
         self._mcu = McuLogic(self.params) if self.fidelity.mcu_pipeline else None
+        if self._mcu is not None:
+            self._mcu.offset_counts = self.fidelity.encoder_mount_offset_counts  # a calibrated device
         self._acting_ticks = round(self.params.acting_period_ms / self.params.physics_step_ms)
         self._pwm_ticks = round(self.params.pwm_period_ms / self.params.physics_step_ms)
         self._stream_ticks = round(self.params.streaming_period_ms / self.params.physics_step_ms)
@@ -211,7 +213,7 @@ class SimBackend:
         counts = p.encoder_counts
         offset = self.fidelity.encoder_mount_offset_counts
         raw = (math.floor(self.data.qpos[self._pend_q] * counts / (2 * math.pi)) + offset) % counts
-        observation = self._mcu.streaming_tick(calibrate_position(raw, offset, counts), int(now_ms))
+        observation = self._mcu.streaming_tick(raw, int(now_ms))
         delivery = max(now_ms + self.fidelity.latency.sample_ms(self._rng), self._last_delivery_ms)
         self._last_delivery_ms = delivery  # TCP keeps order: no overtaking
         self._in_flight.append((delivery, observation))

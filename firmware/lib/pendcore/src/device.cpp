@@ -1,0 +1,129 @@
+#include "device.h"
+
+#include <cmath>
+
+namespace pend {
+namespace {
+
+int32_t round_half_up(double value) { return static_cast<int32_t>(std::floor(value + 0.5)); }
+
+int32_t increment_for(int action) {
+  switch (action) {
+    case 1: return -kSlowStepCounts;
+    case 2: return -kFastStepCounts;
+    case 3: return kSlowStepCounts;
+    case 4: return kFastStepCounts;
+    default: return 0;
+  }
+}
+
+uint32_t elapsed_ms(uint32_t now_ms, uint32_t then_ms) { return now_ms - then_ms; }  // wraps correctly
+
+}  // namespace
+
+Device::Device() : estimator_(kVelocityWindow, kEncoderCounts) { reset(round_half_up(kServoCentreCounts), 0); }
+
+void Device::reset(int32_t servo_counts, uint32_t now_ms) {
+  servo_counts_ = servo_counts;
+  discrete_ = true;
+  increment_counts_ = 0;
+  target_unit_ = 0.0;
+  last_command_ms_ = now_ms;
+  estimator_.reset();
+  filtered_unit_ = (servo_counts - kServoCentreCounts) * 2 / kServoSpanCounts;
+  last_stream_servo_ = servo_counts;
+  last_stream_ms_ = now_ms;
+  has_raw_ = false;
+  last_raw_ = 0;
+  bad_frames_ = 0;
+  servo_at_last_change_ = servo_counts;
+  flags_ = 0;
+}
+
+void Device::handle(const Command& command, uint32_t now_ms) {
+  switch (command.kind) {
+    case CommandKind::kAction:
+      discrete_ = true;
+      increment_counts_ = increment_for(static_cast<int>(command.value));
+      last_command_ms_ = now_ms;
+      set(kFlagWatchdog, false);
+      break;
+    case CommandKind::kTarget:
+      discrete_ = false;
+      target_unit_ = command.value;
+      last_command_ms_ = now_ms;
+      set(kFlagWatchdog, false);
+      break;
+    case CommandKind::kHeartbeat:
+      last_command_ms_ = now_ms;
+      set(kFlagWatchdog, false);
+      break;
+    case CommandKind::kEncoderOffset: offset_counts_ = static_cast<int32_t>(command.value); break;
+    case CommandKind::kFilter: device_filter_ = command.value; break;
+    case CommandKind::kWatchdogTimeout: watchdog_timeout_ms_ = command.value; break;
+    case CommandKind::kOverspinLimit: overspin_limit_rev_s_ = command.value; break;
+    default: break;
+  }
+}
+
+int32_t Device::act(uint32_t now_ms) {
+  if (static_cast<double>(elapsed_ms(now_ms, last_command_ms_)) > watchdog_timeout_ms_) set(kFlagWatchdog, true);
+  int32_t wanted;
+  if (!discrete_) {
+    const double c = device_filter_;
+    filtered_unit_ = c * filtered_unit_ + (1 - c) * target_unit_;
+    wanted = round_half_up(kServoCentreCounts + filtered_unit_ * kServoSpanCounts / 2);
+  } else {
+    wanted = servo_counts_ + increment_counts_;
+  }
+  if (flags_ & (kFlagWatchdog | kFlagOverspin | kFlagStuckEncoder)) wanted = servo_counts_;  // safety last
+  int32_t clipped = wanted < kServoMinCounts ? kServoMinCounts : (wanted > kServoMaxCounts ? kServoMaxCounts : wanted);
+  if (clipped != wanted || clipped == kServoMinCounts || clipped == kServoMaxCounts) {
+    set(kFlagArmLimit, true);
+    if (discrete_ && clipped != wanted) increment_counts_ = 0;  // a discrete action ends at the limit
+  } else {
+    set(kFlagArmLimit, false);
+  }
+  servo_counts_ = clipped;
+  return clipped;
+}
+
+Observation Device::stream_frame(int64_t frame, uint32_t now_ms) {
+  if (frame_status(frame) != FrameStatus::kOk) {
+    if (++bad_frames_ >= kStuckBadFrames) set(kFlagStuckEncoder, true);
+    return stream_raw(has_raw_ ? last_raw_ : offset_counts_, now_ms, true);
+  }
+  bad_frames_ = 0;
+  return stream_raw(frame_position(static_cast<uint32_t>(frame)), now_ms, false);
+}
+
+Observation Device::stream_raw(int32_t raw_counts, uint32_t now_ms, bool frame_error) {
+  if (!frame_error) {
+    if (!has_raw_ || raw_counts != last_raw_) {
+      servo_at_last_change_ = servo_counts_;
+      if (bad_frames_ == 0) set(kFlagStuckEncoder, false);
+    } else if (std::abs(servo_counts_ - servo_at_last_change_) >= kStuckTravelCounts) {
+      set(kFlagStuckEncoder, true);
+    }
+    has_raw_ = true;
+    last_raw_ = raw_counts;
+  }
+  const int32_t position = ((raw_counts - offset_counts_) % kEncoderCounts + kEncoderCounts) % kEncoderCounts;
+  const Estimate estimate = estimator_.update(position, now_ms);
+  set(kFlagOverspin, overspin_limit_rev_s_ > 0 && std::fabs(estimate.omega_rev_s) > overspin_limit_rev_s_);
+  const double dt_ms = static_cast<double>(static_cast<int64_t>(now_ms) - static_cast<int64_t>(last_stream_ms_));
+  const double arm_velocity = dt_ms > 0 ? (servo_counts_ - last_stream_servo_) * 1000.0 / dt_ms : 0.0;
+  last_stream_servo_ = servo_counts_;
+  last_stream_ms_ = now_ms;
+  const uint8_t flags = static_cast<uint8_t>(flags_ | (frame_error ? kFlagFrameError : 0));
+  return Observation{now_ms, position, servo_counts_, estimate.omega_rev_s, estimate.accel_rev_s2, arm_velocity, flags};
+}
+
+bool Schedule::due(uint32_t now_ms) {
+  if (static_cast<int32_t>(now_ms - next_ms_) < 0) return false;
+  next_ms_ += period_ms_;
+  if (static_cast<int32_t>(now_ms - next_ms_) >= 0) next_ms_ = now_ms + period_ms_;  // missed ticks: skip
+  return true;
+}
+
+}  // namespace pend

@@ -1,0 +1,44 @@
+"""The firmware's constants, written from `RigParams` (the one source of truth) as a C++ header.
+
+`python -m pendkit.firmware_constants > firmware/lib/pendcore/src/rig_constants.h` regenerates it; a test
+fails when the committed header and RigParams disagree.
+"""
+
+from __future__ import annotations
+
+from pendkit.mcu import STUCK_BAD_FRAMES, STUCK_TRAVEL_COUNTS
+from pendkit.rig import RigParams
+
+
+def render_header(params: RigParams | None = None) -> str:
+    p = params or RigParams()
+    values = [
+        ("kEncoderCounts", "int32_t", p.encoder_counts, "positions per turn (EMS-22A)"),
+        ("kEncoderOffsetCounts", "int32_t", p.encoder_offset_counts, "raw reading with the pendulum hanging"),
+        ("kServoMinCounts", "int32_t", p.servo_min_counts, f"PCA9685 counts at -{p.servo_range_deg:g} deg"),
+        ("kServoMaxCounts", "int32_t", p.servo_max_counts, f"PCA9685 counts at +{p.servo_range_deg:g} deg"),
+        ("kServoCentreCounts", "double", p.servo_centre_counts, "counts at 0 deg"),
+        ("kServoSpanCounts", "int32_t", p.servo_span_counts, "max - min"),
+        ("kSlowStepCounts", "int32_t", p.discrete_slow_step_counts, "discrete slow step per acting tick"),
+        ("kFastStepCounts", "int32_t", p.discrete_fast_step_counts, "discrete fast step per acting tick"),
+        ("kPwmPeriodMs", "int32_t", int(p.pwm_period_ms), "servo PWM period (50 Hz)"),
+        ("kPwmResolutionCounts", "int32_t", p.pwm_resolution_counts, "PCA9685 counts per PWM period"),
+        ("kStreamingPeriodMs", "int32_t", int(p.streaming_period_ms), "observation period"),
+        ("kActingPeriodMs", "int32_t", int(p.acting_period_ms), "acting period"),
+        ("kVelocityWindow", "int32_t", p.velocity_mean_window, "velocities averaged"),
+        ("kOverspinLimitRevS", "double", p.overspin_limit_rev_s, "hold the servo above this spin"),
+        ("kWatchdogTimeoutMs", "double", p.watchdog_timeout_ms, "hold the servo without commands"),
+        ("kStuckBadFrames", "int32_t", STUCK_BAD_FRAMES, "bad SSI frames in a row: stuck encoder"),
+        ("kStuckTravelCounts", "int32_t", STUCK_TRAVEL_COUNTS, "servo travel without an encoder change: stuck"),
+    ]
+    lines = ["// Generated from pendkit.rig.RigParams by pendkit/firmware_constants.py. Do not edit.",
+             f"// Rig: {p.servo_name}.", "#pragma once", "", "#include <cstdint>", "", "namespace pend {", ""]
+    for name, kind, value, comment in values:
+        literal = repr(float(value)) if kind == "double" else str(int(value))
+        lines.append(f"constexpr {kind} {name} = {literal};  // {comment}")
+    lines += ["", "}  // namespace pend", ""]
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    print(render_header(), end="")
