@@ -76,11 +76,21 @@ def _scenarios(params: RigParams) -> dict[str, list[dict]]:
             random_events.append({"t": t, "frame": encode_ssi_frame(int(rng.integers(0, 1024)))})
         else:
             random_events.append({"t": t, "frame": int(rng.integers(0, 1 << 16))})
-    acts = lambda t0, n, period=10: [{"t": t0 + period * k, "act": True} for k in range(n)]  # noqa: E731
+    def acts(t0, n, period=10, resend=None):
+        """n acting ticks; with `resend`, that command again every 100 ms as a live host would."""
+        events = []
+        for k in range(n):
+            t = t0 + period * k
+            if resend and k and (t - t0) % 100 == 0:
+                events.append({"t": t, "cmd": resend})
+            events.append({"t": t, "act": True})
+        return events
+
     return {
-        "discrete_to_the_limit": [{"t": 0, "cmd": "g"}, *acts(10, 40), {"t": 420, "cmd": "d"}, *acts(430, 3)],
-        "continuous_with_device_filter": [{"t": 0, "cmd": "e0.9"}, {"t": 1, "cmd": "b0.5"}, *acts(10, 20),
-                                          {"t": 215, "cmd": "b-1"}, *acts(220, 5)],
+        "discrete_to_the_limit": [{"t": 0, "cmd": "g"}, *acts(10, 40, resend="g"), {"t": 420, "cmd": "d"},
+                                  *acts(430, 3)],
+        "continuous_with_device_filter": [{"t": 0, "cmd": "e0.9"}, {"t": 1, "cmd": "b0.5"},
+                                          *acts(10, 20, resend="h"), {"t": 215, "cmd": "b-1"}, *acts(220, 5)],
         "watchdog_holds_then_heartbeat": [{"t": 0, "cmd": "f"}, *acts(10, 25), {"t": 260, "cmd": "h"},
                                           *acts(270, 3)],
         "overspin_holds": [{"t": 0, "cmd": "g"}, *spin(0, 60, 8, 5), *[{"t": 210 + k, "cmd": c}
@@ -93,6 +103,7 @@ def _scenarios(params: RigParams) -> dict[str, list[dict]]:
         "no_change_while_moving_is_stuck": [{"t": 0, "cmd": "g"},
                                             *[e for k in range(20) for e in ({"t": 25 * k + 1, "frame":
                                                                               encode_ssi_frame(200)},
+                                                                             {"t": 25 * k + 2, "cmd": "g"},
                                                                              {"t": 25 * k + 5, "act": True},
                                                                              {"t": 25 * k + 15, "act": True})]],
         "offset_and_commands_rejected": [{"t": 0, "cmd": "o317"}, {"t": 1, "frame": encode_ssi_frame(317)},
