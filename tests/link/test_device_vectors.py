@@ -50,7 +50,9 @@ def test_commands_mean_what_the_protocol_says(text, kind, value):
 
 
 def test_the_scenarios_exercise_every_safety_stop():
-    scenarios = {s["name"]: s for s in json.loads((ROOT / "tests" / "vectors" / "device.json").read_text())["scenarios"]}
+    vectors = json.loads((ROOT / "tests" / "vectors" / "device.json").read_text())
+    scenarios = {s["name"]: s for s in vectors["scenarios"]}
+
     def bits(name):
         result = 0
         for item in scenarios[name]["expected"]:

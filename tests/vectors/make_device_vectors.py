@@ -50,7 +50,8 @@ def observation_vectors() -> dict:
                              frozenset(f for f, bit in (("arm_limit", k % 2), ("overspin", k % 3 == 0),
                                                         ("watchdog", k % 5 == 0)) if bit))
         cases.append({"millis": obs.millis, "position": obs.position_counts, "servo": obs.servo_counts,
-                      "omega": obs.omega_rev_s, "accel": obs.acceleration_rev_s2, "arm_velocity": obs.arm_velocity_counts_s,
+                      "omega": obs.omega_rev_s, "accel": obs.acceleration_rev_s2,
+                      "arm_velocity": obs.arm_velocity_counts_s,
                       "flags": obs.flag_bits, "obs_seq": k, "cmd_seq": 1000 + k, "echo_ms": 77 * k,
                       "v1": format_observation_v1(obs), "v2": format_observation_v2(obs, k, 1000 + k, 77 * k)})
     return {"description": "observation lines, v1 (S...) and v2 (R...), %.4f for omega/accel, %.1f arm velocity",
