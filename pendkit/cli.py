@@ -163,6 +163,33 @@ def grade(submissions: Path, lab: str | None, out_dir: Path, hidden_dir: Path, c
     click.echo(f"reports: {out_dir / 'grades.csv'} and {out_dir}/<student>/results.json")
 
 
+@main.command()
+@click.argument("csv_path", type=click.Path(exists=True, dir_okay=False, path_type=Path),
+                default=Path("hardware_bom/bom.csv"))
+@click.option("--rigs", type=click.IntRange(1, 1000), default=10, show_default=True, help="Rigs in the class.")
+def bom(csv_path: Path, rigs: int) -> None:
+    """Check the bill of materials and print its cost per rig and for a class."""
+    from pendkit.bom import cost_summary, read_bom
+    from pendkit.errors import ConfigError
+
+    try:
+        click.echo(cost_summary(read_bom(csv_path), rigs))
+    except ConfigError as error:
+        raise click.ClickException(str(error)) from None
+
+
+@main.command()
+@click.option("--pins", "pins_path", type=click.Path(exists=True, dir_okay=False, path_type=Path),
+              default=Path("firmware/include/pins.h"), show_default=True, help="The firmware's pin map.")
+@click.option("--out", "out_path", type=click.Path(dir_okay=False, path_type=Path),
+              default=Path("docs/img/wiring.png"), show_default=True)
+def wiring(pins_path: Path, out_path: Path) -> None:
+    """Draw the rig's wiring diagram from the firmware's pin map."""
+    from pendkit.wiring import draw_wiring
+
+    click.echo(f"wiring diagram: {draw_wiring(pins_path, out_path)}")
+
+
 def _versions(names) -> dict[str, str]:
     from importlib.metadata import PackageNotFoundError, version
 
