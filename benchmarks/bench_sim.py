@@ -35,14 +35,14 @@ def env_steps_per_s(fidelity: str, steps: int) -> tuple[float, float]:
     env.reset(seed=0)
     actions = np.random.default_rng(0).integers(0, 5, steps)
     backend = env.unwrapped.backend
-    tick_before = backend._tick
+    tick_before = backend.ticks
     start = time.perf_counter()
     for action in actions:
         _, _, _, truncated, _ = env.step(int(action))
         if truncated:
             env.reset()
     elapsed = time.perf_counter() - start
-    substeps = backend._tick - tick_before
+    substeps = backend.ticks - tick_before
     env.close()
     return steps / elapsed, substeps / steps if substeps > 0 else float(backend.substeps)
 

@@ -243,11 +243,11 @@ def test_realistic_overspin_stop_holds_the_servo():
         if "overspin" in info["safety_flags"]:
             break
     assert "overspin" in info["safety_flags"]
-    held = backend._mcu.servo_counts
+    held = backend._device.mcu.servo_counts
     while "overspin" in info["safety_flags"]:
         _, _, _, _, info = env.step(4)  # "right fast" is not obeyed while over-spinning
-        if "overspin" in backend._mcu.flags:
-            assert backend._mcu.servo_counts == held
+        if "overspin" in backend._device.mcu.flags:
+            assert backend._device.mcu.servo_counts == held
 
 
 @pytest.mark.parametrize("fidelity", FIDELITIES)

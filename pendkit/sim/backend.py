@@ -13,8 +13,9 @@ import numpy as np
 from pendkit.errors import ConfigError
 from pendkit.link.log import EpisodeLog
 from pendkit.link.protocol import format_command_v1, format_observation_v1
-from pendkit.mcu import McuLogic, McuObservation
+from pendkit.mcu import McuObservation
 from pendkit.rig import RigParams
+from pendkit.sim.device_twin import TwinDevice
 from pendkit.sim.fidelity import Fidelity, resolve_fidelity
 from pendkit.sim.model import ARM_JOINT, PENDULUM_JOINT, build_model
 from pendkit.state import RigState, ServoCommand
@@ -55,13 +56,15 @@ class SimBackend:
         self.physics_step_s = self.params.physics_step_ms / 1000.0
         self._rate_per_increment = (self.params.servo_rad_per_count * 1000.0 / self.params.acting_period_ms)
         self._rng = np.random.default_rng(0)
-        self._mcu = McuLogic(self.params) if self.fidelity.mcu_pipeline else None
-        if self._mcu is not None:
-            self._mcu.offset_counts = self.fidelity.encoder_mount_offset_counts  # a calibrated device
-        self._acting_ticks = round(self.params.acting_period_ms / self.params.physics_step_ms)
-        self._pwm_ticks = round(self.params.pwm_period_ms / self.params.physics_step_ms)
-        self._stream_ticks = round(self.params.streaming_period_ms / self.params.physics_step_ms)
+        self._device = (TwinDevice(self.params, self.model, self.data, self._pend_q,
+                                   self.fidelity.encoder_mount_offset_counts)
+                        if self.fidelity.mcu_pipeline else None)
         self._tick = 0
+
+    @property
+    def ticks(self) -> int:
+        """Physics ticks since the last reset."""
+        return self._device.tick if self._device is not None else self._tick
 
     @property
     def nominal_step_s(self) -> float:
@@ -96,7 +99,7 @@ class SimBackend:
         pendulum_velocity = initial.get("pendulum_velocity_rad_s", pendulum_velocity)
         if abs(arm) > self.params.servo_range_rad:
             raise ConfigError(f"initial arm_angle_rad must be within +-{self.params.servo_range_rad:.3f}, got {arm}")
-        if self._mcu is not None:
+        if self._device is not None:
             servo_counts = self.params.servo_rad_to_counts(arm)
             arm = self.params.servo_counts_to_rad(servo_counts)
         self.data.qpos[self._arm_q] = arm
@@ -105,27 +108,25 @@ class SimBackend:
         self.data.act[0] = arm
         mujoco.mj_forward(self.model, self.data)
         self._tick = 0
-        if self._mcu is None:
+        if self._device is None:
             return self._observe_true(0.0, 0.0)
-        self._mcu.reset(servo_counts, 0)
-        self._next_acting_tick = 0
+        self._device.reset(servo_counts)
         if self.log_dir is not None:
             if self._log is not None:
                 self._log.close()
             self._episodes += 1
             self._log = EpisodeLog(self.log_dir / f"episode-{self._episodes:04d}.jsonl")
         self._in_flight: deque[tuple[float, McuObservation]] = deque()
-        self._commands: deque[tuple[float, ServoCommand]] = deque()
         self._last_delivery_ms = self._last_command_arrival_ms = 0.0
         self._newest: tuple[float, McuObservation] | None = None
         # Warm up so that an observation has arrived and the estimator has history.
-        while self._newest is None or self._tick < self.substeps:
+        while self._newest is None or self._device.tick < self.substeps:
             self._run_mcu_substeps(1)
         return self._observe_mcu(time_since_action_s=0.0)
 
     # --- step ---
     def step(self, command: ServoCommand) -> RigState:
-        if self._mcu is not None:
+        if self._device is not None:
             return self._step_mcu(command)
         data = self.data
         if command.mode == "continuous":
@@ -161,59 +162,24 @@ class SimBackend:
 
     # --- the MCU pipeline (realistic) ---
     def _step_mcu(self, command: ServoCommand) -> RigState:
-        now_ms = self._tick * self.params.physics_step_ms
+        now_ms = self._device.now_ms
         arrival = max(now_ms + self.fidelity.latency.sample_ms(self._rng), self._last_command_arrival_ms)
         self._last_command_arrival_ms = arrival  # TCP keeps order: no overtaking
-        self._commands.append((arrival, command))
+        self._device.deliver(arrival, command)
         if self._log is not None:
             self._log.write(now_ms / 1000, "tx", TWIN_ACT_TOPIC, format_command_v1(command, self.params))
-        self._sent_ms = now_ms
         self._run_mcu_substeps(self.substeps)
         return self._observe_mcu(time_since_action_s=self.substeps * self.physics_step_s)
 
     def _run_mcu_substeps(self, count: int) -> None:
-        """Advance the physics, stopping only where it meets the MCU: PWM frames and streaming ticks.
-
-        Acting ticks in between change only the MCU's target counter, which the servo sees at the next
-        PWM frame, so they are caught up there (in order with command arrivals) rather than one by one.
-        """
-        p, mcu, data, model = self.params, self._mcu, self.data, self.model
-        pwm_ticks, stream_ticks = self._pwm_ticks, self._stream_ticks
-        end = self._tick + count
-        while self._tick < end:
-            tick = self._tick
-            at_pwm, at_stream = tick % pwm_ticks == 0, tick % stream_ticks == 0
-            if at_pwm or at_stream:
-                self._catch_up_acting(tick)
-            if at_pwm:
-                data.act[0] = p.servo_counts_to_rad(mcu.servo_counts)
-            if at_stream:
-                self._stream(tick)
-            next_event = min(end, (tick // pwm_ticks + 1) * pwm_ticks, (tick // stream_ticks + 1) * stream_ticks)
-            mujoco.mj_step(model, data, next_event - tick)
-            self._tick = next_event
-        now_ms = self._tick * p.physics_step_ms
+        self._device.run(count, self._in_flight_append)
+        now_ms = self._device.now_ms
         while self._in_flight and self._in_flight[0][0] <= now_ms:
             self._newest = self._in_flight.popleft()
             if self._log is not None:
                 self._log.write(self._newest[0] / 1000, "rx", TWIN_OBS_TOPIC, format_observation_v1(self._newest[1]))
 
-    def _catch_up_acting(self, up_to_tick: int) -> None:
-        physics_ms, commands, mcu = self.params.physics_step_ms, self._commands, self._mcu
-        while self._next_acting_tick <= up_to_tick:
-            now_ms = self._next_acting_tick * physics_ms
-            while commands and commands[0][0] <= now_ms:
-                mcu.receive(commands.popleft()[1], now_ms)
-            mcu.acting_tick(now_ms)
-            self._next_acting_tick += self._acting_ticks
-
-    def _stream(self, tick: int) -> None:
-        p = self.params
-        now_ms = tick * p.physics_step_ms
-        counts = p.encoder_counts
-        offset = self.fidelity.encoder_mount_offset_counts
-        raw = (math.floor(self.data.qpos[self._pend_q] * counts / (2 * math.pi)) + offset) % counts
-        observation = self._mcu.streaming_tick(raw, int(now_ms))
+    def _in_flight_append(self, now_ms: float, observation: McuObservation) -> None:
         delivery = max(now_ms + self.fidelity.latency.sample_ms(self._rng), self._last_delivery_ms)
         self._last_delivery_ms = delivery  # TCP keeps order: no overtaking
         self._in_flight.append((delivery, observation))
@@ -221,7 +187,7 @@ class SimBackend:
     def _observe_mcu(self, time_since_action_s: float) -> RigState:
         p = self.params
         delivered_ms, obs = self._newest
-        now_ms = self._tick * p.physics_step_ms
+        now_ms = self._device.now_ms
         return RigState(
             time_s=obs.millis / 1000.0,
             pendulum_angle_rad=obs.position_counts * (2 * math.pi / p.encoder_counts),
@@ -229,7 +195,7 @@ class SimBackend:
             pendulum_acceleration_rad_s2=obs.acceleration_rev_s2 * 2 * math.pi,
             arm_angle_rad=p.servo_counts_to_rad(obs.servo_counts),
             arm_velocity_rad_s=obs.arm_velocity_counts_s * p.servo_rad_per_count,
-            servo_target_rad=p.servo_counts_to_rad(self._mcu.servo_counts),
+            servo_target_rad=p.servo_counts_to_rad(self._device.mcu.servo_counts),
             observation_age_s=(now_ms - delivered_ms) / 1000.0,
             time_since_action_s=time_since_action_s,
             encoder_counts=obs.position_counts,
