@@ -14,6 +14,7 @@ Hidden tests (instructor material) attach to the same tasks with `hidden=True`.
 
 from __future__ import annotations
 
+import hashlib
 import importlib
 import importlib.util
 import os
@@ -126,15 +127,17 @@ def load_lab(lab: str) -> list[Task]:
     return [t for t in TASKS.values() if lab_of(t.id) == lab]
 
 
-_LOADED_HIDDEN: set[Path] = set()
+_LOADED_HIDDEN: set[str] = set()
 
 
 def load_hidden(path: str | Path) -> None:
-    """Import an instructor's hidden-test module (it attaches tests with hidden=True); once per path."""
+    """Import an instructor's hidden-test module (it attaches tests with hidden=True); once per content,
+    so the same tests copied elsewhere (a grading folder, a course archive) load only once."""
     path = Path(path).resolve()
-    if path in _LOADED_HIDDEN:
+    digest = hashlib.sha256(path.read_bytes()).hexdigest()
+    if digest in _LOADED_HIDDEN:
         return
-    _LOADED_HIDDEN.add(path)
+    _LOADED_HIDDEN.add(digest)
     spec = importlib.util.spec_from_file_location(f"pendkit_hidden_{path.stem}", path)
     if spec is None or spec.loader is None:
         raise ConfigError(f"cannot load hidden tests from {path}")
