@@ -79,7 +79,9 @@ class SwingUpEnv(gym.Env):
     backend ("sim"), action_mode ("discrete" | "continuous"), fidelity ("ideal" | "paper-delayed" |
     "realistic" | a `Fidelity`), observation (feature names or "paper"), start, params (`RigParams`),
     filter_coefficient (default `params.filter_coefficient`), max_episode_steps, render_mode ("rgb_array"),
-    log_dir (realistic twin: every message of each episode to `log_dir/episode-NNNN.jsonl`).
+    log_dir (realistic twin or rig: every message of each episode to `log_dir/episode-NNNN.jsonl`);
+    with backend="rig": rig ("r01"), broker (URL, default mqtt://127.0.0.1:1883), rig_options (username,
+    password, tls_ca, observation_timeout_s, reset_stop_s, settle).
 
     ## Version History
     v0: first release.
@@ -91,7 +93,8 @@ class SwingUpEnv(gym.Env):
                  observation: tuple[str, ...] | str = PAPER_FEATURES, start: str = "random",
                  params: RigParams | None = None, filter_coefficient: float | None = None,
                  max_episode_steps: int = EPISODE_STEPS, render_mode: str | None = None,
-                 log_dir: str | None = None) -> None:
+                 log_dir: str | None = None, rig: str = "r01", broker: str | None = None,
+                 rig_options: dict[str, Any] | None = None) -> None:
         if action_mode not in ACTION_MODES:
             raise ConfigError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
         if start not in STARTS:
@@ -105,7 +108,7 @@ class SwingUpEnv(gym.Env):
             else float(filter_coefficient)
         if not 0.0 <= self.filter_coefficient < 1.0:
             raise ConfigError(f"filter_coefficient must be in [0, 1), got {self.filter_coefficient}")
-        self.backend = _make_backend(backend, self.params, fidelity, log_dir)
+        self.backend = _make_backend(backend, self.params, fidelity, log_dir, rig, broker, rig_options or {})
         self.action_mode = action_mode
         self.features = resolve_features(observation)
         self.start = start
@@ -240,12 +243,13 @@ def _continuous_value(action) -> float:
     return max(-1.0, min(1.0, value))
 
 
-def _make_backend(backend, params: RigParams, fidelity, log_dir):
+def _make_backend(backend, params: RigParams, fidelity, log_dir, rig: str, broker: str | None, rig_options: dict):
     if backend == "sim":
         return SimBackend(params, fidelity, log_dir)
     if backend == "rig":
-        raise ConfigError("backend='rig' needs the rig link (pendkit.link), which this version does not "
-                          "ship yet; use backend='sim'")
+        from pendkit.link.rig_backend import RigBackend
+
+        return RigBackend(params, rig=rig, broker=broker, log_dir=log_dir, **rig_options)
     if hasattr(backend, "reset") and hasattr(backend, "step") and hasattr(backend, "nominal_step_s"):
         return backend  # a custom backend object
     raise ConfigError(f"backend must be 'sim' or 'rig', got {backend!r}")

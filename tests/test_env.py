@@ -194,7 +194,7 @@ def test_scalar_and_numpy_integer_actions_are_accepted():
     ({"action_mode": "torque"}, ["action_mode", "'torque'"]),
     ({"start": "top"}, ["start", "'top'"]),
     ({"filter_coefficient": 1.0}, ["filter_coefficient", "[0, 1)"]),
-    ({"backend": "rig"}, ["rig link", "backend='sim'"]),
+    ({"backend": "robot"}, ["backend must be 'sim' or 'rig'", "'robot'"]),
     ({"render_mode": "human"}, ["render_mode", "'human'"]),
 ])
 def test_bad_configuration_is_reported(kwargs, words):

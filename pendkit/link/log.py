@@ -8,12 +8,13 @@ The rig backend and the realistic twin write the same format; system identificat
 from __future__ import annotations
 
 import json
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from pendkit.link.protocol import ProtocolError, parse_observation_v1
+from pendkit.link.protocol import ProtocolError, parse_observation
 
 
 @dataclass(frozen=True)
@@ -31,13 +32,17 @@ class EpisodeLog:
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._file = self.path.open("w")
+        self._lock = threading.Lock()  # the link's network thread writes too
 
     def write(self, t_s: float, direction: str, topic: str, payload: str) -> None:
-        self._file.write(json.dumps({"t_s": round(t_s, 6), "dir": direction, "topic": topic,
-                                     "payload": payload}) + "\n")
+        line = json.dumps({"t_s": round(t_s, 6), "dir": direction, "topic": topic, "payload": payload}) + "\n"
+        with self._lock:
+            if not self._file.closed:  # a message racing the end of an episode is dropped, not fatal
+                self._file.write(line)
 
     def close(self) -> None:
-        self._file.close()
+        with self._lock:
+            self._file.close()
 
     def __enter__(self) -> EpisodeLog:
         return self
@@ -74,7 +79,7 @@ def readings_from_log(path: str | Path) -> Readings:
         if record.direction != "rx":
             continue
         try:
-            observation = parse_observation_v1(record.payload)
+            observation = parse_observation(record.payload).observation
         except ProtocolError:
             malformed += 1
             continue

@@ -8,9 +8,10 @@ Decoding is total: anything malformed raises `ProtocolError` with the reason, an
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from pendkit.errors import PendkitError
-from pendkit.mcu import McuObservation
+from pendkit.mcu import FLAG_BITS, McuObservation
 from pendkit.rig import RigParams
 from pendkit.state import ServoCommand
 
@@ -76,3 +77,43 @@ def format_observation_v2(observation: McuObservation, observation_seq: int, com
     return (f"R{observation.millis},{observation_seq},{observation.position_counts},{observation.servo_counts},"
             f"{observation.omega_rev_s:.4f},{observation.acceleration_rev_s2:.4f},"
             f"{observation.arm_velocity_counts_s:.1f},{observation.flag_bits},{command_seq},{echo_host_ms}")
+
+
+@dataclass(frozen=True)
+class ReceivedObservation:
+    """A decoded observation line with its v2 bookkeeping (zeros for v1)."""
+
+    observation: McuObservation
+    version: int
+    observation_seq: int = 0
+    command_seq: int = 0
+    echo_host_ms: int = 0
+
+
+def parse_observation(payload: str | bytes) -> ReceivedObservation:
+    """Decode a v1 (`S...`) or v2 (`R...`) observation; `ProtocolError` with the reason otherwise."""
+    if isinstance(payload, bytes):
+        try:
+            payload = payload.decode("ascii")
+        except UnicodeDecodeError:
+            raise ProtocolError("observation is not ASCII text") from None
+    text = payload.strip()
+    if text.startswith("S"):
+        return ReceivedObservation(parse_observation_v1(text), 1)
+    if not text.startswith("R"):
+        raise ProtocolError(f"observation must start with 'S' (v1) or 'R' (v2), got {text[:12]!r}")
+    fields = text[1:].split(",")
+    if len(fields) != OBSERVATION_V2_FIELDS:
+        raise ProtocolError(f"v2 observation needs {OBSERVATION_V2_FIELDS} fields, got {len(fields)}")
+    try:
+        millis, obs_seq = int(fields[0]), int(fields[1])
+        flags, cmd_seq, echo = int(fields[7]), int(fields[8]), int(fields[9])
+    except ValueError:
+        raise ProtocolError(f"v2 observation has a field that is not a number: {text[:60]!r}") from None
+    if not 0 <= flags < 32 or min(millis, obs_seq, cmd_seq, echo) < 0:
+        raise ProtocolError(f"v2 observation has an out-of-range value: {text[:60]!r}")
+    core = parse_observation_v1("S" + ",".join([fields[0], *fields[2:7]]))
+    names = frozenset(name for name, bit in FLAG_BITS.items() if flags & bit)
+    return ReceivedObservation(McuObservation(core.millis, core.position_counts, core.servo_counts,
+                                              core.omega_rev_s, core.acceleration_rev_s2,
+                                              core.arm_velocity_counts_s, names), 2, obs_seq, cmd_seq, echo)

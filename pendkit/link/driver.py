@@ -1,0 +1,162 @@
+"""The host's MQTT link to one rig (paho-mqtt): commands out, the newest observation in.
+
+paho's network thread receives in the background; every payload is decoded totally (a malformed one is
+counted and logged, never raised in that thread, never changes state). The link reconnects by itself.
+TCP_NODELAY is set on the socket: without it steady streaming sees 13-32 ms p99 latency.
+"""
+
+from __future__ import annotations
+
+import logging
+import socket
+import threading
+import time
+from dataclasses import dataclass
+from urllib.parse import urlparse
+
+import paho.mqtt.client as mqtt
+
+from pendkit.errors import ConfigError, PendkitError
+from pendkit.link.log import EpisodeLog
+from pendkit.link.protocol import ProtocolError, ReceivedObservation, parse_observation
+
+LOG = logging.getLogger("pendkit.link")
+DEFAULT_BROKER = "mqtt://127.0.0.1:1883"
+
+
+class RigLinkError(PendkitError, ConnectionError):
+    """The rig or its broker cannot be reached, or has gone quiet."""
+
+
+@dataclass(frozen=True)
+class BrokerAddress:
+    host: str
+    port: int
+    tls: bool
+
+    @classmethod
+    def parse(cls, url: str) -> BrokerAddress:
+        """`mqtt://host:port`, `mqtts://host:port` (TLS), or `host[:port]`."""
+        if "://" not in url:
+            url = f"mqtt://{url}"
+        parsed = urlparse(url)
+        if parsed.scheme not in ("mqtt", "mqtts", "tcp", "ssl") or not parsed.hostname:
+            raise ConfigError(f"broker must look like mqtt://host:1883 or mqtts://host:8883, got {url!r}")
+        tls = parsed.scheme in ("mqtts", "ssl")
+        return cls(parsed.hostname, parsed.port or (8883 if tls else 1883), tls)
+
+    def __str__(self) -> str:
+        return f"{'mqtts' if self.tls else 'mqtt'}://{self.host}:{self.port}"
+
+
+@dataclass
+class LinkCounters:
+    received: int = 0
+    malformed: int = 0
+    published: int = 0
+    connects: int = 0
+    disconnects: int = 0
+
+
+@dataclass(frozen=True)
+class Arrival:
+    received: ReceivedObservation
+    receive_time_s: float  # time.monotonic() when it arrived
+
+
+def topics(rig: str) -> tuple[str, str, str]:
+    """(observations, commands, status) topics of a rig."""
+    return f"pendulum-r/obs/{rig}", f"pendulum-r/act/{rig}", f"pendulum-r/status/{rig}"
+
+
+class RigLink:
+    """Connects as the host of `rig`; `publish` commands, read `newest`."""
+
+    def __init__(self, rig: str, broker: str = DEFAULT_BROKER, username: str | None = None,
+                 password: str | None = None, tls_ca: str | None = None, keepalive_s: int = 5,
+                 log: EpisodeLog | None = None) -> None:
+        self.rig, self.address = rig, BrokerAddress.parse(broker)
+        self.obs_topic, self.act_topic, self.status_topic = topics(rig)
+        self.counters = LinkCounters()
+        self.newest: Arrival | None = None
+        self.status: str | None = None
+        self.log = log
+        self._connected = threading.Event()
+        self._refused: str | None = None
+        self.client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, client_id=f"pendkit-host-{rig}-{id(self):x}")
+        if username is not None:
+            self.client.username_pw_set(username, password)
+        if self.address.tls or tls_ca:
+            self.client.tls_set(ca_certs=tls_ca)
+        self.client.reconnect_delay_set(min_delay=0.1, max_delay=1)
+        self.client.on_connect = self._on_connect
+        self.client.on_disconnect = self._on_disconnect
+        self.client.on_message = self._on_message
+        self._keepalive_s = keepalive_s
+
+    @property
+    def connected(self) -> bool:
+        return self._connected.is_set()
+
+    def connect(self, timeout_s: float = 5.0) -> None:
+        """Connect and subscribe; `RigLinkError` with what to do if it does not happen in time."""
+        self.client.connect_async(self.address.host, self.address.port, keepalive=self._keepalive_s)
+        self.client.loop_start()
+        if not self._connected.wait(timeout_s):
+            self.close()
+            reason = f" ({self._refused})" if self._refused else ""
+            raise RigLinkError(f"no connection to the broker at {self.address} within {timeout_s:g} s{reason}: "
+                               "start one with `pendkit broker`, or pass broker= your classroom's Mosquitto "
+                               "and its username and password")
+
+    def publish(self, text: str) -> bool:
+        info = self.client.publish(self.act_topic, text, qos=0)
+        if info.rc == mqtt.MQTT_ERR_SUCCESS:
+            self.counters.published += 1
+            if self.log is not None:
+                self.log.write(time.monotonic(), "tx", self.act_topic, text)
+            return True
+        return False
+
+    def close(self) -> None:
+        self.client.loop_stop()
+        self.client.disconnect()
+        self._connected.clear()
+
+    # --- paho callbacks (its network thread) ---
+    def _on_connect(self, client, userdata, flags, reason_code, properties) -> None:
+        if reason_code.is_failure:
+            self._refused = str(reason_code)
+            LOG.warning("broker %s refused the connection: %s", self.address, reason_code)
+            return
+        sock = client.socket()
+        if sock is not None and hasattr(sock, "setsockopt"):
+            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        client.subscribe([(self.obs_topic, 0), (self.status_topic, 0)])
+        self.counters.connects += 1
+        self._connected.set()
+
+    def _on_disconnect(self, client, userdata, flags, reason_code, properties) -> None:
+        self.counters.disconnects += 1
+        self._connected.clear()
+
+    def _on_message(self, client, userdata, message) -> None:
+        now = time.monotonic()
+        try:
+            payload = message.payload.decode("ascii", errors="replace")
+            if message.topic == self.status_topic:
+                self.status = payload
+                return
+            received = parse_observation(message.payload)
+        except ProtocolError as error:
+            self.counters.malformed += 1
+            LOG.info("rig %s: rejected observation (%s)", self.rig, error)
+            return
+        except Exception:  # a bug must not kill paho's thread; count it as malformed
+            self.counters.malformed += 1
+            LOG.exception("rig %s: unexpected error decoding an observation", self.rig)
+            return
+        self.counters.received += 1
+        self.newest = Arrival(received, now)
+        if self.log is not None:
+            self.log.write(now, "rx", self.obs_topic, payload)

@@ -1,0 +1,153 @@
+"""`RigBackend`: the real rig (or a virtual one) behind the same env, over MQTT.
+
+A step publishes the command without waiting for anything, sleeps to the step's absolute deadline
+(deadlines never drift: each is the previous plus the period), and reads the newest observation. It never
+blocks on the network; if no observation has arrived for `observation_timeout_s` it raises
+`RigLinkError` saying what to check. Reset follows the paper: stop the servo and wait 2 s (the pendulum
+keeps whatever motion it has), or until it has settled when asked.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from pendkit.errors import ConfigError
+from pendkit.link.driver import DEFAULT_BROKER, RigLink, RigLinkError
+from pendkit.link.log import EpisodeLog
+from pendkit.link.protocol import format_command_v1
+from pendkit.rig import RigParams
+from pendkit.sim.fidelity import FIDELITY_PRESETS
+from pendkit.state import STOP, RigState, ServoCommand
+
+SETTLED_REV_S = 0.05
+SETTLE_HOLD_S = 1.0
+SETTLE_LIMIT_S = 60.0
+HEARTBEAT_S = 0.05
+
+
+class RigBackend:
+    """The env's backend for a rig on a broker. `rig` names it (r01); `broker` is a URL."""
+
+    def __init__(self, params: RigParams | None = None, rig: str = "r01", broker: str | None = None,
+                 username: str | None = None, password: str | None = None, tls_ca: str | None = None,
+                 observation_timeout_s: float = 0.5, reset_stop_s: float = 2.0, settle: bool = False,
+                 log_dir: str | Path | None = None, connect_timeout_s: float = 5.0) -> None:
+        if not 0.05 <= observation_timeout_s <= 30:
+            raise ConfigError(f"observation_timeout_s must be in [0.05, 30], got {observation_timeout_s}")
+        self.params = params or RigParams()
+        self.rig, self.observation_timeout_s = rig, observation_timeout_s
+        self.reset_stop_s, self.settle = reset_stop_s, settle
+        self.log_dir = Path(log_dir) if log_dir is not None else None
+        self.fidelity = FIDELITY_PRESETS["realistic"].replace(name="rig")  # what the controllers should expect
+        self.nominal_step_s = self.params.control_step_ms / 1000.0
+        self.link = RigLink(rig, broker or DEFAULT_BROKER, username, password, tls_ca)
+        self.link.connect(connect_timeout_s)
+        self._seq = 0
+        self._deadline = time.monotonic()
+        self._sent_at = time.monotonic()
+        self._episodes = 0
+        self.step_period_errors_s: list[float] = []
+        self.publish_failures = 0
+        self.last_step_at: float | None = None
+
+    # --- commands ---
+    def _send(self, text: str) -> None:
+        """Publish without waiting; a failure is counted, and the observation timeout reports the outage."""
+        self._seq += 1
+        host_ms = int(time.monotonic() * 1000) % 4_294_967_296
+        if not self.link.publish(f"#{self._seq}:{text}@{host_ms}"):
+            self.publish_failures += 1
+
+    def _configure(self) -> None:
+        """What a fresh device needs: calibration, the host-side filter, streaming on."""
+        for text in (f"o{self.params.encoder_offset_counts}", "e0", "x"):
+            self._send(text)
+
+    # --- the env's backend interface ---
+    def reset(self, rng: np.random.Generator, start: str = "random", initial: dict | None = None) -> RigState:
+        if initial:
+            raise ConfigError("a real rig cannot be put into a chosen state: reset(options=...) may only set "
+                              "'start', and the rig starts from wherever the pendulum is")
+        if self.log_dir is not None:
+            previous = self.link.log
+            self._episodes += 1
+            self.link.log = EpisodeLog(self.log_dir / f"episode-{self._episodes:04d}.jsonl")
+            if previous is not None:
+                previous.close()
+        self._configure()
+        self._send(format_command_v1(STOP, self.params))
+        began = time.monotonic()
+        quiet_since = None
+        while True:
+            time.sleep(HEARTBEAT_S)
+            self._send("h")
+            now = time.monotonic()
+            self._require_fresh(now)
+            omega = abs(self.link.newest.received.observation.omega_rev_s)
+            quiet_since = (quiet_since or now) if omega < SETTLED_REV_S else None
+            waited = now - began
+            settled = quiet_since is not None and now - quiet_since >= SETTLE_HOLD_S
+            if waited >= self.reset_stop_s and (settled or not self.settle):
+                break
+            if waited > SETTLE_LIMIT_S:
+                raise RigLinkError(f"rig {self.rig}: the pendulum did not settle within {SETTLE_LIMIT_S:g} s")
+        self._deadline = self._sent_at = time.monotonic()
+        self.last_step_at = None
+        return self._state(time.monotonic())
+
+    def step(self, command: ServoCommand) -> RigState:
+        self._send(format_command_v1(command, self.params))
+        self._sent_at = time.monotonic()
+        self._deadline += self.nominal_step_s
+        pause = self._deadline - time.monotonic()
+        if pause > 0:
+            time.sleep(pause)
+        elif pause < -self.nominal_step_s:
+            self._deadline = time.monotonic()  # far behind (a stalled learner): start afresh, never burst
+        now = time.monotonic()
+        if self.last_step_at is not None:
+            self.step_period_errors_s.append(now - self.last_step_at - self.nominal_step_s)
+        self.last_step_at = now
+        self._require_fresh(now)
+        return self._state(now)
+
+    def close(self) -> None:
+        try:
+            if self.link.connected:
+                self._send(format_command_v1(STOP, self.params))
+        finally:
+            self.link.close()
+            if self.link.log is not None:
+                self.link.log.close()
+
+    # --- observations ---
+    def _require_fresh(self, now: float) -> None:
+        newest = self.link.newest
+        if newest is None or now - newest.receive_time_s > self.observation_timeout_s:
+            age = "none yet" if newest is None else f"the last {now - newest.receive_time_s:.2f} s ago"
+            state = "connected" if self.link.connected else "NOT connected (reconnecting)"
+            raise RigLinkError(f"no observation from rig {self.rig} within {self.observation_timeout_s:g} s ({age}); "
+                               f"the link to {self.link.address} is {state}. Check that the rig is powered and "
+                               "online, and the broker running; the env works again once observations flow.")
+
+    def _state(self, now: float) -> RigState:
+        p = self.params
+        arrival = self.link.newest
+        obs = arrival.received.observation
+        return RigState(
+            time_s=obs.millis / 1000.0,
+            pendulum_angle_rad=obs.position_counts * (2 * math.pi / p.encoder_counts),
+            pendulum_velocity_rad_s=obs.omega_rev_s * 2 * math.pi,
+            pendulum_acceleration_rad_s2=obs.acceleration_rev_s2 * 2 * math.pi,
+            arm_angle_rad=p.servo_counts_to_rad(obs.servo_counts),
+            arm_velocity_rad_s=obs.arm_velocity_counts_s * p.servo_rad_per_count,
+            servo_target_rad=p.servo_counts_to_rad(obs.servo_counts),
+            observation_age_s=now - arrival.receive_time_s,
+            time_since_action_s=now - self._sent_at,
+            encoder_counts=obs.position_counts,
+            safety_flags=obs.flags,
+        )

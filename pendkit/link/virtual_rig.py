@@ -1,0 +1,249 @@
+"""Virtual rigs: the twin in real time (or K times faster) behind the rig's own MQTT protocol.
+
+Each rig is the MuJoCo twin with the firmware's logic (`TwinDevice`, the Python twin of the C++ core:
+watchdog, safety stops, both action modes, periods, offset, device filter) and a network impairment
+model. One `VirtualRigGroup` thread steps any number of rigs, each with its own MQTT client and
+credentials, so a class without hardware, and the tests, use exactly the real path.
+"""
+
+from __future__ import annotations
+
+import heapq
+import json
+import logging
+import math
+import queue
+import threading
+import time
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+import paho.mqtt.client as mqtt
+
+from pendkit.errors import ConfigError
+from pendkit.link.commands import parse_command
+from pendkit.link.driver import DEFAULT_BROKER, BrokerAddress, RigLinkError, topics
+from pendkit.link.protocol import ProtocolError, format_observation_v1, format_observation_v2
+from pendkit.mcu import McuObservation
+from pendkit.rig import RigParams
+from pendkit.sim.device_twin import ENCODER_FAULTS, TwinDevice
+from pendkit.sim.latency import CLASSROOM_WIFI, NO_LATENCY, LatencyModel
+from pendkit.sim.model import PENDULUM_JOINT, build_model
+
+LOG = logging.getLogger("pendkit.virtual_rig")
+FIRMWARE_VERSION = "0.1.0-virtual"
+
+
+@dataclass(frozen=True)
+class NetworkImpairment:
+    """What the rig's WiFi adds to the broker's own path: latency each way, and lost messages (QoS 0)."""
+
+    latency: LatencyModel = NO_LATENCY
+    observation_loss_pct: float = 0.0
+    command_loss_pct: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("observation_loss_pct", "command_loss_pct"):
+            value = getattr(self, name)
+            if not 0 <= value <= 100:
+                raise ConfigError(f"{name} must be in [0, 100], got {value}")
+
+
+IMPAIRMENTS = {
+    "none": NetworkImpairment(),
+    "classroom-wifi": NetworkImpairment(CLASSROOM_WIFI, 0.2, 0.2),
+    "poor-wifi": NetworkImpairment(LatencyModel(floor_ms=4.0, median_ms=15.0, spread=0.8), 3.0, 3.0),
+}
+
+
+class VirtualRig:
+    """One rig on the broker. Start it through a `VirtualRigGroup`."""
+
+    def __init__(self, rig: str, broker: str = DEFAULT_BROKER, params: RigParams | None = None,
+                 impairment: str | NetworkImpairment = "none", username: str | None = None,
+                 password: str | None = None, seed: int = 0, mount_offset_counts: int | None = None,
+                 encoder_fault: str | None = None) -> None:
+        if isinstance(impairment, str):
+            if impairment not in IMPAIRMENTS:
+                raise ConfigError(f"unknown impairment {impairment!r}; choose from {sorted(IMPAIRMENTS)}")
+            impairment = IMPAIRMENTS[impairment]
+        if encoder_fault not in ENCODER_FAULTS:
+            raise ConfigError(f"encoder_fault must be one of {ENCODER_FAULTS}, got {encoder_fault!r}")
+        self.rig, self.params, self.impairment = rig, params or RigParams(), impairment
+        if mount_offset_counts is None:  # a rig calibrated as its RigParams say
+            mount_offset_counts = self.params.encoder_offset_counts
+        self.address = BrokerAddress.parse(broker)
+        self.obs_topic, self.act_topic, self.status_topic = topics(rig)
+        model = build_model(self.params)
+        data = mujoco.MjData(model)
+        self.device = TwinDevice(self.params, model, data, model.joint(PENDULUM_JOINT).qposadr[0],
+                                 mount_offset_counts)
+        self.device.encoder_fault = encoder_fault
+        mujoco.mj_forward(model, data)
+        self._rng = np.random.default_rng(seed)
+        self._inbox: queue.SimpleQueue = queue.SimpleQueue()
+        self._outbox: list[tuple[float, int, str]] = []
+        self._sent = 0
+        self._last_arrival_ms = 0.0
+        self._last_delivery_s = 0.0
+        self.protocol_v2 = False
+        self.observation_seq = self.command_seq = self.echo_host_ms = 0
+        self.rejected_commands = self.lost_observations = self.lost_commands = self.published = 0
+        self._t0 = 0.0
+        self.speed = 1.0
+        self._connected = threading.Event()
+        self.client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, client_id=f"pendkit-virtual-{rig}-{id(self):x}")
+        if username is not None:
+            self.client.username_pw_set(username, password)
+        self.client.will_set(self.status_topic, json.dumps({"online": False}), qos=1, retain=True)
+        self.client.reconnect_delay_set(min_delay=0.1, max_delay=1)
+        self.client.on_connect = self._on_connect
+        self.client.on_disconnect = lambda *args: self._connected.clear()
+        self.client.on_message = self._on_message
+
+    # --- network (paho's thread) ---
+    def connect(self, timeout_s: float = 5.0) -> None:
+        self.client.connect_async(self.address.host, self.address.port, keepalive=5)
+        self.client.loop_start()
+        if not self._connected.wait(timeout_s):
+            self.client.loop_stop()
+            raise RigLinkError(f"virtual rig {self.rig}: no connection to {self.address} within {timeout_s:g} s")
+
+    def _on_connect(self, client, userdata, flags, reason_code, properties) -> None:
+        if reason_code.is_failure:
+            LOG.warning("virtual rig %s: broker refused the connection: %s", self.rig, reason_code)
+            return
+        client.subscribe(self.act_topic, qos=0)
+        self._connected.set()
+        self.publish_status()
+
+    def _on_message(self, client, userdata, message) -> None:
+        received = time.monotonic()
+        try:
+            command = parse_command(message.payload)
+        except ProtocolError:
+            self.rejected_commands += 1  # counted; changes nothing
+            return
+        self._inbox.put((received, command))
+
+    def publish_status(self) -> None:
+        status = {"firmware": FIRMWARE_VERSION, "protocol": 2, "rig": self.rig,
+                  "streaming_ms": self.device.streaming_ticks * self.params.physics_step_ms,
+                  "acting_ms": self.device.acting_ticks * self.params.physics_step_ms,
+                  "mode": self.device.mcu.command.mode, "online": True,
+                  "flags": sum(1 << i for i, f in enumerate(("arm_limit", "overspin", "stuck_encoder", "watchdog"))
+                               if f in self.device.mcu.flags),
+                  "rejected_commands": self.rejected_commands}
+        self.client.publish(self.status_topic, json.dumps(status), qos=1, retain=True)
+
+    # --- simulation (the group's thread) ---
+    def start_clock(self, t0: float, speed: float) -> None:
+        self._t0, self.speed = t0, speed
+
+    def _sim_ms(self, wall_s: float) -> float:
+        return (wall_s - self._t0) * self.speed * 1000.0
+
+    def advance(self, now_s: float) -> None:
+        """Bring the twin up to `now_s`: deliver commands that arrived, run physics, send what is due."""
+        while True:
+            try:
+                received, command = self._inbox.get_nowait()
+            except queue.Empty:
+                break
+            if self._rng.random() * 100 < self.impairment.command_loss_pct:
+                self.lost_commands += 1
+                continue
+            if command.seq is not None:
+                self.protocol_v2, self.command_seq = True, command.seq
+            if command.host_ms is not None:
+                self.echo_host_ms = command.host_ms
+            if command.kind == "status":
+                self.publish_status()
+                continue
+            arrival = max(self._sim_ms(received) + self.impairment.latency.sample_ms(self._rng), self._last_arrival_ms)
+            self._last_arrival_ms = arrival
+            self.device.deliver(arrival, command)
+        ticks = math.floor(self._sim_ms(now_s) / self.params.physics_step_ms) - self.device.tick
+        if ticks > 0:
+            self.device.run(ticks, self._emit)
+        while self._outbox and self._outbox[0][0] <= now_s:
+            _, _, line = heapq.heappop(self._outbox)
+            self.client.publish(self.obs_topic, line, qos=0)
+            self.published += 1
+
+    def _emit(self, now_ms: float, observation: McuObservation) -> None:
+        if self._rng.random() * 100 < self.impairment.observation_loss_pct:
+            self.lost_observations += 1
+            return
+        if self.protocol_v2:
+            line = format_observation_v2(observation, self.observation_seq, self.command_seq, self.echo_host_ms)
+        else:
+            line = format_observation_v1(observation)
+        self.observation_seq += 1
+        delay_ms = self.impairment.latency.sample_ms(self._rng)
+        due = max(self._t0 + (now_ms + delay_ms) / 1000.0 / self.speed, self._last_delivery_s)
+        self._last_delivery_s = due  # TCP keeps order
+        self._sent += 1
+        heapq.heappush(self._outbox, (due, self._sent, line))
+
+    def next_wake_s(self) -> float:
+        next_tick = self._t0 + (self.device.tick + 1) * self.params.physics_step_ms / 1000.0 / self.speed
+        return min(next_tick, self._outbox[0][0]) if self._outbox else next_tick
+
+    def close(self) -> None:
+        self.client.publish(self.status_topic, json.dumps({"online": False}), qos=1, retain=True)
+        self.client.loop_stop()
+        self.client.disconnect()
+
+
+class VirtualRigGroup:
+    """Steps several virtual rigs in one thread, in real time times `speed`. A context manager."""
+
+    def __init__(self, rigs: list[VirtualRig], speed: float = 1.0) -> None:
+        if not rigs:
+            raise ConfigError("a group needs at least one virtual rig")
+        if not 0.1 <= speed <= 100:
+            raise ConfigError(f"speed must be in [0.1, 100], got {speed}")
+        self.rigs, self.speed = rigs, speed
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self.late_ticks = 0
+
+    def start(self, connect_timeout_s: float = 5.0) -> VirtualRigGroup:
+        for rig in self.rigs:
+            rig.connect(connect_timeout_s)
+        t0 = time.monotonic()
+        for rig in self.rigs:
+            rig.start_clock(t0, self.speed)
+        self._thread = threading.Thread(target=self._loop, daemon=True, name="pendkit-virtual-rigs")
+        self._thread.start()
+        return self
+
+    def _loop(self) -> None:
+        while not self._stop.is_set():
+            now = time.monotonic()
+            for rig in self.rigs:
+                try:
+                    rig.advance(now)
+                except Exception:  # one rig's bug must not stop the others
+                    LOG.exception("virtual rig %s failed a tick", rig.rig)
+            wake = min(rig.next_wake_s() for rig in self.rigs)
+            pause = wake - time.monotonic()
+            if pause > 0:
+                self._stop.wait(min(pause, 0.01))
+            elif pause < -0.05:
+                self.late_ticks += 1
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5)
+        for rig in self.rigs:
+            rig.close()
+
+    def __enter__(self) -> VirtualRigGroup:
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
