@@ -220,5 +220,14 @@ def _gl_status() -> str:
     return f"MuJoCo offscreen ({backend})"
 
 
+def _register_link_commands() -> None:
+    from pendkit.link.cli import broker, broker_config, virtual_rig
+
+    for command in (broker, broker_config, virtual_rig):
+        main.add_command(command)
+
+
+_register_link_commands()
+
 if __name__ == "__main__":
     sys.exit(main())

@@ -56,6 +56,7 @@ class LinkCounters:
     published: int = 0
     connects: int = 0
     disconnects: int = 0
+    dropped: int = 0  # gaps in the v2 observation sequence numbers: observations lost on the way
 
 
 @dataclass(frozen=True)
@@ -157,6 +158,10 @@ class RigLink:
             LOG.exception("rig %s: unexpected error decoding an observation", self.rig)
             return
         self.counters.received += 1
+        if received.version == 2:
+            last = self.newest.received.observation_seq if self.newest and self.newest.received.version == 2 else None
+            if last is not None and received.observation_seq > last + 1:
+                self.counters.dropped += received.observation_seq - last - 1
         self.newest = Arrival(received, now)
         if self.log is not None:
             self.log.write(now, "rx", self.obs_topic, payload)

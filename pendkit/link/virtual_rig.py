@@ -134,7 +134,9 @@ class VirtualRig:
                   "mode": self.device.mcu.command.mode, "online": True,
                   "flags": sum(1 << i for i, f in enumerate(("arm_limit", "overspin", "stuck_encoder", "watchdog"))
                                if f in self.device.mcu.flags),
-                  "rejected_commands": self.rejected_commands}
+                  "rejected_commands": self.rejected_commands,
+                  # the device clock's origin on this machine's monotonic clock: one-way latency measurements
+                  "clock_origin_s": self._t0, "speed": self.speed}
         self.client.publish(self.status_topic, json.dumps(status), qos=1, retain=True)
 
     # --- simulation (the group's thread) ---
@@ -216,6 +218,7 @@ class VirtualRigGroup:
         t0 = time.monotonic()
         for rig in self.rigs:
             rig.start_clock(t0, self.speed)
+            rig.publish_status()  # now with the running clock's origin
         self._thread = threading.Thread(target=self._loop, daemon=True, name="pendkit-virtual-rigs")
         self._thread.start()
         return self

@@ -1,0 +1,75 @@
+"""The rig-link commands of `pendkit`: broker, broker-config, virtual-rig."""
+
+from __future__ import annotations
+
+import signal
+import threading
+from pathlib import Path
+
+import click
+
+
+@click.command()
+@click.option("--host", default="127.0.0.1", show_default=True, help="Address to listen on (loopback by default).")
+@click.option("--port", type=int, default=1883, show_default=True)
+def broker(host: str, port: int) -> None:
+    """Run the embedded MQTT broker (amqtt) until Ctrl-C: enough for one or a few rigs on a laptop."""
+    from pendkit.link.broker import EmbeddedBroker
+
+    stop = threading.Event()
+    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    with EmbeddedBroker(host, port) as running:
+        click.echo(f"broker listening on {running.url}; Ctrl-C to stop")
+        stop.wait()
+
+
+@click.command("broker-config")
+@click.option("--rigs", "rig_ids", multiple=True, required=True, help="Rig ids, repeated: --rigs r01 --rigs r02.")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("broker"),
+              show_default=True)
+@click.option("--port", type=int, default=1883, show_default=True)
+@click.option("--bind", default="0.0.0.0", show_default=True, help="Address Mosquitto listens on.")
+def broker_config(rig_ids: tuple[str, ...], out_dir: Path, port: int, bind: str) -> None:
+    """Write a classroom Mosquitto configuration: per-rig users, an ACL, no anonymous clients."""
+    from pendkit.errors import ConfigError
+    from pendkit.link.broker import write_classroom_config
+
+    try:
+        paths = write_classroom_config(list(rig_ids), out_dir, port, bind)
+    except ConfigError as error:
+        raise click.BadParameter(str(error), param_hint="--rigs") from None
+    click.echo(f"wrote {paths['conf']}, {paths['acl']}, {paths['passwords']}")
+    click.echo(f"passwords for rigs, hosts and the instructor: {paths['credentials']} (keep it private)")
+    click.echo(f"start it with: mosquitto -c {paths['conf']}")
+
+
+@click.command("virtual-rig")
+@click.option("--rig", "rig_ids", multiple=True, default=("r01",), show_default=True,
+              help="Rig id; repeat for several rigs in this process.")
+@click.option("--broker", "broker_url", default="mqtt://127.0.0.1:1883", show_default=True)
+@click.option("--speed", type=click.FloatRange(0.1, 100), default=1.0, show_default=True,
+              help="Simulated seconds per real second.")
+@click.option("--impairment", type=click.Choice(("none", "classroom-wifi", "poor-wifi")), default="none",
+              show_default=True, help="Extra latency and loss, as a rig's WiFi would add.")
+@click.option("--username", default=None, help="MQTT user (default: the rig id when --password is given).")
+@click.option("--password", default=None)
+@click.option("--encoder-fault", type=click.Choice(("stuck", "garbage")), default=None,
+              help="Simulate a seized or broken encoder (safety demos).")
+def virtual_rig(rig_ids, broker_url, speed, impairment, username, password, encoder_fault) -> None:
+    """Run virtual rigs: the twin with the firmware's logic, speaking the rig protocol over MQTT."""
+    from pendkit.link.driver import RigLinkError
+    from pendkit.link.virtual_rig import VirtualRig, VirtualRigGroup
+
+    rigs = [VirtualRig(rig, broker_url, impairment=impairment, encoder_fault=encoder_fault,
+                       username=username or (rig if password else None), password=password) for rig in rig_ids]
+    stop = threading.Event()
+    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    try:
+        group = VirtualRigGroup(rigs, speed).start()
+    except RigLinkError as error:
+        raise click.ClickException(str(error)) from None
+    click.echo(f"virtual rig(s) {', '.join(rig_ids)} on {broker_url} at {speed:g}x; Ctrl-C to stop")
+    stop.wait()
+    group.stop()
