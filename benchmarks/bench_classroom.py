@@ -61,7 +61,8 @@ def main() -> None:
     ages_ms = np.array(ages) * 1000
     rate = received / args.seconds / max(1, args.rigs)
     print(f"observations_received={received} per_rig_hz={rate:.1f} obs_age_p50_ms={np.percentile(ages_ms, 50):.2f}")
-    print(f"rigs={args.rigs} loss={dropped / max(1, received + dropped):.5f} obs_age_p99_ms={np.percentile(ages_ms, 99):.2f}")
+    loss = dropped / max(1, received + dropped)
+    print(f"rigs={args.rigs} loss={loss:.5f} obs_age_p99_ms={np.percentile(ages_ms, 99):.2f}")
 
 
 def _measuring(link: RigLink, ages: list[float]):
