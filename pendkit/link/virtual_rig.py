@@ -250,3 +250,46 @@ class VirtualRigGroup:
 
     def __exit__(self, *exc) -> None:
         self.stop()
+
+
+class LocalRig:
+    """An embedded broker and one virtual rig in this process: a rig for a notebook, no set-up needed.
+
+    `rig = LocalRig(impairment="poor-wifi")`, then `pendkit.make(backend="rig", broker=rig.url, rig=rig.rig)`;
+    `rig.stop()` at the end.
+    """
+
+    def __init__(self, rig: str = "r01", impairment: str | NetworkImpairment = "none", speed: float = 1.0,
+                 **rig_kwargs) -> None:
+        from pendkit.link.broker import EmbeddedBroker, free_port
+
+        self.rig = rig
+        self.broker = EmbeddedBroker(port=free_port()).start()
+        self.url = self.broker.url
+        self.virtual = VirtualRig(rig, self.url, impairment=impairment, **rig_kwargs)
+        self.group = VirtualRigGroup([self.virtual], speed).start()
+
+    def stop(self) -> None:
+        self.group.stop()
+        self.broker.stop()
+
+    def measure_latency_ms(self, seconds: float = 2.0) -> np.ndarray:
+        """One-way latencies (ms) of this rig's observations: valid here, where rig and host share a clock."""
+        from pendkit.link.driver import RigLink
+
+        samples: list[float] = []
+        link = RigLink(self.rig, self.url)
+        original = link._on_message
+
+        def on_message(client, userdata, message):
+            original(client, userdata, message)
+            if message.topic == link.obs_topic and link.newest is not None:
+                millis = link.newest.received.observation.millis
+                sent = self.virtual._t0 + millis / 1000.0 / self.virtual.speed
+                samples.append((link.newest.receive_time_s - sent) * 1000.0)
+
+        link.client.on_message = on_message
+        link.connect()
+        time.sleep(seconds)
+        link.close()
+        return np.array(samples)

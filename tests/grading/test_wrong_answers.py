@@ -50,7 +50,17 @@ CORRECT = {
     "05.pendulum_energy": lambda alpha, w, w0: 0.5 * (w / w0) ** 2 - math.cos(alpha),
     "05.pumping_direction": lambda alpha, w: -1 if w * math.cos(alpha) > 0 else 1,
     "05.next_mode": lambda mode, theta, w: next_mode(mode, theta, w),
+    "06.period_error_p99_ms": lambda t, nominal: float(np.percentile(np.abs(np.diff(t) - nominal) * 1000, 99)),
+    "06.fit_latency": lambda samples: fit_latency(samples),
+    "06.predict_angle": lambda theta, rate, d, w0: theta + rate * d + 0.5 * w0**2 * theta * d**2,
 }
+
+
+def fit_latency(samples, subtract_floor=True):
+    samples = np.asarray(samples, float)
+    floor = samples.min()
+    above = samples - floor if subtract_floor else samples
+    return floor, float(np.median(above)), float(np.std(np.log(above[above > 0])))
 
 
 def up_crossings(t, a, interpolate=True):
@@ -229,6 +239,11 @@ MISTAKES = [
     ("05.pumping_direction", lambda alpha, w: -1 if w > 0 else 1, "above horizontal"),
     ("05.next_mode", lambda mode, theta, w: next_mode(mode, theta, w, fall=0.8), "hysteresis"),
     ("05.next_mode", lambda mode, theta, w: next_mode(mode, theta, w, check_velocity=False), "fly through"),
+    ("06.period_error_p99_ms", lambda t, n: float(np.percentile(np.abs(np.diff(t) - n), 99)), "seconds"),
+    ("06.period_error_p99_ms", lambda t, n: float(np.percentile((np.diff(t) - n) * 1000, 99)), "absolute error"),
+    ("06.fit_latency", lambda samples: fit_latency(samples, subtract_floor=False), "subtract the floor"),
+    ("06.predict_angle", lambda theta, rate, d, w0: theta + rate * d, "left out gravity"),
+    ("06.predict_angle", lambda theta, rate, d, w0: theta + rate * d - 0.5 * w0**2 * theta * d**2, "not minus"),
 ]
 
 

@@ -1,0 +1,62 @@
+"""Lab 06, latency and the sim-to-real gap: public tests."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pendkit.grading.core import Failed, as_number, expect, task
+
+jitter = task("06.period_error_p99_ms", function="period_error_p99_ms", title="Step-period jitter")
+fit = task("06.fit_latency", function="fit_latency", title="A latency distribution from samples")
+predict = task("06.predict_angle", function="predict_angle", title="Predicting the angle past the delay")
+
+
+@jitter.test(points=2, hint="Periods are the differences of successive step times; compare each with the "
+                            "nominal period, in milliseconds, and take the 99th percentile of the absolute error.")
+def percentile_of_absolute_error(fn, rng):
+    periods = 0.06 + np.concatenate([np.full(98, 0.0005), [-0.004, 0.006]])
+    times = np.concatenate([[0.0], np.cumsum(periods)])
+    expected = float(np.percentile(np.abs(periods - 0.06) * 1000, 99))
+    got = as_number(fn(times, 0.06), "period_error_p99_ms(times, 0.06)")
+    message = f"expected {expected:.3f} ms, got {got:.3f}"
+    if abs(got - expected / 1000) < 1e-9:
+        message += ": that is in seconds; the lab wants milliseconds"
+    elif abs(got - float(np.percentile((periods - 0.06) * 1000, 99))) < 1e-9:
+        message += ": take the absolute error: early steps count too"
+    expect(abs(got - expected) < 1e-6, message)
+
+
+def _fit_result(got):
+    if not (isinstance(got, tuple) and len(got) == 3):
+        raise Failed(f"fit_latency should return (floor_ms, median_ms, spread), got {got!r}")
+    return tuple(float(x) for x in got)
+
+
+@fit.test(points=3, hint="floor = the smallest sample; median = the median of (sample - floor); spread = the "
+                         "standard deviation of log(sample - floor) over the samples above the floor.")
+def recovers_a_shifted_lognormal(fn, rng):
+    floor, median, spread = 2.0, 6.0, 0.6
+    samples = floor + median * np.exp(spread * rng.standard_normal(4000))
+    samples = np.append(samples, floor)  # the fastest message sits on the floor
+    got_floor, got_median, got_spread = _fit_result(fn(samples))
+    expect(abs(got_floor - floor) < 0.05, f"floor should be about {floor} ms, got {got_floor:.3f}")
+    expect(abs(got_median - median) < 0.3, f"median above the floor should be about {median} ms, got "
+           f"{got_median:.3f}" + (": subtract the floor first" if abs(got_median - median - floor) < 0.4 else ""))
+    expect(abs(got_spread - spread) < 0.05, f"spread should be about {spread}, got {got_spread:.3f}")
+
+
+@predict.test(points=2, hint="Near upright theta'' = w0^2 theta, so "
+                             "theta(t + d) = theta + theta' d + w0^2 theta d^2 / 2.")
+def second_order_prediction(fn, rng):
+    for theta, rate, delay, w0 in [(0.1, 0.0, 0.04, 5.3), (0.0, 1.0, 0.05, 5.3), (-0.05, 0.3, 0.03, 5.0)]:
+        expected = theta + rate * delay + 0.5 * w0**2 * theta * delay**2
+        got = as_number(fn(theta, rate, delay, w0), "predict_angle(...)")
+        message = f"predict_angle({theta}, {rate}, {delay}, {w0}) should be {expected:.5f}, got {got:.5f}"
+        if abs(got - (theta + rate * delay)) < 1e-12 and theta:
+            message += ": you left out gravity, which pushes the pendulum away from upright during the delay"
+        elif abs(got - (theta + rate * delay - 0.5 * w0**2 * theta * delay**2)) < 1e-12 and theta:
+            message += ": upright, gravity pushes away from the top: + w0^2 theta, not minus"
+        expect(abs(got - expected) < 1e-9, message)
+    expect(math.isfinite(as_number(fn(0.0, 0.0, 0.0, 5.3), "predict_angle(0, 0, 0, 5.3)")), "zero delay must work")

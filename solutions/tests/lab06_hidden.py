@@ -1,0 +1,32 @@
+"""Hidden tests for lab 06 (instructor material: never copied into labs/)."""
+
+import numpy as np
+
+from pendkit.grading import expect, task
+
+jitter = task("06.period_error_p99_ms", function="period_error_p99_ms", title="Step-period jitter")
+fit = task("06.fit_latency", function="fit_latency", title="A latency distribution from samples")
+predict = task("06.predict_angle", function="predict_angle", title="Predicting the angle past the delay")
+
+
+@jitter.test(points=1, hidden=True, hint="Any nominal period, any number of steps.")
+def other_periods(fn, rng):
+    periods = 0.035 + rng.normal(0, 0.001, 300)
+    times = np.concatenate([[5.0], 5.0 + np.cumsum(periods)])
+    expected = float(np.percentile(np.abs(periods - 0.035) * 1000, 99))
+    expect(abs(fn(times, 0.035) - expected) < 1e-6, "wrong for a 35 ms period with random jitter")
+
+
+@fit.test(points=1, hidden=True, hint="Works on lists too, and on a narrow distribution.")
+def narrow_distribution_from_a_list(fn, rng):
+    samples = list(0.5 + 3.0 * np.exp(0.2 * rng.standard_normal(2000))) + [0.5]
+    floor, median, spread = (float(x) for x in fn(samples))
+    expect(abs(floor - 0.5) < 1e-9 and abs(median - 3.0) < 0.1 and abs(spread - 0.2) < 0.02,
+           f"expected about (0.5, 3.0, 0.2), got ({floor:.3f}, {median:.3f}, {spread:.3f})")
+
+
+@predict.test(points=1, hidden=True, hint="The formula holds for any signs.")
+def random_states(fn, rng):
+    for theta, rate, delay in rng.uniform([-0.2, -2, 0], [0.2, 2, 0.1], (20, 3)):
+        expected = theta + rate * delay + 0.5 * 5.3**2 * theta * delay**2
+        expect(abs(fn(theta, rate, delay, 5.3) - expected) < 1e-9, "wrong for a random state")
