@@ -19,7 +19,8 @@ ROOT = Path(__file__).resolve().parents[1]
 BOM = ROOT / "hardware_bom" / "bom.csv"
 PINS = ROOT / "firmware" / "include" / "pins.h"
 # Commands that cannot run here, by the reason their line gives.
-NOT_HERE = ("# hardware-only", "# windows-only", "# online-only", "# classroom-only", "# interactive")
+NOT_HERE = ("# hardware-only", "# windows-only", "# online-only", "# classroom-only", "# interactive",
+            "# long-running")  # long-running servers are exercised as processes by tests/link/test_link_cli.py
 
 
 def test_bom_columns_and_totals():
