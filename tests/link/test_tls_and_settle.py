@@ -1,0 +1,74 @@
+"""TLS to the broker when configured, and the reset that waits for the pendulum to settle."""
+
+import os
+import shutil
+import subprocess
+import time
+
+import pytest
+
+import pendkit
+from pendkit.link.broker import free_port, wait_for_port
+from pendkit.link.driver import RigLink, RigLinkError
+from pendkit.link.virtual_rig import LocalRig
+
+
+def make_certificates(folder):
+    """A throwaway CA and a server certificate for 127.0.0.1 signed by it."""
+    run = lambda *args: subprocess.run(["openssl", *args], cwd=folder, check=True, capture_output=True)  # noqa: E731
+    run("req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", "2", "-subj", "/CN=pendkit test CA",
+        "-keyout", "ca.key", "-out", "ca.crt")
+    run("req", "-newkey", "rsa:2048", "-nodes", "-subj", "/CN=127.0.0.1", "-keyout", "server.key",
+        "-out", "server.csr")
+    (folder / "san.ext").write_text("subjectAltName=IP:127.0.0.1\n")
+    run("x509", "-req", "-in", "server.csr", "-CA", "ca.crt", "-CAkey", "ca.key", "-CAcreateserial", "-days", "2",
+        "-extfile", "san.ext", "-out", "server.crt")
+    for name in ("ca.crt", "server.crt", "server.key"):
+        os.chmod(folder / name, 0o644)
+
+
+@pytest.mark.skipif(shutil.which("openssl") is None or shutil.which("mosquitto") is None
+                    and not os.path.exists("/usr/sbin/mosquitto"), reason="needs openssl and mosquitto")
+def test_tls_link_connects_with_the_ca_and_not_without(tmp_path):
+    make_certificates(tmp_path)
+    port = free_port()
+    conf = tmp_path / "mosquitto.conf"
+    conf.write_text(f"listener {port} 127.0.0.1\nallow_anonymous true\ncafile {tmp_path / 'ca.crt'}\n"
+                    f"certfile {tmp_path / 'server.crt'}\nkeyfile {tmp_path / 'server.key'}\n"
+                    + ("user root\n" if os.geteuid() == 0 else ""))
+    binary = shutil.which("mosquitto") or "/usr/sbin/mosquitto"
+    broker = subprocess.Popen([binary, "-c", str(conf)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        assert wait_for_port("127.0.0.1", port)
+        link = RigLink("r01", f"mqtts://127.0.0.1:{port}", tls_ca=str(tmp_path / "ca.crt"))
+        link.connect(timeout_s=5)
+        link.client.publish(link.status_topic, '{"online": true}')
+        deadline = time.monotonic() + 3
+        while link.status is None and time.monotonic() < deadline:
+            time.sleep(0.02)
+        assert link.status == '{"online": true}'  # a round trip over TLS
+        link.close()
+        with pytest.raises(RigLinkError):  # the system's CAs do not know our test CA
+            RigLink("r01", f"mqtts://127.0.0.1:{port}").connect(timeout_s=2)
+    finally:
+        broker.kill()
+        broker.wait()
+
+
+def test_reset_waits_for_the_pendulum_to_settle():
+    rig = LocalRig()
+    try:
+        env = pendkit.make(backend="rig", broker=rig.url, rig=rig.rig,
+                           rig_options={"reset_stop_s": 0.2, "settle": True})
+        started = time.monotonic()
+        env.reset(seed=0)  # hanging still: settled after the 1 s hold
+        assert 1.0 <= time.monotonic() - started < 3.0
+        rig.virtual.device.data.qvel[rig.virtual.device._pendulum_qpos] = 4.0  # set it swinging
+        time.sleep(0.2)
+        started = time.monotonic()
+        env.reset(seed=1)
+        assert time.monotonic() - started > 3.0  # waited for the swing to die down
+        assert abs(env.unwrapped.backend.link.newest.received.observation.omega_rev_s) < 0.05
+        env.close()
+    finally:
+        rig.stop()
