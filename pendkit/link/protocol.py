@@ -28,14 +28,18 @@ def format_observation_v1(observation: McuObservation) -> str:
             f"{observation.arm_velocity_counts_s:.1f}")
 
 
-def parse_observation_v1(payload: str | bytes) -> McuObservation:
-    """Decode one v1 observation line; `ProtocolError` with the reason if it is malformed."""
+def _text(payload: str | bytes) -> str:
     if isinstance(payload, bytes):
         try:
             payload = payload.decode("ascii")
         except UnicodeDecodeError:
             raise ProtocolError("observation is not ASCII text") from None
-    text = payload.strip()
+    return payload.strip()
+
+
+def parse_observation_v1(payload: str | bytes) -> McuObservation:
+    """Decode one v1 observation line; `ProtocolError` with the reason if it is malformed."""
+    text = _text(payload)
     if not text.startswith("S"):
         raise ProtocolError(f"observation must start with 'S', got {text[:12]!r}")
     fields = text[1:].split(",")
@@ -92,12 +96,7 @@ class ReceivedObservation:
 
 def parse_observation(payload: str | bytes) -> ReceivedObservation:
     """Decode a v1 (`S...`) or v2 (`R...`) observation; `ProtocolError` with the reason otherwise."""
-    if isinstance(payload, bytes):
-        try:
-            payload = payload.decode("ascii")
-        except UnicodeDecodeError:
-            raise ProtocolError("observation is not ASCII text") from None
-    text = payload.strip()
+    text = _text(payload)
     if text.startswith("S"):
         return ReceivedObservation(parse_observation_v1(text), 1)
     if not text.startswith("R"):

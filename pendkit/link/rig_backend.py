@@ -9,7 +9,6 @@ keeps whatever motion it has), or until it has settled when asked.
 
 from __future__ import annotations
 
-import math
 import time
 from pathlib import Path
 
@@ -19,6 +18,7 @@ from pendkit.errors import ConfigError
 from pendkit.link.driver import DEFAULT_BROKER, RigLink, RigLinkError
 from pendkit.link.log import EpisodeLog
 from pendkit.link.protocol import format_command_v1
+from pendkit.mcu import observation_to_state
 from pendkit.rig import RigParams
 from pendkit.sim.fidelity import FIDELITY_PRESETS
 from pendkit.state import STOP, RigState, ServoCommand
@@ -135,19 +135,6 @@ class RigBackend:
                                "online, and the broker running; the env works again once observations flow.")
 
     def _state(self, now: float) -> RigState:
-        p = self.params
         arrival = self.link.newest
-        obs = arrival.received.observation
-        return RigState(
-            time_s=obs.millis / 1000.0,
-            pendulum_angle_rad=obs.position_counts * (2 * math.pi / p.encoder_counts),
-            pendulum_velocity_rad_s=obs.omega_rev_s * 2 * math.pi,
-            pendulum_acceleration_rad_s2=obs.acceleration_rev_s2 * 2 * math.pi,
-            arm_angle_rad=p.servo_counts_to_rad(obs.servo_counts),
-            arm_velocity_rad_s=obs.arm_velocity_counts_s * p.servo_rad_per_count,
-            servo_target_rad=p.servo_counts_to_rad(obs.servo_counts),
-            observation_age_s=now - arrival.receive_time_s,
-            time_since_action_s=now - self._sent_at,
-            encoder_counts=obs.position_counts,
-            safety_flags=obs.flags,
-        )
+        return observation_to_state(arrival.received.observation, self.params, now - arrival.receive_time_s,
+                                    now - self._sent_at)

@@ -13,7 +13,7 @@ import numpy as np
 from pendkit.errors import ConfigError
 from pendkit.link.log import EpisodeLog
 from pendkit.link.protocol import format_command_v1, format_observation_v1
-from pendkit.mcu import McuObservation
+from pendkit.mcu import McuObservation, observation_to_state
 from pendkit.rig import RigParams
 from pendkit.sim.device_twin import TwinDevice
 from pendkit.sim.fidelity import Fidelity, resolve_fidelity
@@ -185,22 +185,9 @@ class SimBackend:
         self._in_flight.append((delivery, observation))
 
     def _observe_mcu(self, time_since_action_s: float) -> RigState:
-        p = self.params
-        delivered_ms, obs = self._newest
-        now_ms = self._device.now_ms
-        return RigState(
-            time_s=obs.millis / 1000.0,
-            pendulum_angle_rad=obs.position_counts * (2 * math.pi / p.encoder_counts),
-            pendulum_velocity_rad_s=obs.omega_rev_s * 2 * math.pi,
-            pendulum_acceleration_rad_s2=obs.acceleration_rev_s2 * 2 * math.pi,
-            arm_angle_rad=p.servo_counts_to_rad(obs.servo_counts),
-            arm_velocity_rad_s=obs.arm_velocity_counts_s * p.servo_rad_per_count,
-            servo_target_rad=p.servo_counts_to_rad(self._device.mcu.servo_counts),
-            observation_age_s=(now_ms - delivered_ms) / 1000.0,
-            time_since_action_s=time_since_action_s,
-            encoder_counts=obs.position_counts,
-            safety_flags=obs.flags,
-        )
+        delivered_ms, observation = self._newest
+        return observation_to_state(observation, self.params, (self._device.now_ms - delivered_ms) / 1000.0,
+                                    time_since_action_s, self._device.mcu.servo_counts)
 
     # --- inspection ---
     def true_state(self) -> dict[str, float]:
