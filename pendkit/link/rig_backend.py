@@ -52,6 +52,7 @@ class RigBackend:
         self._episodes = 0
         self.step_period_errors_s: list[float] = []
         self.publish_failures = 0
+        self.estopped = False
         self.last_step_at: float | None = None
 
     # --- commands ---
@@ -99,8 +100,16 @@ class RigBackend:
         self.last_step_at = None
         return self._state(time.monotonic())
 
+    def emergency_stop(self) -> None:
+        """Stop the servo now and keep it stopped: every later step sends stop instead of its action."""
+        self.estopped = True
+        self._send(format_command_v1(STOP, self.params))
+
+    def release_stop(self) -> None:
+        self.estopped = False
+
     def step(self, command: ServoCommand) -> RigState:
-        self._send(format_command_v1(command, self.params))
+        self._send(format_command_v1(STOP if self.estopped else command, self.params))
         self._sent_at = time.monotonic()
         self._deadline += self.nominal_step_s
         pause = self._deadline - time.monotonic()
@@ -123,6 +132,11 @@ class RigBackend:
             self.link.close()
             if self.link.log is not None:
                 self.link.log.close()
+
+    def observation_age_now(self) -> float:
+        """Seconds since the newest observation arrived (inf if none has)."""
+        newest = self.link.newest
+        return float("inf") if newest is None else time.monotonic() - newest.receive_time_s
 
     # --- observations ---
     def _require_fresh(self, now: float) -> None:

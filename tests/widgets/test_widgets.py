@@ -1,0 +1,92 @@
+"""The widgets' callbacks as plain functions, the e-stop on a virtual rig, and accessibility basics."""
+
+import time
+
+import numpy as np
+import pytest
+
+import pendkit
+from pendkit.control.swingup import SwingUpController
+from pendkit.episode import PALETTE
+from pendkit.link.virtual_rig import LocalRig
+from pendkit.widgets import ClassDashboard, GainTuner, LiveEpisodeView, TelemetryMonitor, dashboard_rows, tuning_run
+from pendkit.widgets import common
+from pendkit.widgets.common import trace_alt_text, trace_png
+
+OKABE_ITO = {"#000000", "#E69F00", "#56B4E9", "#009E73", "#F0E442", "#0072B2", "#D55E00", "#CC79A7", "#999999"}
+
+
+def test_tuning_reruns_the_twin_with_the_gains():
+    good = tuning_run(fidelity="ideal", steps=200)
+    timid = tuning_run(energy_gain=0.2, fidelity="ideal", steps=200)
+    assert good.time_to_upright_s is not None
+    assert timid.time_to_upright_s is None or timid.time_to_upright_s > good.time_to_upright_s
+    assert not np.array_equal(good.trace.action, timid.trace.action)
+
+
+def test_plots_are_png_with_a_text_equivalent():
+    result = tuning_run(fidelity="ideal", steps=100)
+    assert trace_png(result.trace, "t")[:4] == b"\x89PNG"
+    text = trace_alt_text(result.trace, "Swing-up")
+    assert "100 steps" in text and "return" in text and "upright" in text
+
+
+def test_palette_is_colour_blind_safe():
+    assert {colour.upper() for colour in PALETTE.values()} <= OKABE_ITO
+
+
+def test_sliders_are_described_and_update_the_plot(monkeypatch):
+    pytest.importorskip("ipywidgets")
+    monkeypatch.setattr("pendkit.widgets.tuning.live_frontend", lambda: True)
+    tuner = GainTuner(fidelity="ideal", steps=120)
+    before = tuner.image.value
+    for slider in (tuner.q, tuner.r, tuner.gain):
+        assert slider.description and not slider.continuous_update  # labelled; no re-run per pixel
+    tuner.gain.value = 3.0  # what a keyboard arrow or a drag does
+    assert tuner.image.value != before and "steps" in tuner.text.value
+
+
+def test_without_a_frontend_widgets_degrade_to_static_output(capsys):
+    assert not common.live_frontend()  # no kernel here
+    env = pendkit.make(action_mode="continuous", fidelity="ideal", start="rest", filter_coefficient=0.0)
+    trace = LiveEpisodeView(env, SwingUpController.for_env(env), title="Swing-up").run(steps=60)
+    assert len(trace.time_s) == 61 and "Swing-up: 60 steps" in capsys.readouterr().out
+
+
+def test_dashboard_rows():
+    rows = dashboard_rows({"r02": '{"online": true, "flags": 9, "firmware": "0.1.0"}', "r01": "not json"},
+                          {"r02": 80, "r03": 10}, 2.0)
+    assert [row["rig"] for row in rows] == ["r01", "r02", "r03"]
+    assert rows[1] == {"rig": "r02", "online": True, "observations_hz": 40.0, "flags": ["arm_limit", "watchdog"],
+                       "firmware": "0.1.0"}
+    assert rows[2]["online"] and not rows[0]["online"]
+
+
+def test_estop_and_telemetry_and_dashboard_on_a_virtual_rig():
+    rig = LocalRig()
+    try:
+        env = pendkit.make(backend="rig", broker=rig.url, rig=rig.rig, rig_options={"reset_stop_s": 0.2})
+        env.reset(seed=0)
+        monitor = TelemetryMonitor(env)
+        for _ in range(5):
+            env.step(4)
+        summary = monitor.refresh()
+        assert summary["connected"] and summary["observation_age_ms"] < 100 and summary["step_jitter_p99_ms"] < 20
+        monitor.emergency_stop()
+        time.sleep(0.1)
+        held = rig.virtual.device.mcu.servo_counts
+        for _ in range(5):
+            env.step(4)  # "right fast" is replaced by stop while e-stopped
+        assert rig.virtual.device.mcu.servo_counts == held and monitor.refresh()["estopped"]
+        monitor.release()
+        for _ in range(3):
+            env.step(4)
+        assert rig.virtual.device.mcu.servo_counts > held
+        dashboard = ClassDashboard(rig.url)
+        time.sleep(1.0)
+        rows = dashboard.rows()
+        assert rows and rows[0]["rig"] == "r01" and rows[0]["online"] and 30 < rows[0]["observations_hz"] < 50
+        dashboard.close()
+        env.close()
+    finally:
+        rig.stop()
