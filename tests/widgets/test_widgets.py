@@ -9,8 +9,15 @@ import pendkit
 from pendkit.control.swingup import SwingUpController
 from pendkit.episode import PALETTE
 from pendkit.link.virtual_rig import LocalRig
-from pendkit.widgets import ClassDashboard, GainTuner, LiveEpisodeView, TelemetryMonitor, dashboard_rows, tuning_run
-from pendkit.widgets import common
+from pendkit.widgets import (
+    ClassDashboard,
+    GainTuner,
+    LiveEpisodeView,
+    TelemetryMonitor,
+    common,
+    dashboard_rows,
+    tuning_run,
+)
 from pendkit.widgets.common import trace_alt_text, trace_png
 
 OKABE_ITO = {"#000000", "#E69F00", "#56B4E9", "#009E73", "#F0E442", "#0072B2", "#D55E00", "#CC79A7", "#999999"}
