@@ -49,12 +49,13 @@ class GainTuner:
         import ipywidgets as w
 
         style = {"description_width": "14em"}
+        layout = w.Layout(width="36em")
+        common = {"style": style, "layout": layout, "continuous_update": False}
         self.q = w.FloatLogSlider(value=40.0, base=10, min=0, max=3, step=0.1, description="Q pendulum angle",
-                                  style=style, continuous_update=False)
-        self.r = w.FloatLogSlider(value=3.0, base=10, min=-1, max=2, step=0.1, description="R action",
-                                  style=style, continuous_update=False)
+                                  **common)
+        self.r = w.FloatLogSlider(value=3.0, base=10, min=-1, max=2, step=0.1, description="R action", **common)
         self.gain = w.FloatSlider(value=1.0, min=0.2, max=4.0, step=0.1, description="swing-up energy gain",
-                                  style=style, continuous_update=False)
+                                  **common)
         self.image = w.Image(value=trace_png(self.result.trace, "Swing-up and balance",
                                              self.result.natural_frequency_rad_s), format="png")
         self.text = w.HTML(describe(self.result))  # the plot in words, for screen readers
