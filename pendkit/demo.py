@@ -49,13 +49,16 @@ def run_demo(fidelity: str = "realistic", seed: int = 0, start: str = "rest", ou
     animation_path = None
     if animate and frames:
         animation_path = out_dir / f"demo-{fidelity}-seed{seed}.gif"
-        _write_gif(frames, animation_path, frame_ms=round(frame_steps * env.unwrapped.dt * 1000))
+        _write_gif(frames, animation_path, frame_ms=round(frame_steps * env.unwrapped.dt * 1000),
+                   description=f"The rig's twin swinging up and balancing, the first {ANIMATION_SECONDS:g} s "
+                               f"of the episode ({fidelity} fidelity).")
     return DemoResult(trace, time_to_upright_s(trace.pendulum_from_upright_rad, env.unwrapped.dt), plot_path,
                       animation_path)
 
 
-def _write_gif(frames: list[np.ndarray], path: Path, frame_ms: int) -> None:
+def _write_gif(frames: list[np.ndarray], path: Path, frame_ms: int, description: str) -> None:
     from PIL import Image
 
     images = [Image.fromarray(frame).convert("P", palette=Image.Palette.ADAPTIVE) for frame in frames]
-    images[0].save(path, save_all=True, append_images=images[1:], duration=frame_ms, loop=0, optimize=True)
+    images[0].save(path, save_all=True, append_images=images[1:], duration=frame_ms, loop=0, optimize=True,
+                   comment=description.encode())  # the animation's alt text

@@ -17,7 +17,11 @@ def test_demo_swings_up_and_writes_a_plot_and_an_animation(tmp_path):
     assert result.exit_code == 0, result.output
     plot = tmp_path / "demo-ideal-seed0.png"
     assert plot.exists() and plot.read_bytes()[:4] == b"\x89PNG"
-    assert (tmp_path / "demo-ideal-seed0.gif").read_bytes()[:3] == b"GIF"
+    gif = (tmp_path / "demo-ideal-seed0.gif").read_bytes()
+    assert gif[:3] == b"GIF" and b"swinging up and balancing" in gif  # with its description
+    from PIL import Image
+
+    assert "Pendulum angle from upright" in Image.open(plot).info["Description"]  # the plot's alt text
     assert "500 steps" in result.output and "upright after" in result.output
 
 

@@ -3,10 +3,33 @@
 from __future__ import annotations
 
 import io
+import math
+
+import numpy as np
 
 from pendkit.episode import EpisodeTrace, Policy, run_episode
 from pendkit.sim.render import DrawnFrames
 from pendkit.widgets.common import live_frontend, trace_alt_text, trace_png
+
+
+def live_traces_png(times_s, angles_deg, velocities_rad_s, actions) -> bytes:
+    """Small traces of the episode so far: angle from upright, pendulum rate, action."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from pendkit.episode import PALETTE
+    from pendkit.widgets.common import figure_png
+
+    figure = Figure(figsize=(5, 3.6), layout="constrained")
+    FigureCanvasAgg(figure)
+    axes = figure.subplots(3, 1, sharex=True)
+    for axis, values, colour, label in ((axes[0], angles_deg, PALETTE["pendulum"], "from upright (deg)"),
+                                        (axes[1], velocities_rad_s, PALETTE["arm"], "rate (rad/s)"),
+                                        (axes[2], actions, PALETTE["action"], "action")):
+        axis.plot(times_s, values, color=colour)
+        axis.set_ylabel(label, fontsize=8)
+    axes[2].set_xlabel("time (s)", fontsize=8)
+    return figure_png(figure)
 
 
 def frame_png(frames: DrawnFrames, arm_rad: float, pendulum_rad: float) -> bytes:
@@ -40,12 +63,22 @@ class LiveEpisodeView:
         if self.widget is not None:
             display(self.widget)
         count = [0]
+        dt = self.env.unwrapped.dt
+        history: dict[str, list[float]] = {"t": [], "angle": [], "rate": [], "action": []}
 
         def watched(observation, state):
+            action = self.policy(observation, state)
+            history["t"].append(count[0] * dt)
+            history["angle"].append(math.degrees((state.pendulum_angle_rad % (2 * math.pi)) - math.pi))
+            history["rate"].append(state.pendulum_velocity_rad_s)
+            history["action"].append(float(np.asarray(action, dtype=float).reshape(-1)[0]))
             count[0] += 1
             if self.widget is not None and count[0] % self.every == 0:
                 self._update(state)
-            return self.policy(observation, state)
+                if count[0] % (4 * self.every) == 0:  # plotting costs more than drawing: less often
+                    self.traces.value = live_traces_png(history["t"], history["angle"], history["rate"],
+                                                        history["action"])
+            return action
 
         if hasattr(self.policy, "reset"):
             watched.reset = self.policy.reset

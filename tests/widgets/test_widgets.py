@@ -60,6 +60,19 @@ def test_without_a_frontend_widgets_degrade_to_static_output(capsys):
     assert len(trace.time_s) == 61 and "Swing-up: 60 steps" in capsys.readouterr().out
 
 
+def test_live_view_updates_picture_and_traces_as_it_runs(monkeypatch):
+    pytest.importorskip("ipywidgets")
+    monkeypatch.setattr("pendkit.widgets.episode_view.live_frontend", lambda: True)
+    env = pendkit.make(action_mode="continuous", fidelity="ideal", start="rest", filter_coefficient=0.0)
+    view = LiveEpisodeView(env, SwingUpController.for_env(env), title="Swing-up", every=5)
+    seen = []
+    view.traces.observe(lambda change: seen.append(len(change["new"])), names="value")
+    view.run(steps=60)
+    assert view.picture.value[:4] == b"\x89PNG"
+    assert len(seen) >= 3  # the traces were redrawn during the run (every 20 steps) and at the end
+    assert "Swing-up: 60 steps" in view.text.value
+
+
 def test_dashboard_rows():
     rows = dashboard_rows({"r02": '{"online": true, "flags": 9, "firmware": "0.1.0"}', "r01": "not json"},
                           {"r02": 80, "r03": 10}, 2.0)
