@@ -220,14 +220,15 @@ def _gl_status() -> str:
     return f"MuJoCo offscreen ({backend})"
 
 
-def _register_link_commands() -> None:
+def _register_commands() -> None:
+    from pendkit.agents.cli import evaluate, plot, train
     from pendkit.link.cli import broker, broker_config, virtual_rig
 
-    for command in (broker, broker_config, virtual_rig):
+    for command in (broker, broker_config, virtual_rig, train, evaluate, plot):
         main.add_command(command)
 
 
-_register_link_commands()
+_register_commands()
 
 if __name__ == "__main__":
     sys.exit(main())

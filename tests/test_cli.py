@@ -7,9 +7,11 @@ from pendkit.cli import main
 
 def test_help_everywhere():
     runner = CliRunner()
-    for args in ([], ["demo"], ["info"]):
+    names = [[]] + [[name] for name in main.commands] + [["labs", "build"], ["labs", "check"]]
+    assert {"demo", "info", "grade", "train", "eval", "plot", "virtual-rig", "broker"} <= set(main.commands)
+    for args in names:
         result = runner.invoke(main, [*args, "--help"])
-        assert result.exit_code == 0 and "Usage" in result.output
+        assert result.exit_code == 0 and "Usage" in result.output, args
 
 
 def test_demo_swings_up_and_writes_a_plot_and_an_animation(tmp_path):

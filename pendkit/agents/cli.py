@@ -1,0 +1,129 @@
+"""`pendkit train`, `pendkit eval`, `pendkit plot`: DQN and R-DQN on the twin. Torch is imported only
+when a command runs, so the rest of pendkit works without the rl extra."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import click
+
+ALGORITHMS = ("dqn", "r-dqn")
+FIDELITIES = ("ideal", "paper-delayed", "realistic")
+SOLVED_TAIL_STEPS = 200
+
+
+def _torch_or_exit() -> None:
+    try:
+        import torch  # noqa: F401
+    except ImportError:
+        raise click.ClickException('the RL commands need PyTorch: pip install -e ".[rl]" (install the CPU build '
+                                   "of torch first, see the README)") from None
+
+
+def _build(algo: str, fidelity: str, seed: int, max_steps: int):
+    import pendkit
+    from pendkit.agents.dqn import DqnAgent, DqnConfig
+    from pendkit.agents.gru_encoder import GruEncoder
+
+    env = pendkit.make(fidelity=fidelity, max_episode_steps=max_steps)
+    n_actions = env.action_space.n
+    step_dim = env.observation_space.shape[0] + n_actions
+    encoder = GruEncoder(step_dim, hidden_size=32, seed=seed) if algo == "r-dqn" else None
+    agent = DqnAgent(encoder.output_dim if encoder else step_dim, n_actions, DqnConfig(seed=seed))
+    return env, agent, encoder
+
+
+@click.command()
+@click.option("--algo", type=click.Choice(ALGORITHMS), default="dqn", show_default=True)
+@click.option("--fidelity", type=click.Choice(FIDELITIES), default="ideal", show_default=True)
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--episodes", type=click.IntRange(1), default=100, show_default=True)
+@click.option("--max-steps", type=click.IntRange(10, 500), default=500, show_default=True, help="Steps per episode.")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("runs/latest"),
+              show_default=True)
+@click.option("--checkpoint-every", type=click.IntRange(1), default=10, show_default=True, help="Episodes.")
+@click.option("--resume", is_flag=True, help="Continue from the run's last checkpoint.")
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+def train(algo, fidelity, seed, episodes, max_steps, out_dir, checkpoint_every, resume, quiet) -> None:
+    """Train DQN or R-DQN on the twin; checkpoints, a CSV of returns and the resolved config in --out."""
+    _torch_or_exit()
+    from pendkit.agents.train import train_sync
+
+    env, agent, encoder = _build(algo, fidelity, seed, max_steps)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    config = {"algo": algo, "fidelity": fidelity, "seed": seed, "episodes": episodes, "max_steps": max_steps,
+              "dqn": {k: v for k, v in vars(agent.config).items()}}
+    (out_dir / "config.json").write_text(json.dumps(config, indent=2))
+    returns = train_sync(env, agent, episodes, encoder, seed=seed, progress=not quiet,
+                         csv_path=out_dir / "returns.csv", checkpoint_path=out_dir / "checkpoint.pt",
+                         checkpoint_every=checkpoint_every, resume=resume)
+    from pendkit.agents.checkpoint import save_checkpoint
+    from pendkit.agents.replay import ReplayBuffer
+
+    save_checkpoint(out_dir / "final.pt", agent, ReplayBuffer(1, 1), len(returns), returns, {"seed": seed})
+    click.echo(f"{len(returns)} episodes; last 10 mean return {sum(returns[-10:]) / min(10, len(returns)):.1f}; "
+               f"outputs in {out_dir}")
+
+
+@click.command("eval")
+@click.argument("run_dir", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.option("--episodes", type=click.IntRange(1), default=20, show_default=True)
+def evaluate(run_dir: Path, episodes: int) -> None:
+    """Greedy episodes of a trained run; "solved" = within 0.3 rad of upright for the last 200 steps."""
+    _torch_or_exit()
+    import numpy as np
+    import torch
+
+    from pendkit.agents.train import agent_input
+
+    config = json.loads((run_dir / "config.json").read_text())
+    env, agent, encoder = _build(config["algo"], config["fidelity"], config["seed"], config["max_steps"])
+    weights = run_dir / "final.pt" if (run_dir / "final.pt").exists() else run_dir / "checkpoint.pt"
+    agent.load_state_dict(torch.load(weights, weights_only=False)["agent"])
+    solved, returns = 0, []
+    for episode in range(episodes):
+        observation, info = env.reset(seed=10_000 + episode)
+        if encoder is not None:
+            encoder.reset()
+        x, done, total, angles = agent_input(observation, 0, env.action_space.n, encoder), False, 0.0, []
+        while not done:
+            action = agent.act(x, explore=False)
+            observation, reward, terminated, truncated, info = env.step(action)
+            x = agent_input(observation, action, env.action_space.n, encoder)
+            total, done = total + reward, terminated or truncated
+            angles.append(abs(info["angle_from_upright_rad"]))
+        returns.append(total)
+        tail = angles[-SOLVED_TAIL_STEPS:]
+        solved += len(angles) >= SOLVED_TAIL_STEPS and max(tail) < 0.3
+    click.echo(f"mean return {np.mean(returns):.1f} over {episodes} episodes; solved {solved}/{episodes}")
+
+
+@click.command()
+@click.argument("run_dir", type=click.Path(exists=True, file_okay=False, path_type=Path))
+def plot(run_dir: Path) -> None:
+    """Learning curve of a run (returns and a 10-episode mean) to RUN_DIR/learning-curve.png."""
+    import csv
+
+    import numpy as np
+    from matplotlib.figure import Figure
+
+    from pendkit.episode import PALETTE
+
+    with (run_dir / "returns.csv").open() as handle:
+        returns = [float(row["return"]) for row in csv.DictReader(handle)]
+    if not returns:
+        raise click.ClickException(f"no episodes in {run_dir / 'returns.csv'} yet")
+    figure = Figure(figsize=(8, 4), layout="constrained")
+    axis = figure.subplots()
+    axis.plot(returns, color=PALETTE["limit"], lw=0.8, label="episode return")
+    window = min(10, len(returns))
+    mean = np.convolve(returns, np.ones(window) / window, mode="valid")
+    axis.plot(range(window - 1, len(returns)), mean, color=PALETTE["pendulum"], lw=2, label=f"{window}-episode mean")
+    axis.set_xlabel("episode")
+    axis.set_ylabel("return")
+    axis.legend()
+    path = run_dir / "learning-curve.png"
+    alt = f"Learning curve of {len(returns)} episodes; the last {window}-episode mean return is {mean[-1]:.1f}."
+    figure.savefig(path, dpi=100, metadata={"Description": alt})
+    click.echo(f"learning curve: {path}")
