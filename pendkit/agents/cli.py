@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-ALGORITHMS = ("dqn", "r-dqn")
+ALGORITHMS = ("dqn", "r-dqn", "td3", "r-td3")
 FIDELITIES = ("ideal", "paper-delayed", "realistic")
 SOLVED_TAIL_STEPS = 200
 
@@ -25,12 +25,16 @@ def _build(algo: str, fidelity: str, seed: int, max_steps: int):
     import pendkit
     from pendkit.agents.dqn import DqnAgent, DqnConfig
     from pendkit.agents.gru_encoder import GruEncoder
+    from pendkit.agents.td3 import Td3Agent, Td3Config
+    from pendkit.agents.train import step_dim
 
-    env = pendkit.make(fidelity=fidelity, max_episode_steps=max_steps)
-    n_actions = env.action_space.n
-    step_dim = env.observation_space.shape[0] + n_actions
-    encoder = GruEncoder(step_dim, hidden_size=32, seed=seed) if algo == "r-dqn" else None
-    agent = DqnAgent(encoder.output_dim if encoder else step_dim, n_actions, DqnConfig(seed=seed))
+    continuous = algo in ("td3", "r-td3")
+    env = pendkit.make(fidelity=fidelity, max_episode_steps=max_steps,
+                       action_mode="continuous" if continuous else "discrete")
+    encoder = GruEncoder(step_dim(env), hidden_size=32, seed=seed) if algo.startswith("r-") else None
+    input_dim = encoder.output_dim if encoder else step_dim(env)
+    agent = (Td3Agent(input_dim, env.action_space.shape[0], Td3Config(seed=seed)) if continuous
+             else DqnAgent(input_dim, env.action_space.n, DqnConfig(seed=seed)))
     return env, agent, encoder
 
 
@@ -46,14 +50,14 @@ def _build(algo: str, fidelity: str, seed: int, max_steps: int):
 @click.option("--resume", is_flag=True, help="Continue from the run's last checkpoint.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 def train(algo, fidelity, seed, episodes, max_steps, out_dir, checkpoint_every, resume, quiet) -> None:
-    """Train DQN or R-DQN on the twin; checkpoints, a CSV of returns and the resolved config in --out."""
+    """Train DQN, R-DQN, TD3 or R-TD3 on the twin; checkpoints, a CSV of returns, the config in --out."""
     _torch_or_exit()
     from pendkit.agents.train import train_sync
 
     env, agent, encoder = _build(algo, fidelity, seed, max_steps)
     out_dir.mkdir(parents=True, exist_ok=True)
     config = {"algo": algo, "fidelity": fidelity, "seed": seed, "episodes": episodes, "max_steps": max_steps,
-              "dqn": {k: v for k, v in vars(agent.config).items()}}
+              "agent": {k: v for k, v in vars(agent.config).items()}}
     (out_dir / "config.json").write_text(json.dumps(config, indent=2))
     returns = train_sync(env, agent, episodes, encoder, seed=seed, progress=not quiet,
                          csv_path=out_dir / "returns.csv", checkpoint_path=out_dir / "checkpoint.pt",
@@ -75,7 +79,7 @@ def evaluate(run_dir: Path, episodes: int) -> None:
     import numpy as np
     import torch
 
-    from pendkit.agents.train import agent_input
+    from pendkit.agents.train import agent_input, null_action
 
     config = json.loads((run_dir / "config.json").read_text())
     env, agent, encoder = _build(config["algo"], config["fidelity"], config["seed"], config["max_steps"])
@@ -86,11 +90,12 @@ def evaluate(run_dir: Path, episodes: int) -> None:
         observation, info = env.reset(seed=10_000 + episode)
         if encoder is not None:
             encoder.reset()
-        x, done, total, angles = agent_input(observation, 0, env.action_space.n, encoder), False, 0.0, []
+        x = agent_input(observation, null_action(env.action_space), env.action_space, encoder)
+        done, total, angles = False, 0.0, []
         while not done:
             action = agent.act(x, explore=False)
             observation, reward, terminated, truncated, info = env.step(action)
-            x = agent_input(observation, action, env.action_space.n, encoder)
+            x = agent_input(observation, action, env.action_space, encoder)
             total, done = total + reward, terminated or truncated
             angles.append(abs(info["angle_from_upright_rad"]))
         returns.append(total)

@@ -21,13 +21,15 @@ class Batch(NamedTuple):
 class ReplayBuffer:
     """The newest `capacity` transitions; `sample` draws uniformly with its own seeded generator."""
 
-    def __init__(self, capacity: int, observation_dim: int, seed: int = 0) -> None:
+    def __init__(self, capacity: int, observation_dim: int, seed: int = 0, action_dim: int | None = None) -> None:
+        """`action_dim=None`: discrete actions (one int each); otherwise continuous actions of that size."""
         if capacity < 1 or observation_dim < 1:
             raise ConfigError(f"capacity and observation_dim must be >= 1, got {capacity}, {observation_dim}")
         self.capacity = capacity
         self.observations = np.zeros((capacity, observation_dim), dtype=np.float32)
         self.next_observations = np.zeros((capacity, observation_dim), dtype=np.float32)
-        self.actions = np.zeros(capacity, dtype=np.int64)
+        self.actions = (np.zeros(capacity, dtype=np.int64) if action_dim is None
+                        else np.zeros((capacity, action_dim), dtype=np.float32))
         self.rewards = np.zeros(capacity, dtype=np.float32)
         self.dones = np.zeros(capacity, dtype=np.float32)
         self.size = self.position = 0

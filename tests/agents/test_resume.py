@@ -46,10 +46,12 @@ def test_resume_after_kill_9_continues_the_same_run(tmp_path):
     assert [r for _, r in resumed] == pytest.approx([r for _, r in returns_of(straight)], abs=1e-3)
 
 
-def test_eval_and_plot_of_a_run(tmp_path):
+@pytest.mark.parametrize("algo", ["r-dqn", "td3", "r-td3"])
+def test_eval_and_plot_of_a_run(tmp_path, algo):
     run = tmp_path / "run"
-    assert CliRunner().invoke(main, ["train", "--algo", "r-dqn", "--episodes", "3", "--max-steps", "30",
-                                     "--out", str(run), "--quiet"]).exit_code == 0
+    result = CliRunner().invoke(main, ["train", "--algo", algo, "--episodes", "3", "--max-steps", "30",
+                                       "--out", str(run), "--quiet"])
+    assert result.exit_code == 0, result.output
     result = CliRunner().invoke(main, ["eval", str(run), "--episodes", "2"])
     assert result.exit_code == 0 and "solved 0/2" in result.output  # 30-step episodes cannot hold 200 steps
     result = CliRunner().invoke(main, ["plot", str(run)])

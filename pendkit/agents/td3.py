@@ -1,0 +1,108 @@
+"""TD3 (Fujimoto et al. 2018): a deterministic actor, twin critics with the smaller target, target-policy
+smoothing, delayed actor updates and soft target updates. Actions lie in [-1, 1] (the env's continuous
+servo target)."""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+from torch import nn
+
+from pendkit.agents.dqn import mlp
+from pendkit.agents.replay import Batch
+from pendkit.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class Td3Config:
+    hidden: tuple[int, ...] = (64, 64)
+    actor_learning_rate: float = 1e-3
+    critic_learning_rate: float = 1e-3
+    gamma: float = 0.98
+    tau: float = 0.005
+    batch_size: int = 128
+    buffer_capacity: int = 100_000
+    learning_starts: int = 1000
+    exploration_noise: float = 0.1
+    target_noise: float = 0.2
+    target_noise_clip: float = 0.5
+    policy_delay: int = 2
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if not 0 < self.gamma < 1 or not 0 < self.tau <= 1:
+            raise ConfigError(f"gamma must be in (0, 1) and tau in (0, 1], got {self.gamma}, {self.tau}")
+        if self.policy_delay < 1 or min(self.exploration_noise, self.target_noise, self.target_noise_clip) < 0:
+            raise ConfigError("policy_delay must be >= 1 and the noise settings >= 0")
+
+
+class Td3Agent:
+    """`act(observation, explore)` -> action array in [-1, 1]; `update(batch)`; `state_dict()`."""
+
+    def __init__(self, observation_dim: int, action_dim: int, config: Td3Config | None = None) -> None:
+        self.config = config or Td3Config()
+        torch.manual_seed(self.config.seed)
+        self.action_dim = action_dim
+        self.actor = nn.Sequential(mlp(observation_dim, action_dim, self.config.hidden), nn.Tanh())
+        self.critics = nn.ModuleList([mlp(observation_dim + action_dim, 1, self.config.hidden) for _ in range(2)])
+        self.actor_target, self.critics_target = copy.deepcopy(self.actor), copy.deepcopy(self.critics)
+        self.actor_optimizer = torch.optim.Adam(self.actor.parameters(), lr=self.config.actor_learning_rate)
+        self.critic_optimizer = torch.optim.Adam(self.critics.parameters(), lr=self.config.critic_learning_rate)
+        self.rng = np.random.default_rng(self.config.seed)
+        self.steps = self.updates = 0
+
+    def act(self, observation, explore: bool = True) -> np.ndarray:
+        with torch.no_grad():
+            action = self.actor(torch.as_tensor(np.asarray(observation, dtype=np.float32)).unsqueeze(0))[0].numpy()
+        if explore:
+            self.steps += 1
+            action = action + self.rng.normal(0.0, self.config.exploration_noise, self.action_dim)
+        return np.clip(action, -1.0, 1.0).astype(np.float32)
+
+    def _q(self, critics, observations, actions) -> list[torch.Tensor]:
+        joined = torch.cat([observations, actions], dim=1)
+        return [critic(joined).squeeze(1) for critic in critics]
+
+    def update(self, batch: Batch) -> dict[str, float]:
+        c = self.config
+        actions = batch.actions.reshape(len(batch.actions), -1).float()
+        with torch.no_grad():
+            noise = (torch.randn_like(actions) * c.target_noise).clamp(-c.target_noise_clip, c.target_noise_clip)
+            next_actions = (self.actor_target(batch.next_observations) + noise).clamp(-1.0, 1.0)
+            next_q = torch.min(*self._q(self.critics_target, batch.next_observations, next_actions))
+            target = batch.rewards + c.gamma * (1.0 - batch.dones) * next_q
+        q1, q2 = self._q(self.critics, batch.observations, actions)
+        critic_loss = nn.functional.mse_loss(q1, target) + nn.functional.mse_loss(q2, target)
+        self.critic_optimizer.zero_grad()
+        critic_loss.backward()
+        self.critic_optimizer.step()
+        self.updates += 1
+        metrics = {"critic_loss": float(critic_loss.item())}
+        if self.updates % c.policy_delay == 0:  # the actor (and the targets) move half as often
+            actor_loss = -self._q(self.critics[:1], batch.observations, self.actor(batch.observations))[0].mean()
+            self.actor_optimizer.zero_grad()
+            actor_loss.backward()
+            self.actor_optimizer.step()
+            with torch.no_grad():
+                for network, target_network in ((self.actor, self.actor_target), (self.critics, self.critics_target)):
+                    for parameter, target_parameter in zip(network.parameters(), target_network.parameters()):
+                        target_parameter.mul_(1 - c.tau).add_(c.tau * parameter)
+            metrics["actor_loss"] = float(actor_loss.item())
+        if not math.isfinite(metrics["critic_loss"]):
+            raise FloatingPointError("the TD3 critic loss is not finite: lower the learning rates")
+        return metrics
+
+    def state_dict(self) -> dict:
+        return {name: getattr(self, name).state_dict() for name in
+                ("actor", "critics", "actor_target", "critics_target", "actor_optimizer", "critic_optimizer")} | {
+            "steps": self.steps, "updates": self.updates, "rng": self.rng.bit_generator.state}
+
+    def load_state_dict(self, state: dict) -> None:
+        for name in ("actor", "critics", "actor_target", "critics_target", "actor_optimizer", "critic_optimizer"):
+            getattr(self, name).load_state_dict(state[name])
+        self.steps, self.updates = state["steps"], state["updates"]
+        self.rng.bit_generator.state = state["rng"]
