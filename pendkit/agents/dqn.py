@@ -107,6 +107,13 @@ class DqnAgent:
             raise FloatingPointError("the DQN loss is not finite: lower the learning rate")
         return {"loss": value, "q_mean": float(q_taken.mean().item()), "epsilon": self.epsilon}
 
+    def policy_state(self) -> dict:
+        """What an actor needs to act: the Q-network's weights (copied)."""
+        return {name: tensor.clone() for name, tensor in self.q.state_dict().items()}
+
+    def load_policy(self, state: dict) -> None:
+        self.q.load_state_dict(state)
+
     def state_dict(self) -> dict:
         return {"q": self.q.state_dict(), "target": self.target.state_dict(),
                 "optimizer": self.optimizer.state_dict(), "steps": self.steps, "updates": self.updates,

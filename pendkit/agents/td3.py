@@ -96,6 +96,13 @@ class Td3Agent:
             raise FloatingPointError("the TD3 critic loss is not finite: lower the learning rates")
         return metrics
 
+    def policy_state(self) -> dict:
+        """What an actor needs to act: the actor network's weights (copied)."""
+        return {name: tensor.clone() for name, tensor in self.actor.state_dict().items()}
+
+    def load_policy(self, state: dict) -> None:
+        self.actor.load_state_dict(state)
+
     def state_dict(self) -> dict:
         return {name: getattr(self, name).state_dict() for name in
                 ("actor", "critics", "actor_target", "critics_target", "actor_optimizer", "critic_optimizer")} | {

@@ -1,0 +1,132 @@
+"""The paper's non-blocking trainer (Bohm et al. 2022): actors keep the control period while a learner
+thread trains. Actors and learner meet only through bounded queues: transitions one way, version-tagged
+weights the other. An actor never waits for the learner: it takes the newest weights if there are any,
+and if the transition queue is full it drops the transition (counted) rather than block. Several actors
+(rigs, twins) feed one learner's replay buffer.
+"""
+
+from __future__ import annotations
+
+import copy
+import queue
+import sys
+import threading
+import time
+from dataclasses import dataclass, field
+
+from pendkit.agents.replay import ReplayBuffer
+from pendkit.agents.train import agent_input, null_action, step_dim
+
+
+@dataclass
+class AsyncStats:
+    actor_steps: list[int] = field(default_factory=list)
+    episodes: list[list[float]] = field(default_factory=list)  # returns per actor
+    learner_updates: int = 0
+    weights_published: int = 0
+    versions_used: list[set[int]] = field(default_factory=list)
+    dropped_transitions: int = 0
+    learner_wait_s: float = 0.0
+
+
+class AsyncTrainer:
+    """`run(seconds)` with one actor thread per env and a learner thread; `close()` stops them."""
+
+    def __init__(self, agent, envs: list, encoders: list | None = None, buffer: ReplayBuffer | None = None,
+                 transition_queue_size: int = 1000, publish_every: int = 20, seed: int = 0) -> None:
+        self.agent, self.envs = agent, envs
+        self.encoders = encoders or [None] * len(envs)
+        space = envs[0].action_space
+        input_dim = self.encoders[0].output_dim if self.encoders[0] is not None else step_dim(envs[0])
+        continuous = hasattr(space, "shape") and space.shape != ()
+        self.buffer = buffer or ReplayBuffer(agent.config.buffer_capacity, input_dim, seed,
+                                             action_dim=space.shape[0] if continuous else None)
+        self.transitions: queue.Queue = queue.Queue(maxsize=transition_queue_size)
+        self.weights: list[queue.Queue] = [queue.Queue(maxsize=1) for _ in envs]
+        self.publish_every, self.seed = publish_every, seed
+        self.stop = threading.Event()
+        self.stats = AsyncStats(actor_steps=[0] * len(envs), episodes=[[] for _ in envs],
+                                versions_used=[set() for _ in envs])
+        self._threads: list[threading.Thread] = []
+
+    def run(self, seconds: float) -> AsyncStats:
+        # Python hands the interpreter between threads every 5 ms by default: long enough to make an
+        # actor that wakes for its deadline wait behind the learner. 1 ms keeps the actors on time.
+        switch_interval = sys.getswitchinterval()
+        sys.setswitchinterval(0.001)
+        try:
+            return self._run(seconds)
+        finally:
+            sys.setswitchinterval(switch_interval)
+
+    def _run(self, seconds: float) -> AsyncStats:
+        self._threads = [threading.Thread(target=self._learn, daemon=True, name="pendkit-learner")]
+        self._threads += [threading.Thread(target=self._act, args=(k,), daemon=True, name=f"pendkit-actor-{k}")
+                          for k in range(len(self.envs))]
+        for thread in self._threads:
+            thread.start()
+        self.stop.wait(seconds)
+        self.close()
+        return self.stats
+
+    def close(self) -> None:
+        self.stop.set()
+        for thread in self._threads:
+            thread.join(timeout=10)
+
+    # --- the learner: take in transitions, train continuously, publish weights ---
+    def _learn(self) -> None:
+        version = 0
+        while not self.stop.is_set():
+            while not self.transitions.empty():
+                self.buffer.add(*self.transitions.get_nowait())
+            if len(self.buffer) < self.agent.config.learning_starts:
+                waited = time.monotonic()
+                try:  # not enough to learn from yet: wait for transitions
+                    self.buffer.add(*self.transitions.get(timeout=0.05))
+                except queue.Empty:
+                    pass
+                self.stats.learner_wait_s += time.monotonic() - waited
+                continue
+            self.agent.update(self.buffer.sample(self.agent.config.batch_size))
+            self.stats.learner_updates += 1
+            if self.stats.learner_updates % self.publish_every == 0:
+                version += 1
+                policy = self.agent.policy_state()
+                for mailbox in self.weights:  # replace what the actor has not taken yet: newest only
+                    try:
+                        mailbox.get_nowait()
+                    except queue.Empty:
+                        pass
+                    mailbox.put_nowait((version, policy))
+                self.stats.weights_published += 1
+
+    # --- an actor: act at the env's pace, never wait for the learner ---
+    def _act(self, k: int) -> None:
+        env, encoder = self.envs[k], self.encoders[k]
+        actor = copy.deepcopy(self.agent)  # its own policy copy: the learner's updates never race its forward pass
+        version, episode = 0, 0
+        while not self.stop.is_set():
+            observation, _ = env.reset(seed=self.seed + 1000 * k + episode)
+            if encoder is not None:
+                encoder.reset()
+            x = agent_input(observation, null_action(env.action_space), env.action_space, encoder)
+            done, total = False, 0.0
+            while not done and not self.stop.is_set():
+                try:
+                    version, policy = self.weights[k].get_nowait()
+                    actor.load_policy(policy)
+                except queue.Empty:
+                    pass
+                self.stats.versions_used[k].add(version)
+                action = actor.act(x)
+                observation, reward, terminated, truncated, _ = env.step(action)
+                x_next = agent_input(observation, action, env.action_space, encoder)
+                try:
+                    self.transitions.put_nowait((x, action, reward, x_next, terminated))
+                except queue.Full:
+                    self.stats.dropped_transitions += 1
+                x, total, done = x_next, total + reward, terminated or truncated
+                self.stats.actor_steps[k] += 1
+            self.stats.episodes[k].append(total)
+            episode += 1
