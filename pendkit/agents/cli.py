@@ -21,7 +21,7 @@ def _torch_or_exit() -> None:
                                    "of torch first, see the README)") from None
 
 
-def _build(algo: str, fidelity: str, seed: int, max_steps: int):
+def _build(algo: str, fidelity: str, seed: int, max_steps: int, rig: dict | None = None):
     import pendkit
     from pendkit.agents.dqn import DqnAgent, DqnConfig
     from pendkit.agents.gru_encoder import GruEncoder
@@ -29,7 +29,7 @@ def _build(algo: str, fidelity: str, seed: int, max_steps: int):
     from pendkit.agents.train import step_dim
 
     continuous = algo in ("td3", "r-td3")
-    env = pendkit.make(fidelity=fidelity, max_episode_steps=max_steps,
+    env = pendkit.make(fidelity=fidelity, max_episode_steps=max_steps, **(rig or {}),
                        action_mode="continuous" if continuous else "discrete")
     encoder = GruEncoder(step_dim(env), hidden_size=32, seed=seed) if algo.startswith("r-") else None
     input_dim = encoder.output_dim if encoder else step_dim(env)
@@ -48,12 +48,22 @@ def _build(algo: str, fidelity: str, seed: int, max_steps: int):
               show_default=True)
 @click.option("--checkpoint-every", type=click.IntRange(1), default=10, show_default=True, help="Episodes.")
 @click.option("--resume", is_flag=True, help="Continue from the run's last checkpoint.")
+@click.option("--backend", type=click.Choice(("sim", "rig")), default="sim", show_default=True,
+              help="rig: train on a rig over MQTT with the non-blocking trainer (for --seconds).")
+@click.option("--rig", "rig_id", default="r01", show_default=True)
+@click.option("--broker", default=None, help="Broker URL for --backend rig (default mqtt://127.0.0.1:1883).")
+@click.option("--seconds", type=click.FloatRange(1), default=600.0, show_default=True,
+              help="Wall-clock training time with --backend rig.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
-def train(algo, fidelity, seed, episodes, max_steps, out_dir, checkpoint_every, resume, quiet) -> None:
-    """Train DQN, R-DQN, TD3 or R-TD3 on the twin; checkpoints, a CSV of returns, the config in --out."""
+def train(algo, fidelity, seed, episodes, max_steps, out_dir, checkpoint_every, resume, backend, rig_id, broker,
+          seconds, quiet) -> None:
+    """Train DQN, R-DQN, TD3 or R-TD3 on the twin (or a rig); checkpoints, returns and config in --out."""
     _torch_or_exit()
     from pendkit.agents.train import train_sync
 
+    if backend == "rig":
+        _train_on_rig(algo, seed, max_steps, out_dir, rig_id, broker, seconds)
+        return
     env, agent, encoder = _build(algo, fidelity, seed, max_steps)
     out_dir.mkdir(parents=True, exist_ok=True)
     config = {"algo": algo, "fidelity": fidelity, "seed": seed, "episodes": episodes, "max_steps": max_steps,
@@ -68,6 +78,30 @@ def train(algo, fidelity, seed, episodes, max_steps, out_dir, checkpoint_every, 
     save_checkpoint(out_dir / "final.pt", agent, ReplayBuffer(1, 1), len(returns), returns, {"seed": seed})
     click.echo(f"{len(returns)} episodes; last 10 mean return {sum(returns[-10:]) / min(10, len(returns)):.1f}; "
                f"outputs in {out_dir}")
+
+
+def _train_on_rig(algo, seed, max_steps, out_dir, rig_id, broker, seconds) -> None:
+    import csv
+
+    from pendkit.agents.async_trainer import AsyncTrainer
+    from pendkit.agents.checkpoint import save_checkpoint
+
+    env, agent, encoder = _build(algo, "realistic", seed, max_steps, {"backend": "rig", "rig": rig_id,
+                                                                       "broker": broker})
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "config.json").write_text(json.dumps({"algo": algo, "fidelity": "realistic", "backend": "rig",
+                                                     "rig": rig_id, "seed": seed, "max_steps": max_steps}))
+    trainer = AsyncTrainer(agent, [env], [encoder] if encoder else None, seed=seed)
+    stats = trainer.run(seconds)
+    env.close()
+    returns = stats.episodes[0]
+    with (out_dir / "returns.csv").open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["episode", "return"])
+        writer.writerows([k, f"{r:.4f}"] for k, r in enumerate(returns))
+    save_checkpoint(out_dir / "final.pt", agent, trainer.buffer, len(returns), returns, {"seed": seed})
+    click.echo(f"{len(returns)} episodes, {stats.actor_steps[0]} steps, {stats.learner_updates} learner updates, "
+               f"{stats.dropped_transitions} transitions dropped; outputs in {out_dir}")
 
 
 @click.command("eval")

@@ -56,3 +56,17 @@ def test_eval_and_plot_of_a_run(tmp_path, algo):
     assert result.exit_code == 0 and "solved 0/2" in result.output  # 30-step episodes cannot hold 200 steps
     result = CliRunner().invoke(main, ["plot", str(run)])
     assert result.exit_code == 0 and (run / "learning-curve.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_train_on_a_virtual_rig_with_the_non_blocking_trainer(tmp_path):
+    from pendkit.link.virtual_rig import LocalRig
+
+    rig = LocalRig()
+    try:
+        result = CliRunner().invoke(main, ["train", "--backend", "rig", "--broker", rig.url, "--rig", rig.rig,
+                                           "--seconds", "3", "--max-steps", "20", "--out", str(tmp_path / "rig")])
+    finally:
+        rig.stop()
+    assert result.exit_code == 0, result.output
+    assert "learner updates" in result.output and (tmp_path / "rig" / "final.pt").exists()
+    assert len(returns_of(tmp_path / "rig")) >= 1
