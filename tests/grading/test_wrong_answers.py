@@ -53,7 +53,16 @@ CORRECT = {
     "06.period_error_p99_ms": lambda t, nominal: float(np.percentile(np.abs(np.diff(t) - nominal) * 1000, 99)),
     "06.fit_latency": lambda samples: fit_latency(samples),
     "06.predict_angle": lambda theta, rate, d, w0: theta + rate * d + 0.5 * w0**2 * theta * d**2,
+    "07.epsilon": lambda step, start, end, decay: end + (start - end) * max(0.0, 1 - step / decay),
+    "07.td_target": lambda r, done, online, target, gamma, double: td_target(r, done, online, target, gamma, double),
+    "07.huber": lambda e, delta: np.where(np.abs(e) <= delta, 0.5 * e**2, delta * (np.abs(e) - 0.5 * delta)),
 }
+
+
+def td_target(rewards, dones, online_q, target_q, gamma, double, mask_terminal=True):
+    rows = np.arange(len(rewards))
+    future = target_q[rows, online_q.argmax(axis=1)] if double else target_q.max(axis=1)
+    return rewards + gamma * (1 - dones if mask_terminal else 1) * future
 
 
 def fit_latency(samples, subtract_floor=True):
@@ -244,6 +253,11 @@ MISTAKES = [
     ("06.fit_latency", lambda samples: fit_latency(samples, subtract_floor=False), "subtract the floor"),
     ("06.predict_angle", lambda theta, rate, d, w0: theta + rate * d, "left out gravity"),
     ("06.predict_angle", lambda theta, rate, d, w0: theta + rate * d - 0.5 * w0**2 * theta * d**2, "not minus"),
+    ("07.epsilon", lambda step, start, end, decay: start + (end - start) * step / decay, "stop at the end value"),
+    ("07.td_target", lambda r, done, on, tq, g, double: td_target(r, done, on, tq, g, False), "plain max"),
+    ("07.td_target", lambda r, done, on, tq, g, double: td_target(r, done, on, tq, g, double, False), "no future"),
+    ("07.huber", lambda e, delta: 0.5 * np.asarray(e) ** 2, "grows linearly"),
+    ("07.huber", lambda e, delta: np.where(np.abs(e) <= delta, 0.5 * e**2, np.abs(e)), "subtract 0.5 delta"),
 ]
 
 

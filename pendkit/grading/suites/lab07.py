@@ -1,0 +1,64 @@
+"""Lab 07, DQN on the twin: public tests."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pendkit.grading.core import Failed, as_number, expect, task
+
+schedule = task("07.epsilon", function="epsilon", title="The exploration schedule")
+target = task("07.td_target", function="td_target", title="The (double) DQN target")
+huber = task("07.huber", function="huber", title="The Huber loss")
+
+
+@schedule.test(points=2, hint="Linear from start to end over decay_steps, then constant at end.")
+def linear_then_flat(fn, rng):
+    for step, expected in [(0, 1.0), (500, 0.525), (1000, 0.05), (5000, 0.05)]:
+        got = as_number(fn(step, 1.0, 0.05, 1000), f"epsilon({step}, 1.0, 0.05, 1000)")
+        message = f"epsilon({step}, 1.0, 0.05, 1000) should be {expected}, got {got:.4f}"
+        if step == 5000 and got < 0.05:
+            message += ": stop at the end value; do not keep decreasing"
+        expect(abs(got - expected) < 1e-9, message)
+
+
+def _arrays(got, name, n):
+    try:
+        array = np.asarray(got, dtype=float)
+    except (TypeError, ValueError):
+        raise Failed(f"{name} should return an array of numbers") from None
+    expect(array.shape == (n,), f"{name} should return {n} values, got shape {array.shape}")
+    return array
+
+
+@target.test(points=3, hint="Double DQN: the online network picks the next action, the target network "
+                            "values it; no bootstrap after a terminal step.")
+def double_and_plain_targets(fn, rng):
+    rewards = np.array([1.0, -1.0, 0.5])
+    dones = np.array([0.0, 1.0, 0.0])
+    online = np.array([[1.0, 3.0], [2.0, 0.0], [0.0, 1.0]])
+    target_q = np.array([[5.0, 4.0], [9.0, 9.0], [2.0, 7.0]])
+    gamma = 0.9
+    plain = rewards + gamma * (1 - dones) * target_q.max(axis=1)
+    double = rewards + gamma * (1 - dones) * target_q[np.arange(3), online.argmax(axis=1)]
+    got_double = _arrays(fn(rewards, dones, online, target_q, gamma, True), "td_target(..., double=True)", 3)
+    got_plain = _arrays(fn(rewards, dones, online, target_q, gamma, False), "td_target(..., double=False)", 3)
+    message = f"double targets should be {double.tolist()}, got {got_double.tolist()}"
+    if np.allclose(got_double, plain):
+        message += ": that is the plain max; let the online network choose the action"
+    elif np.allclose(got_double, rewards + gamma * target_q[np.arange(3), online.argmax(axis=1)]):
+        message += ": a terminal step has no future: multiply by (1 - done)"
+    expect(np.allclose(got_double, double), message)
+    expect(np.allclose(got_plain, plain), f"plain targets should be {plain.tolist()}, got {got_plain.tolist()}")
+
+
+@huber.test(points=2, hint="0.5 e^2 where |e| <= delta, delta (|e| - 0.5 delta) beyond.")
+def quadratic_then_linear(fn, rng):
+    errors = np.array([0.0, 0.5, -1.0, 2.0, -3.0])
+    expected = np.where(np.abs(errors) <= 1.0, 0.5 * errors**2, np.abs(errors) - 0.5)
+    got = _arrays(fn(errors, 1.0), "huber(errors, 1.0)", 5)
+    message = f"huber({errors.tolist()}, 1.0) should be {expected.tolist()}, got {got.tolist()}"
+    if np.allclose(got, 0.5 * errors**2):
+        message += ": beyond delta the loss grows linearly (that is what makes it robust)"
+    elif np.allclose(got, np.where(np.abs(errors) <= 1.0, 0.5 * errors**2, np.abs(errors))):
+        message += ": subtract 0.5 delta in the linear part, so the two pieces meet"
+    expect(np.allclose(got, expected), message)

@@ -1,0 +1,28 @@
+"""Hidden tests for lab 07 (instructor material: never copied into labs/)."""
+
+import numpy as np
+import torch
+
+from pendkit.grading import expect, task
+
+schedule = task("07.epsilon", function="epsilon", title="The exploration schedule")
+huber = task("07.huber", function="huber", title="The Huber loss")
+
+
+@schedule.test(points=1, hidden=True, hint="It must agree with pendkit's DQN schedule.")
+def matches_the_kit(fn, rng):
+    from pendkit.agents.dqn import DqnAgent, DqnConfig
+
+    agent = DqnAgent(2, 2, DqnConfig(epsilon_start=0.8, epsilon_end=0.1, epsilon_decay_steps=300))
+    for step in (0, 150, 299, 300, 1000):
+        agent.steps = step
+        expect(abs(fn(step, 0.8, 0.1, 300) - agent.epsilon) < 1e-9, f"epsilon at step {step} differs")
+
+
+@huber.test(points=1, hidden=True, hint="Any delta; it must agree with torch's huber_loss.")
+def matches_torch(fn, rng):
+    errors = rng.normal(0, 3, 50)
+    for delta in (0.5, 2.0):
+        expected = torch.nn.functional.huber_loss(torch.tensor(errors), torch.zeros(50), reduction="none",
+                                                  delta=delta).numpy()
+        expect(np.allclose(np.asarray(fn(errors, delta), dtype=float), expected), f"wrong for delta={delta}")
