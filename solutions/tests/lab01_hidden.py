@@ -37,7 +37,8 @@ def whole_range(fn, rng):
     for raw, offset in rng.integers(0, 1024, (200, 2)).tolist():
         got = fn(raw, offset)
         expect(0 <= got < 2 * math.pi, f"counts_to_angle({raw}, {offset}) = {got!r} is outside [0, 2 pi)")
-        expect(abs(got - float(encoder.counts_to_rad(raw, offset))) < 1e-9, f"counts_to_angle({raw}, {offset}) is wrong")
+        expect(abs(got - float(encoder.counts_to_rad(raw, offset))) < 1e-9,
+               f"counts_to_angle({raw}, {offset}) is wrong")
 
 
 @wrap.test(points=1, hidden=True, hint="Any step shorter than half a turn must come back exactly.")

@@ -56,7 +56,19 @@ CORRECT = {
     "07.epsilon": lambda step, start, end, decay: end + (start - end) * max(0.0, 1 - step / decay),
     "07.td_target": lambda r, done, online, target, gamma, double: td_target(r, done, online, target, gamma, double),
     "07.huber": lambda e, delta: np.where(np.abs(e) <= delta, 0.5 * e**2, delta * (np.abs(e) - 0.5 * delta)),
+    "08.delayed_view": lambda obs, k: np.asarray(obs)[np.maximum(0, np.arange(len(obs)) - k)],
+    "08.gru_step": lambda x, h, w_ih, w_hh, b_ih, b_hh: gru_step(x, h, w_ih, w_hh, b_ih, b_hh),
+    "08.breaking_delay": lambda d, p, r, t=0.5: next((a for a, b, c in zip(d, p, r) if b < t <= c), None),
 }
+
+
+def gru_step(x, h, w_ih, w_hh, b_ih, b_hh, swap_update=False):
+    size = len(h)
+    gi, gh = w_ih @ x + b_ih, w_hh @ h + b_hh
+    reset = 1 / (1 + np.exp(-(gi[:size] + gh[:size])))
+    update = 1 / (1 + np.exp(-(gi[size:2 * size] + gh[size:2 * size])))
+    new = np.tanh(gi[2 * size:] + reset * gh[2 * size:])
+    return update * new + (1 - update) * h if swap_update else (1 - update) * new + update * h
 
 
 def td_target(rewards, dones, online_q, target_q, gamma, double, mask_terminal=True):
@@ -258,6 +270,10 @@ MISTAKES = [
     ("07.td_target", lambda r, done, on, tq, g, double: td_target(r, done, on, tq, g, double, False), "no future"),
     ("07.huber", lambda e, delta: 0.5 * np.asarray(e) ** 2, "grows linearly"),
     ("07.huber", lambda e, delta: np.where(np.abs(e) <= delta, 0.5 * e**2, np.abs(e)), "subtract 0.5 delta"),
+    ("08.delayed_view", lambda obs, k: np.roll(obs, k, axis=0), "np.roll"),
+    ("08.delayed_view", lambda obs, k: np.asarray(obs), "nothing is delayed"),
+    ("08.gru_step", lambda x, h, a, b, c, d: gru_step(x, h, a, b, c, d, swap_update=True), "swapped"),
+    ("08.breaking_delay", lambda d, p, r, t=0.5: d[int(np.argmin(p))], "first breaks"),
 ]
 
 

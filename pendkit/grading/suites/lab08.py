@@ -1,0 +1,79 @@
+"""Lab 08, delays and the GRU encoder: public tests."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pendkit.grading.core import Failed, expect, task
+
+delayed = task("08.delayed_view", function="delayed_view", title="What a delayed agent sees")
+gru = task("08.gru_step", function="gru_step", title="One step of a GRU cell")
+contrast = task("08.breaking_delay", function="breaking_delay", title="Where plain DQN breaks")
+
+
+def _array(got, name, shape):
+    try:
+        array = np.asarray(got, dtype=float)
+    except (TypeError, ValueError):
+        raise Failed(f"{name} should return an array of numbers") from None
+    expect(array.shape == shape, f"{name} should return shape {shape}, got {array.shape}")
+    return array
+
+
+@delayed.test(points=2, hint="Row t is observation max(0, t - delay): the first rows repeat the first one.")
+def shifted_and_padded(fn, rng):
+    observations = np.arange(12, dtype=float).reshape(6, 2)
+    expected = observations[np.maximum(0, np.arange(6) - 2)]
+    got = _array(fn(observations.copy(), 2), "delayed_view(observations, 2)", (6, 2))
+    message = f"delayed_view(..., 2) should be {expected.tolist()}, got {got.tolist()}"
+    if np.allclose(got, np.roll(observations, 2, axis=0)):
+        message += ": np.roll wraps the last rows round to the start; the agent cannot see the future"
+    elif np.allclose(got, observations):
+        message += ": nothing is delayed"
+    expect(np.allclose(got, expected), message)
+    same = _array(fn(observations.copy(), 0), "delayed_view(observations, 0)", (6, 2))
+    expect(np.allclose(same, observations), "a delay of 0 should return the observations unchanged")
+
+
+def reference_gru_step(x, h, w_ih, w_hh, b_ih, b_hh):
+    """PyTorch's GRUCell, gates stacked (reset, update, new)."""
+    gi, gh = w_ih @ x + b_ih, w_hh @ h + b_hh
+    size = len(h)
+    sigmoid = lambda v: 1 / (1 + np.exp(-v))  # noqa: E731
+    reset = sigmoid(gi[:size] + gh[:size])
+    update = sigmoid(gi[size:2 * size] + gh[size:2 * size])
+    new = np.tanh(gi[2 * size:] + reset * gh[2 * size:])
+    return (1 - update) * new + update * h
+
+
+@gru.test(points=3, hint="Gates stacked (reset, update, new); h' = (1 - z) n + z h; the reset gate scales "
+                         "W_hn h + b_hn.")
+def matches_the_equations(fn, rng):
+    inputs, size = 3, 4
+    x, h = rng.normal(size=inputs), rng.normal(size=size)
+    w_ih, w_hh = rng.normal(size=(3 * size, inputs)), rng.normal(size=(3 * size, size))
+    b_ih, b_hh = rng.normal(size=3 * size), rng.normal(size=3 * size)
+    expected = reference_gru_step(x, h, w_ih, w_hh, b_ih, b_hh)
+    got = _array(fn(x, h, w_ih, w_hh, b_ih, b_hh), "gru_step(...)", (size,))
+    message = f"gru_step should give {np.round(expected, 4).tolist()}, got {np.round(got, 4).tolist()}"
+    update = 1 / (1 + np.exp(-(w_ih @ x + b_ih + w_hh @ h + b_hh)[size:2 * size]))
+    new_from_expected = (expected - update * h) / (1 - update)
+    if np.allclose(got, update * new_from_expected + (1 - update) * h):
+        message += ": z and (1 - z) are swapped; z keeps the old state"
+    expect(np.allclose(got, expected, atol=1e-9), message)
+
+
+@contrast.test(points=2, hint="The first delay (in the given order) where plain < threshold <= recurrent; "
+                              "None if there is none.")
+def first_contrast(fn, rng):
+    delays = [0, 30, 60, 90, 120]
+    plain = [1.0, 0.9, 0.4, 0.0, 0.1]
+    recurrent = [1.0, 0.9, 0.8, 0.3, 0.1]
+    got = fn(delays, plain, recurrent, 0.5)
+    message = f"with plain {plain} and recurrent {recurrent}, expected 60, got {got!r}"
+    if got == 90:
+        message += ": that is where plain is worst; the question is where it first breaks"
+    expect(got == 60, message)
+    expect(fn(delays, plain, [0.2] * 5, 0.5) is None,
+           "when the recurrent agent also fails, there is no contrast: return None")
+    expect(fn(delays, [1.0] * 5, recurrent, 0.5) is None, "when plain DQN never breaks, return None")
