@@ -10,10 +10,7 @@ with the learner training flat out (DQN, batch 128, 256x256 MLP). Goal: p99 with
 from __future__ import annotations
 
 import argparse
-import subprocess
-import sys
 import tempfile
-import time
 
 import numpy as np
 
@@ -22,6 +19,7 @@ from pendkit.agents.async_trainer import AsyncTrainer
 from pendkit.agents.dqn import DqnAgent, DqnConfig
 from pendkit.agents.train import step_dim
 from pendkit.link.broker import MosquittoBroker
+from pendkit.link.virtual_rig import virtual_rig_process
 
 
 def phase(env, learning_starts: int, seconds: float) -> tuple[np.ndarray, object]:
@@ -38,22 +36,16 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=30.0, help="length of each phase")
     args = parser.parse_args()
-    with tempfile.TemporaryDirectory() as work, MosquittoBroker(work) as broker:
-        rig = subprocess.Popen([sys.executable, "-m", "pendkit.cli", "virtual-rig", "--rig", "r01", "--broker",
-                                broker.url], stdout=subprocess.DEVNULL)
-        try:
-            time.sleep(1.5)
-            env = pendkit.make(backend="rig", rig="r01", broker=broker.url, max_episode_steps=200,
-                               rig_options={"reset_stop_s": 0.5})
-            env.reset(seed=0)  # warm up: the first connection and reset are not what either phase measures
-            for _ in range(20):
-                env.step(2)
-            idle_ms, idle = phase(env, learning_starts=10**9, seconds=args.seconds)
-            training_ms, training = phase(env, learning_starts=64, seconds=args.seconds)
-            env.close()
-        finally:
-            rig.terminate()
-            rig.wait(timeout=10)
+    with tempfile.TemporaryDirectory() as work, MosquittoBroker(work) as broker, \
+            virtual_rig_process(broker.url, "r01"):
+        env = pendkit.make(backend="rig", rig="r01", broker=broker.url, max_episode_steps=200,
+                           rig_options={"reset_stop_s": 0.5})
+        env.reset(seed=0)  # warm up: the first connection and reset are not what either phase measures
+        for _ in range(20):
+            env.step(2)
+        idle_ms, idle = phase(env, learning_starts=10**9, seconds=args.seconds)
+        training_ms, training = phase(env, learning_starts=64, seconds=args.seconds)
+        env.close()
     for name, errors, stats in (("idle", idle_ms, idle), ("training", training_ms, training)):
         print(f"learner={name} actor_steps={stats.actor_steps[0]} learner_updates={stats.learner_updates} "
               f"weights_published={stats.weights_published} dropped_transitions={stats.dropped_transitions} "

@@ -8,11 +8,14 @@ credentials, so a class without hardware, and the tests, use exactly the real pa
 
 from __future__ import annotations
 
+import contextlib
 import heapq
 import json
 import logging
 import math
 import queue
+import subprocess
+import sys
 import threading
 import time
 from dataclasses import dataclass
@@ -293,3 +296,17 @@ class LocalRig:
         time.sleep(seconds)
         link.close()
         return np.array(samples)
+
+
+@contextlib.contextmanager
+def virtual_rig_process(broker_url: str, rig: str = "r01", settle_s: float = 1.5):
+    """A virtual rig in its own process (`pendkit virtual-rig`), as a real rig is its own device; stopped
+    on exit. Waits `settle_s` for it to connect and publish its status."""
+    process = subprocess.Popen([sys.executable, "-m", "pendkit.cli", "virtual-rig", "--rig", rig, "--broker",
+                                broker_url], stdout=subprocess.DEVNULL)
+    try:
+        time.sleep(settle_s)
+        yield process
+    finally:
+        process.terminate()
+        process.wait(timeout=10)
