@@ -1,18 +1,29 @@
 """Learning on the twin: {DQN, R-DQN, TD3, R-TD3} x {ideal, paper-delayed, realistic}, several seeds, with
-Stable-Baselines3's DQN on the same env as the peer (SB3 is a benchmark dependency only).
+Stable-Baselines3's DQN on the same env as the peer (SB3 is a benchmark dependency only), and a delay sweep.
 
 Solved: a greedy episode from the hanging start (start="rest", 500 steps) holds |theta| < 0.3 rad for its
-last 200 steps. Checked every 10 training episodes, up to --max-episodes. One line per row:
-`algo=<a> fidelity=<f> solved=<k>/<n> median_episodes_to_solve=<e> median_wall_s=<s>`.
+last 200 steps. Checked every 10 training episodes, up to --max-episodes or --max-wall-s of training. One
+line per row: `algo=<a> fidelity=<f> solved=<k>/<n> median_episodes_to_solve=<e> median_wall_s=<s>`.
+
+The SB3 peer gets our DQN's settings (network, learning rate, gamma, batch, buffer, target period, epsilon
+schedule, one update per step), so the wall-time ratio compares implementations, not tuning.
+
+The delay sweep (--sweep-delay-ms) runs the realistic MCU pipeline (estimated velocities, quantised encoder)
+with a fixed observation latency and instant commands, for DQN and R-DQN; its last lines say, per algo, the
+largest delay solved by at least half of the seeds.
 
     python benchmarks/bench_learning.py --quick          # one seed of DQN on ideal
-    python benchmarks/bench_learning.py --seeds 10 --sb3
+    python benchmarks/bench_learning.py --seeds 10 --sb3 --jobs 2
+    python benchmarks/bench_learning.py --sweep-delay-ms 0 50 100 150 --algos dqn r-dqn --jobs 2
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from concurrent.futures import ProcessPoolExecutor
+from multiprocessing import get_context
 
 import numpy as np
 
@@ -22,9 +33,11 @@ from pendkit.agents.gru_encoder import GruEncoder
 from pendkit.agents.replay import ReplayBuffer
 from pendkit.agents.td3 import Td3Agent, Td3Config
 from pendkit.agents.train import agent_input, null_action, step_dim, train_sync
+from pendkit.sim.fidelity import Fidelity, observation_delay_fidelity
 
 CHECK_EVERY = 10
 TAIL_STEPS = 200
+EPISODE_STEPS = 500
 
 
 def solved(env, policy) -> bool:
@@ -45,7 +58,11 @@ def greedy(agent, encoder, action_space):
     return lambda observation, last: agent.act(agent_input(observation, last, action_space, encoder), explore=False)
 
 
-def run_one(algo: str, fidelity: str, seed: int, max_episodes: int) -> tuple[int | None, float]:
+def run_one(algo: str, fidelity: str | Fidelity, seed: int, max_episodes: int,
+            max_wall_s: float) -> tuple[int | None, float]:
+    """Episodes and seconds until solved, or (None, seconds spent)."""
+    if algo == "sb3-dqn":
+        return run_sb3(fidelity, seed, max_episodes, max_wall_s)
     continuous = algo in ("td3", "r-td3")
     mode = "continuous" if continuous else "discrete"
     env = pendkit.make(fidelity=fidelity, action_mode=mode)
@@ -59,29 +76,90 @@ def run_one(algo: str, fidelity: str, seed: int, max_episodes: int) -> tuple[int
         train_sync(env, agent, done_episodes, encoder, buffer, seed=seed + done_episodes, progress=False)
         if solved(probe, greedy(agent, encoder, probe.action_space)):
             return done_episodes, time.perf_counter() - started
+        if time.perf_counter() - started > max_wall_s:
+            break
     return None, time.perf_counter() - started
 
 
-def run_sb3(fidelity: str, seed: int, max_episodes: int) -> tuple[int | None, float]:
+def run_sb3(fidelity: str | Fidelity, seed: int, max_episodes: int, max_wall_s: float) -> tuple[int | None, float]:
     from stable_baselines3 import DQN
+    from stable_baselines3.common.callbacks import BaseCallback
 
-    env = pendkit.make(fidelity=fidelity)
-    probe = pendkit.make(fidelity=fidelity)
-    model = DQN("MlpPolicy", env, seed=seed, learning_starts=500, policy_kwargs={"net_arch": [64, 64]}, verbose=0)
+    ours = DqnConfig()
+    total_steps = max_episodes * EPISODE_STEPS
+    env, probe = pendkit.make(fidelity=fidelity), pendkit.make(fidelity=fidelity)
+    model = DQN("MlpPolicy", env, seed=seed, learning_rate=ours.learning_rate, gamma=ours.gamma,
+                batch_size=ours.batch_size, buffer_size=ours.buffer_capacity, learning_starts=ours.learning_starts,
+                target_update_interval=ours.target_update_every, train_freq=1, gradient_steps=1,
+                exploration_initial_eps=ours.epsilon_start, exploration_final_eps=ours.epsilon_end,
+                exploration_fraction=ours.epsilon_decay_steps / total_steps,
+                policy_kwargs={"net_arch": list(ours.hidden)}, device="cpu", verbose=0)
+    outcome: dict[str, int] = {}
     started = time.perf_counter()
-    for done_episodes in range(CHECK_EVERY, max_episodes + 1, CHECK_EVERY):
-        model.learn(CHECK_EVERY * 500, reset_num_timesteps=False)
-        if solved(probe, lambda observation, last: int(model.predict(observation, deterministic=True)[0])):
-            return done_episodes, time.perf_counter() - started
-    return None, time.perf_counter() - started
+
+    class SolvedCheck(BaseCallback):
+        episodes = 0
+
+        def _on_step(self) -> bool:
+            self.episodes += int(self.locals["dones"].sum())
+            if not self.locals["dones"].any() or self.episodes % CHECK_EVERY:
+                return True
+            if solved(probe, lambda observation, last: int(model.predict(observation, deterministic=True)[0])):
+                outcome["episodes"] = self.episodes
+                return False
+            return time.perf_counter() - started <= max_wall_s and self.episodes < max_episodes
+
+    model.learn(total_steps, callback=SolvedCheck())
+    return outcome.get("episodes"), time.perf_counter() - started
 
 
-def report(algo: str, fidelity: str, results: list[tuple[int | None, float]]) -> None:
+def _one_thread() -> None:
+    import torch
+
+    torch.set_num_threads(1)  # one process per core beats threads fighting over two cores
+
+
+def _print_run(algo: str, fidelity: str | Fidelity, seed: int, result: tuple[int | None, float]) -> None:
+    name = fidelity.name if isinstance(fidelity, Fidelity) else fidelity
+    print(f"  run algo={algo} fidelity={name} seed={seed} episodes={result[0]} wall_s={result[1]:.0f}",
+          file=sys.stderr, flush=True)
+
+
+def run_rows(rows: list[tuple[str, str | Fidelity]], seeds: int, max_episodes: int, max_wall_s: float,
+             jobs: int) -> list[list[tuple[int | None, float]]]:
+    """Each row's results, seed by seed; a row's line is printed as soon as its last seed is done."""
+    work = [(algo, fidelity, seed, max_episodes, max_wall_s) for algo, fidelity in rows for seed in range(seeds)]
+    pool = (ProcessPoolExecutor(jobs, mp_context=get_context("spawn"), initializer=_one_thread)
+            if jobs > 1 else None)
+    try:
+        futures = [pool.submit(run_one, *args) for args in work] if pool else None
+        flat: list[tuple[int | None, float]] = []
+        for index, args in enumerate(work):
+            flat.append(futures[index].result() if futures else run_one(*args))
+            _print_run(args[0], args[1], args[2], flat[-1])
+            if len(flat) % seeds == 0:
+                report(args[0], args[1], flat[-seeds:])
+    finally:
+        if pool is not None:
+            pool.shutdown(cancel_futures=True)
+    return [flat[i * seeds:(i + 1) * seeds] for i in range(len(rows))]
+
+
+def report(algo: str, fidelity: str | Fidelity, results: list[tuple[int | None, float]]) -> None:
+    name = fidelity.name if isinstance(fidelity, Fidelity) else fidelity
     solved_runs = [(e, s) for e, s in results if e is not None]
     episodes = f"{np.median([e for e, _ in solved_runs]):.0f}" if solved_runs else "nan"
     wall = f"{np.median([s for _, s in solved_runs]):.0f}" if solved_runs else "nan"
-    print(f"algo={algo} fidelity={fidelity} solved={len(solved_runs)}/{len(results)} "
+    print(f"algo={algo} fidelity={name} solved={len(solved_runs)}/{len(results)} "
           f"median_episodes_to_solve={episodes} median_wall_s={wall}", flush=True)
+
+
+def sweep_summary(algo: str, delays_ms: list[float], results: list[list[tuple[int | None, float]]]) -> None:
+    rates = [sum(e is not None for e, _ in row) / len(row) for row in results]
+    holding = [delay for delay, rate in zip(delays_ms, rates) if rate >= 0.5]
+    rate_text = " ".join(f"{delay:g}ms={rate:.2f}" for delay, rate in zip(delays_ms, rates))
+    print(f"sweep algo={algo} success_rate: {rate_text} largest_delay_solved_ms={max(holding, default=float('nan')):g}",
+          flush=True)
 
 
 def main() -> None:
@@ -89,17 +167,26 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="one seed of DQN on ideal")
     parser.add_argument("--seeds", type=int, default=3)
     parser.add_argument("--max-episodes", type=int, default=200)
+    parser.add_argument("--max-wall-s", type=float, default=600.0, help="training time per run before giving up")
     parser.add_argument("--algos", nargs="+", default=["dqn", "r-dqn", "td3", "r-td3"])
     parser.add_argument("--fidelities", nargs="+", default=["ideal", "paper-delayed", "realistic"])
-    parser.add_argument("--sb3", action="store_true", help="also Stable-Baselines3 DQN (pip install stable-baselines3)")
+    parser.add_argument("--sb3", action="store_true", help="also Stable-Baselines3 DQN (pip install '.[bench]')")
+    parser.add_argument("--sweep-delay-ms", nargs="+", type=float, default=None,
+                        help="instead of the fidelities: observation delays on the realistic pipeline")
+    parser.add_argument("--jobs", type=int, default=1, help="runs in parallel, one process and thread each")
     args = parser.parse_args()
     if args.quick:
         args.seeds, args.algos, args.fidelities, args.sb3 = 1, ["dqn"], ["ideal"], False
-    for fidelity in args.fidelities:
-        for algo in args.algos:
-            report(algo, fidelity, [run_one(algo, fidelity, seed, args.max_episodes) for seed in range(args.seeds)])
-        if args.sb3:
-            report("sb3-dqn", fidelity, [run_sb3(fidelity, seed, args.max_episodes) for seed in range(args.seeds)])
+    if args.sweep_delay_ms is not None:
+        fidelities = [observation_delay_fidelity(delay) for delay in args.sweep_delay_ms]
+    else:
+        fidelities = args.fidelities
+    algos = args.algos + (["sb3-dqn"] if args.sb3 else [])
+    rows = [(algo, fidelity) for fidelity in fidelities for algo in algos]
+    results = run_rows(rows, args.seeds, args.max_episodes, args.max_wall_s, args.jobs)
+    if args.sweep_delay_ms is not None:
+        for algo in algos:
+            sweep_summary(algo, args.sweep_delay_ms, [r for (a, _), r in zip(rows, results) if a == algo])
 
 
 if __name__ == "__main__":

@@ -180,7 +180,7 @@ class SimBackend:
                 self._log.write(self._newest[0] / 1000, "rx", TWIN_OBS_TOPIC, format_observation_v1(self._newest[1]))
 
     def _in_flight_append(self, now_ms: float, observation: McuObservation) -> None:
-        delivery = max(now_ms + self.fidelity.latency.sample_ms(self._rng), self._last_delivery_ms)
+        delivery = max(now_ms + self.fidelity.observation_latency_model.sample_ms(self._rng), self._last_delivery_ms)
         self._last_delivery_ms = delivery  # TCP keeps order: no overtaking
         self._in_flight.append((delivery, observation))
 

@@ -20,6 +20,7 @@ class Fidelity:
         estimated velocities, PWM frames, safety stops) instead of reading the true state.
     encoder_mount_offset_counts: raw encoder reading when the pendulum hangs (calibrated away by the MCU).
     latency: one-way network latency, both directions (only with `mcu_pipeline`).
+    observation_latency: latency of observations only, replacing `latency` on that path (None: `latency`).
     """
 
     name: str
@@ -28,6 +29,7 @@ class Fidelity:
     mcu_pipeline: bool = False
     encoder_mount_offset_counts: int = 0
     latency: LatencyModel = NO_LATENCY
+    observation_latency: LatencyModel | None = None
 
     def __post_init__(self) -> None:
         if self.substeps_per_step is not None and self.substeps_per_step < 1:
@@ -37,9 +39,15 @@ class Fidelity:
                               f"{self.post_observation_substeps_max}")
         if not self.mcu_pipeline and not self.latency.is_zero:
             raise ConfigError("latency needs mcu_pipeline=True (latency applies to MQTT messages)")
+        if not self.mcu_pipeline and self.observation_latency is not None and not self.observation_latency.is_zero:
+            raise ConfigError("observation_latency needs mcu_pipeline=True (latency applies to MQTT messages)")
 
     def replace(self, **changes) -> Fidelity:
         return dataclasses.replace(self, **changes)
+
+    @property
+    def observation_latency_model(self) -> LatencyModel:
+        return self.latency if self.observation_latency is None else self.observation_latency
 
 
 FIDELITY_PRESETS: dict[str, Fidelity] = {
@@ -51,6 +59,13 @@ FIDELITY_PRESETS: dict[str, Fidelity] = {
     "realistic": Fidelity("realistic", mcu_pipeline=True, encoder_mount_offset_counts=317,
                           latency=CLASSROOM_WIFI),
 }
+
+
+def observation_delay_fidelity(delay_ms: float) -> Fidelity:
+    """The realistic MCU pipeline with a fixed observation latency of `delay_ms` and instant commands: one
+    knob for delay sweeps (the velocities are still the firmware's estimates)."""
+    return FIDELITY_PRESETS["realistic"].replace(
+        name=f"obs-delay-{delay_ms:g}ms", latency=NO_LATENCY, observation_latency=LatencyModel(floor_ms=delay_ms))
 
 
 def resolve_fidelity(fidelity: str | Fidelity) -> Fidelity:

@@ -52,3 +52,24 @@ def test_bad_settings():
         LatencyModel(median_ms=-1)
     with pytest.raises(ConfigError, match="mcu_pipeline"):
         Fidelity("x", latency=CLASSROOM_WIFI)
+
+
+def test_observation_delay_ages_observations_and_leaves_commands_instant():
+    import pendkit
+    from pendkit.sim.fidelity import observation_delay_fidelity
+
+    slow_lag, fast_lag = staleness_s(observation_delay_fidelity(100)), staleness_s(observation_delay_fidelity(0))
+    assert slow_lag.min() >= 0.100 - 1e-9
+    assert slow_lag.mean() == pytest.approx(fast_lag.mean() + 0.100, abs=0.0125)  # within half a 25 ms stream period
+    true_paths = []
+    for delay_ms in (0, 100):
+        env = pendkit.make(fidelity=observation_delay_fidelity(delay_ms))
+        env.reset(seed=3, options={"start": "rest"})
+        true_paths.append([env.step(step % 5)[4]["true_state"]["arm_angle_rad"] for step in range(20)])
+    assert np.abs(true_paths[0]).max() > 0.05  # the arm did move
+    assert true_paths[0] == true_paths[1]  # the delay is on the way back only: same physics
+
+
+def test_observation_latency_needs_the_mcu_pipeline():
+    with pytest.raises(ConfigError, match="observation_latency"):
+        Fidelity("x", observation_latency=LatencyModel(floor_ms=5))
