@@ -73,7 +73,7 @@ def run_one(algo: str, fidelity: str | Fidelity, seed: int, max_episodes: int,
     buffer = ReplayBuffer(agent.config.buffer_capacity, dim, seed, action_dim=1 if continuous else None)
     started = time.perf_counter()
     for done_episodes in range(CHECK_EVERY, max_episodes + 1, CHECK_EVERY):
-        train_sync(env, agent, done_episodes, encoder, buffer, seed=seed + done_episodes, progress=False)
+        train_sync(env, agent, CHECK_EVERY, encoder, buffer, seed=seed + done_episodes, progress=False)
         if solved(probe, greedy(agent, encoder, probe.action_space)):
             return done_episodes, time.perf_counter() - started
         if time.perf_counter() - started > max_wall_s:
