@@ -12,7 +12,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from pendkit.agents.dqn import mlp
+from pendkit.agents.dqn import adam, mlp
 from pendkit.agents.replay import Batch
 from pendkit.errors import ConfigError
 
@@ -50,8 +50,8 @@ class Td3Agent:
         self.actor = nn.Sequential(mlp(observation_dim, action_dim, self.config.hidden), nn.Tanh())
         self.critics = nn.ModuleList([mlp(observation_dim + action_dim, 1, self.config.hidden) for _ in range(2)])
         self.actor_target, self.critics_target = copy.deepcopy(self.actor), copy.deepcopy(self.critics)
-        self.actor_optimizer = torch.optim.Adam(self.actor.parameters(), lr=self.config.actor_learning_rate)
-        self.critic_optimizer = torch.optim.Adam(self.critics.parameters(), lr=self.config.critic_learning_rate)
+        self.actor_optimizer = adam(self.actor.parameters(), self.config.actor_learning_rate)
+        self.critic_optimizer = adam(self.critics.parameters(), self.config.critic_learning_rate)
         self.rng = np.random.default_rng(self.config.seed)
         self.steps = self.updates = 0
 
