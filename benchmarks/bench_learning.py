@@ -8,12 +8,15 @@ line per row: `algo=<a> fidelity=<f> solved=<k>/<n> median_episodes_to_solve=<e>
 The SB3 peer gets our DQN's settings (network, learning rate, gamma, batch, buffer, target period, epsilon
 schedule, one update per step), so the wall-time ratio compares implementations, not tuning.
 
-The delay sweep (--sweep-delay-ms) runs the realistic MCU pipeline (estimated velocities, quantised encoder)
-with a fixed observation latency and instant commands, for DQN and R-DQN; its last lines say, per algo, the
-largest delay solved by at least half of the seeds.
+Two delay sweeps; their last lines say, per algo, the success rate at each delay and the largest delay
+solved by at least half of the seeds:
+- --sweep-delay-steps: the ideal twin seen through `ObservationDelay`, a pure delay of whole 60 ms steps;
+- --sweep-delay-ms: the realistic MCU pipeline (estimated velocities, quantised encoder, safety holds) with a
+  fixed observation latency and instant commands.
 
     python benchmarks/bench_learning.py --quick          # one seed of DQN on ideal
     python benchmarks/bench_learning.py --seeds 10 --sb3 --jobs 2
+    python benchmarks/bench_learning.py --sweep-delay-steps 0 1 2 --algos dqn r-dqn --jobs 2
     python benchmarks/bench_learning.py --sweep-delay-ms 0 50 100 150 --algos dqn r-dqn --jobs 2
 """
 
@@ -23,6 +26,7 @@ import argparse
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
 from multiprocessing import get_context
 
 import numpy as np
@@ -34,10 +38,28 @@ from pendkit.agents.replay import ReplayBuffer
 from pendkit.agents.td3 import Td3Agent, Td3Config
 from pendkit.agents.train import agent_input, null_action, step_dim, train_sync
 from pendkit.sim.fidelity import Fidelity, observation_delay_fidelity
+from pendkit.sim.observation_delay import ObservationDelay
 
 CHECK_EVERY = 10
 TAIL_STEPS = 200
 EPISODE_STEPS = 500
+
+
+@dataclass(frozen=True)
+class StepDelay:
+    """The ideal twin seen through `ObservationDelay`: a pure delay of whole 60 ms steps."""
+
+    delay_steps: int
+
+    @property
+    def name(self) -> str:
+        return f"ideal-delayed-{self.delay_steps}-steps"
+
+
+def make_env(setting: str | Fidelity | StepDelay, action_mode: str = "discrete"):
+    if isinstance(setting, StepDelay):
+        return ObservationDelay(pendkit.make(fidelity="ideal", action_mode=action_mode), setting.delay_steps)
+    return pendkit.make(fidelity=setting, action_mode=action_mode)
 
 
 def solved(env, policy) -> bool:
@@ -65,8 +87,7 @@ def run_one(algo: str, fidelity: str | Fidelity, seed: int, max_episodes: int,
         return run_sb3(fidelity, seed, max_episodes, max_wall_s)
     continuous = algo in ("td3", "r-td3")
     mode = "continuous" if continuous else "discrete"
-    env = pendkit.make(fidelity=fidelity, action_mode=mode)
-    probe = pendkit.make(fidelity=fidelity, action_mode=mode)
+    env, probe = make_env(fidelity, mode), make_env(fidelity, mode)
     encoder = GruEncoder(step_dim(env), 32, seed) if algo.startswith("r-") else None
     dim = encoder.output_dim if encoder else step_dim(env)
     agent = (Td3Agent(dim, 1, Td3Config(seed=seed)) if continuous else DqnAgent(dim, 5, DqnConfig(seed=seed)))
@@ -87,7 +108,7 @@ def run_sb3(fidelity: str | Fidelity, seed: int, max_episodes: int, max_wall_s: 
 
     ours = DqnConfig()
     total_steps = max_episodes * EPISODE_STEPS
-    env, probe = pendkit.make(fidelity=fidelity), pendkit.make(fidelity=fidelity)
+    env, probe = make_env(fidelity), make_env(fidelity)
     model = DQN("MlpPolicy", env, seed=seed, learning_rate=ours.learning_rate, gamma=ours.gamma,
                 batch_size=ours.batch_size, buffer_size=ours.buffer_capacity, learning_starts=ours.learning_starts,
                 target_update_interval=ours.target_update_every, train_freq=1, gradient_steps=1,
@@ -120,7 +141,7 @@ def _one_thread() -> None:
 
 
 def _print_run(algo: str, fidelity: str | Fidelity, seed: int, result: tuple[int | None, float]) -> None:
-    name = fidelity.name if isinstance(fidelity, Fidelity) else fidelity
+    name = getattr(fidelity, "name", fidelity)
     print(f"  run algo={algo} fidelity={name} seed={seed} episodes={result[0]} wall_s={result[1]:.0f}",
           file=sys.stderr, flush=True)
 
@@ -146,7 +167,7 @@ def run_rows(rows: list[tuple[str, str | Fidelity]], seeds: int, max_episodes: i
 
 
 def report(algo: str, fidelity: str | Fidelity, results: list[tuple[int | None, float]]) -> None:
-    name = fidelity.name if isinstance(fidelity, Fidelity) else fidelity
+    name = getattr(fidelity, "name", fidelity)
     solved_runs = [(e, s) for e, s in results if e is not None]
     episodes = f"{np.median([e for e, _ in solved_runs]):.0f}" if solved_runs else "nan"
     wall = f"{np.median([s for _, s in solved_runs]):.0f}" if solved_runs else "nan"
@@ -173,20 +194,26 @@ def main() -> None:
     parser.add_argument("--sb3", action="store_true", help="also Stable-Baselines3 DQN (pip install '.[bench]')")
     parser.add_argument("--sweep-delay-ms", nargs="+", type=float, default=None,
                         help="instead of the fidelities: observation delays on the realistic pipeline")
+    parser.add_argument("--sweep-delay-steps", nargs="+", type=int, default=None,
+                        help="instead of the fidelities: whole-step observation delays on the ideal twin")
     parser.add_argument("--jobs", type=int, default=1, help="runs in parallel, one process and thread each")
     args = parser.parse_args()
     if args.quick:
         args.seeds, args.algos, args.fidelities, args.sb3 = 1, ["dqn"], ["ideal"], False
-    if args.sweep_delay_ms is not None:
+    delays_ms = args.sweep_delay_ms
+    if args.sweep_delay_steps is not None:
+        fidelities = [StepDelay(steps) for steps in args.sweep_delay_steps]
+        delays_ms = [steps * pendkit.make().unwrapped.dt * 1000 for steps in args.sweep_delay_steps]
+    elif args.sweep_delay_ms is not None:
         fidelities = [observation_delay_fidelity(delay) for delay in args.sweep_delay_ms]
     else:
         fidelities = args.fidelities
     algos = args.algos + (["sb3-dqn"] if args.sb3 else [])
     rows = [(algo, fidelity) for fidelity in fidelities for algo in algos]
     results = run_rows(rows, args.seeds, args.max_episodes, args.max_wall_s, args.jobs)
-    if args.sweep_delay_ms is not None:
+    if delays_ms is not None:
         for algo in algos:
-            sweep_summary(algo, args.sweep_delay_ms, [r for (a, _), r in zip(rows, results) if a == algo])
+            sweep_summary(algo, delays_ms, [r for (a, _), r in zip(rows, results) if a == algo])
 
 
 if __name__ == "__main__":
