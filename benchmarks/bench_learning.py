@@ -140,10 +140,13 @@ def _one_thread() -> None:
     torch.set_num_threads(1)  # one process per core beats threads fighting over two cores
 
 
+def setting_name(setting: str | Fidelity | StepDelay) -> str:
+    return getattr(setting, "name", setting)
+
+
 def _print_run(algo: str, fidelity: str | Fidelity, seed: int, result: tuple[int | None, float]) -> None:
-    name = getattr(fidelity, "name", fidelity)
-    print(f"  run algo={algo} fidelity={name} seed={seed} episodes={result[0]} wall_s={result[1]:.0f}",
-          file=sys.stderr, flush=True)
+    print(f"  run algo={algo} fidelity={setting_name(fidelity)} seed={seed} episodes={result[0]} "
+          f"wall_s={result[1]:.0f}", file=sys.stderr, flush=True)
 
 
 def run_rows(rows: list[tuple[str, str | Fidelity]], seeds: int, max_episodes: int, max_wall_s: float,
@@ -167,11 +170,10 @@ def run_rows(rows: list[tuple[str, str | Fidelity]], seeds: int, max_episodes: i
 
 
 def report(algo: str, fidelity: str | Fidelity, results: list[tuple[int | None, float]]) -> None:
-    name = getattr(fidelity, "name", fidelity)
     solved_runs = [(e, s) for e, s in results if e is not None]
     episodes = f"{np.median([e for e, _ in solved_runs]):.0f}" if solved_runs else "nan"
     wall = f"{np.median([s for _, s in solved_runs]):.0f}" if solved_runs else "nan"
-    print(f"algo={algo} fidelity={name} solved={len(solved_runs)}/{len(results)} "
+    print(f"algo={algo} fidelity={setting_name(fidelity)} solved={len(solved_runs)}/{len(results)} "
           f"median_episodes_to_solve={episodes} median_wall_s={wall}", flush=True)
 
 
@@ -203,7 +205,8 @@ def main() -> None:
     delays_ms = args.sweep_delay_ms
     if args.sweep_delay_steps is not None:
         fidelities = [StepDelay(steps) for steps in args.sweep_delay_steps]
-        delays_ms = [steps * pendkit.make().unwrapped.dt * 1000 for steps in args.sweep_delay_steps]
+        step_ms = pendkit.make().unwrapped.dt * 1000
+        delays_ms = [steps * step_ms for steps in args.sweep_delay_steps]
     elif args.sweep_delay_ms is not None:
         fidelities = [observation_delay_fidelity(delay) for delay in args.sweep_delay_ms]
     else:

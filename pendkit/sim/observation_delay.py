@@ -13,7 +13,9 @@ class ObservationDelay(gym.Wrapper):
     """Hand the agent the observation from `delay_steps` steps back (the first one until then).
 
     Only the observation is delayed: reward, info and the physics are the env's own, so a delay sweep
-    changes nothing but what the agent sees. The first observation stands in for the ones not yet arrived.
+    changes nothing but what the agent sees. The first observation stands in for the ones not yet arrived;
+    gymnasium's `DelayObservation` hands out zeros instead, a feature vector no pendulum can produce, and lab
+    08's `delayed_view` (which students write) defines the delay this way.
     """
 
     def __init__(self, env: gym.Env, delay_steps: int) -> None:
