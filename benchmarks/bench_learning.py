@@ -32,11 +32,9 @@ from multiprocessing import get_context
 import numpy as np
 
 import pendkit
-from pendkit.agents.dqn import DqnAgent, DqnConfig
-from pendkit.agents.gru_encoder import GruEncoder
-from pendkit.agents.replay import ReplayBuffer
-from pendkit.agents.td3 import Td3Agent, Td3Config
-from pendkit.agents.train import agent_input, null_action, step_dim, train_sync
+from pendkit.agents.dqn import DqnConfig
+from pendkit.agents.train import make_buffer, run_episode, train_sync
+from pendkit.agents.variants import build_learner, inputs_for, variant
 from pendkit.sim.fidelity import Fidelity, observation_delay_fidelity
 from pendkit.sim.observation_delay import ObservationDelay
 
@@ -56,46 +54,33 @@ class StepDelay:
         return f"ideal-delayed-{self.delay_steps}-steps"
 
 
-def make_env(setting: str | Fidelity | StepDelay, action_mode: str = "discrete"):
+def make_env(setting: str | Fidelity | StepDelay, learner: str = "dqn"):
+    kwargs = variant(learner).env_kwargs() if learner != "sb3-dqn" else {}
     if isinstance(setting, StepDelay):
-        return ObservationDelay(pendkit.make(fidelity="ideal", action_mode=action_mode), setting.delay_steps)
-    return pendkit.make(fidelity=setting, action_mode=action_mode)
+        return ObservationDelay(pendkit.make(fidelity="ideal", **kwargs), setting.delay_steps)
+    return pendkit.make(fidelity=setting, **kwargs)
 
 
-def solved(env, policy) -> bool:
-    """Greedy episode from hanging: `policy(observation, last_action) -> action` (its own input logic)."""
-    observation, info = env.reset(seed=123, options={"start": "rest"})
-    action, angles, done = null_action(env.action_space), [], False
-    while not done:
-        action = policy(observation, action)
-        observation, _, terminated, truncated, info = env.step(action)
-        angles.append(abs(info["angle_from_upright_rad"]))
-        done = terminated or truncated
+def solved(env, agent, inputs) -> bool:
+    """A greedy episode from hanging holds |theta| < 0.3 rad for its last 200 steps."""
+    _, infos = run_episode(env, agent, inputs, seed=123, explore=False, options={"start": "rest"})
+    angles = [abs(info["angle_from_upright_rad"]) for info in infos]
     return len(angles) >= TAIL_STEPS and max(angles[-TAIL_STEPS:]) < 0.3
 
 
-def greedy(agent, encoder, action_space):
-    if encoder is not None:
-        encoder.reset()
-    return lambda observation, last: agent.act(agent_input(observation, last, action_space, encoder), explore=False)
-
-
-def run_one(algo: str, fidelity: str | Fidelity, seed: int, max_episodes: int,
+def run_one(algo: str, fidelity: str | Fidelity | StepDelay, seed: int, max_episodes: int,
             max_wall_s: float) -> tuple[int | None, float]:
     """Episodes and seconds until solved, or (None, seconds spent)."""
     if algo == "sb3-dqn":
         return run_sb3(fidelity, seed, max_episodes, max_wall_s)
-    continuous = algo in ("td3", "r-td3")
-    mode = "continuous" if continuous else "discrete"
-    env, probe = make_env(fidelity, mode), make_env(fidelity, mode)
-    encoder = GruEncoder(step_dim(env), 32, seed) if algo.startswith("r-") else None
-    dim = encoder.output_dim if encoder else step_dim(env)
-    agent = (Td3Agent(dim, 1, Td3Config(seed=seed)) if continuous else DqnAgent(dim, 5, DqnConfig(seed=seed)))
-    buffer = ReplayBuffer(agent.config.buffer_capacity, dim, seed, action_dim=1 if continuous else None)
+    env, probe = make_env(fidelity, algo), make_env(fidelity, algo)
+    agent, inputs = build_learner(algo, env, seed)
+    probe_inputs = inputs_for(variant(algo), probe, seed)
+    buffer = make_buffer(agent, inputs.dim, env.action_space, seed)
     started = time.perf_counter()
     for done_episodes in range(CHECK_EVERY, max_episodes + 1, CHECK_EVERY):
-        train_sync(env, agent, CHECK_EVERY, encoder, buffer, seed=seed + done_episodes, progress=False)
-        if solved(probe, greedy(agent, encoder, probe.action_space)):
+        train_sync(env, agent, CHECK_EVERY, inputs, buffer, seed=seed + done_episodes, progress=False)
+        if solved(probe, agent, probe_inputs):
             return done_episodes, time.perf_counter() - started
         if time.perf_counter() - started > max_wall_s:
             break
@@ -125,13 +110,23 @@ def run_sb3(fidelity: str | Fidelity, seed: int, max_episodes: int, max_wall_s: 
             self.episodes += int(self.locals["dones"].sum())
             if not self.locals["dones"].any() or self.episodes % CHECK_EVERY:
                 return True
-            if solved(probe, lambda observation, last: int(model.predict(observation, deterministic=True)[0])):
+            if solved_sb3(probe, model):
                 outcome["episodes"] = self.episodes
                 return False
             return time.perf_counter() - started <= max_wall_s and self.episodes < max_episodes
 
     model.learn(total_steps, callback=SolvedCheck())
     return outcome.get("episodes"), time.perf_counter() - started
+
+
+def solved_sb3(env, model) -> bool:
+    observation, _ = env.reset(seed=123, options={"start": "rest"})
+    angles, done = [], False
+    while not done:
+        observation, _, terminated, truncated, info = env.step(int(model.predict(observation, deterministic=True)[0]))
+        angles.append(abs(info["angle_from_upright_rad"]))
+        done = terminated or truncated
+    return len(angles) >= TAIL_STEPS and max(angles[-TAIL_STEPS:]) < 0.3
 
 
 def _one_thread() -> None:

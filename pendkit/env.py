@@ -17,6 +17,7 @@ from pendkit.state import RigState, ServoCommand
 
 ENV_ID = "pendkit/SwingUp-v0"
 ACTION_MODES = ("discrete", "continuous")
+FEATURE_SOURCES = ("measured", "estimated")
 DISCRETE_ACTION_NAMES = ("stop", "left slow", "left fast", "right slow", "right fast")
 EPISODE_STEPS = 500
 _RANGE_TOLERANCE = 1e-6  # float32 policies may land a hair outside [-1, 1]
@@ -80,6 +81,8 @@ class SwingUpEnv(gym.Env):
     "realistic" | a `Fidelity`), observation (feature names or "paper"), start, params (`RigParams`),
     filter_coefficient (default `params.filter_coefficient`), max_episode_steps, render_mode ("rgb_array"),
     log_dir (realistic twin or rig: every message of each episode to `log_dir/episode-NNNN.jsonl`);
+    features ("measured": the readings as they arrive; "estimated": a model-based observer's estimate of the
+    present state from the readings and the actions sent, `pendkit.control.estimated_state`);
     with backend="rig": rig ("r01"), broker (URL, default mqtt://127.0.0.1:1883), rig_options (username,
     password, tls_ca, observation_timeout_s, reset_stop_s, settle).
 
@@ -94,11 +97,13 @@ class SwingUpEnv(gym.Env):
                  params: RigParams | None = None, filter_coefficient: float | None = None,
                  max_episode_steps: int = EPISODE_STEPS, render_mode: str | None = None,
                  log_dir: str | None = None, rig: str = "r01", broker: str | None = None,
-                 rig_options: dict[str, Any] | None = None) -> None:
+                 rig_options: dict[str, Any] | None = None, features: str = "measured") -> None:
         if action_mode not in ACTION_MODES:
             raise ConfigError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
         if start not in STARTS:
             raise ConfigError(f"start must be one of {STARTS}, got {start!r}")
+        if features not in FEATURE_SOURCES:
+            raise ConfigError(f"features must be one of {FEATURE_SOURCES}, got {features!r}")
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ConfigError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         if not (isinstance(max_episode_steps, int) and max_episode_steps >= 1):
@@ -116,10 +121,7 @@ class SwingUpEnv(gym.Env):
         self.render_mode = render_mode
         self.dt = self.backend.nominal_step_s
         self.metadata = {**self.metadata, "render_fps": max(1, round(1 / self.dt))}
-        p = self.params
-        self._increments = (0, -p.discrete_slow_step_counts, -p.discrete_fast_step_counts,
-                            p.discrete_slow_step_counts, p.discrete_fast_step_counts)
-        self._discrete_commands = tuple(ServoCommand("discrete", increment_counts=n) for n in self._increments)
+        self._set_increments()
         if action_mode == "discrete":
             self.action_space = gym.spaces.Discrete(len(self._increments))
         else:
@@ -128,10 +130,41 @@ class SwingUpEnv(gym.Env):
             np.array([f.low for f in self.features], dtype=np.float32),
             np.array([f.high for f in self.features], dtype=np.float32), dtype=np.float32)
         self._state: RigState | None = None
+        self._shown: RigState | None = None  # what the observation is made of: measured, or estimated
+        self._estimator = None
+        if features == "estimated":
+            from pendkit.control.estimated_state import estimated_state_feed
+
+            self._estimator = estimated_state_feed(self)
         self._filtered_unit = 0.0
         self._steps = 0
         self._gl_renderer = None
         self._drawn_frames = None
+
+    def _set_increments(self) -> None:
+        p = self.params
+        self._increments = (0, -p.discrete_slow_step_counts, -p.discrete_fast_step_counts,
+                            p.discrete_slow_step_counts, p.discrete_fast_step_counts)
+        self._discrete_commands = tuple(ServoCommand("discrete", increment_counts=n) for n in self._increments)
+
+    def set_rig(self, params: RigParams, fidelity: str | Fidelity | None = None) -> None:
+        """Swap the twin for one with other parameters (domain randomisation), from the next `reset()` on.
+        Spaces and the control step stay as they are; only a sim backend can be swapped."""
+        if not isinstance(self.backend, SimBackend):
+            raise ConfigError("set_rig needs the sim backend: a real rig's parameters are what they are")
+        if params.control_step_ms != self.params.control_step_ms:
+            raise ConfigError(f"set_rig keeps the control step: {self.params.control_step_ms} ms, "
+                              f"got {params.control_step_ms} ms")
+        fidelity = self.backend.fidelity if fidelity is None else fidelity
+        self.backend.close()
+        self.backend = SimBackend(params, fidelity, self.backend.log_dir)
+        self.params = params
+        self._set_increments()
+        if self._estimator is not None:
+            from pendkit.control.estimated_state import estimated_state_feed
+
+            self._estimator = estimated_state_feed(self)
+        self._state = None
 
     # --- Gymnasium API ---
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
@@ -139,6 +172,7 @@ class SwingUpEnv(gym.Env):
         options = dict(options or {})
         start = options.pop("start", self.start)
         self._state = self.backend.reset(self.np_random, start, options)
+        self._shown = self._estimator.reset(self._state) if self._estimator is not None else self._state
         self._filtered_unit = self._state.servo_target_rad / self.params.servo_range_rad
         self._steps = 0
         return self._observation(), self._info()
@@ -150,6 +184,7 @@ class SwingUpEnv(gym.Env):
         if command.mode == "continuous":
             self._filtered_unit = command.target_unit
         self._state = self.backend.step(command)
+        self._shown = self._estimator.update(command, self._state) if self._estimator is not None else self._state
         self._steps += 1
         truncated = self._steps >= self.max_episode_steps
         return self._observation(), reward(self._state), False, truncated, self._info()
@@ -209,7 +244,7 @@ class SwingUpEnv(gym.Env):
 
     # --- observation ---
     def _observation(self) -> np.ndarray:
-        return feature_vector(self._state, self.features)
+        return feature_vector(self._shown, self.features)
 
     def _info(self) -> dict[str, Any]:
         state = self._state

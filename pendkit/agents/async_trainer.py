@@ -14,8 +14,8 @@ import threading
 import time
 from dataclasses import dataclass, field
 
-from pendkit.agents.replay import ReplayBuffer
-from pendkit.agents.train import agent_input, null_action, step_dim
+from pendkit.agents.inputs import StepInputs
+from pendkit.agents.train import make_buffer
 
 
 @dataclass
@@ -32,15 +32,15 @@ class AsyncStats:
 class AsyncTrainer:
     """`run(seconds)` with one actor thread per env and a learner thread; `close()` stops them."""
 
-    def __init__(self, agent, envs: list, encoders: list | None = None, buffer: ReplayBuffer | None = None,
+    def __init__(self, agent, envs: list, inputs: list | None = None, buffer=None,
                  transition_queue_size: int = 1000, publish_every: int = 20, seed: int = 0) -> None:
+        """`inputs`: one `StepInputs` per env (what the agent sees; default: observation and last action),
+        or, as before, one fixed `GruEncoder` (or None) per env."""
         self.agent, self.envs = agent, envs
-        self.encoders = encoders or [None] * len(envs)
-        space = envs[0].action_space
-        input_dim = self.encoders[0].output_dim if self.encoders[0] is not None else step_dim(envs[0])
-        continuous = hasattr(space, "shape") and space.shape != ()
-        self.buffer = buffer or ReplayBuffer(agent.config.buffer_capacity, input_dim, seed,
-                                             action_dim=space.shape[0] if continuous else None)
+        given = inputs or [None] * len(envs)
+        self.inputs = [x if isinstance(x, StepInputs) else StepInputs.for_env(env, 1, x) for x, env in zip(given, envs)]
+        self.recurrent = getattr(agent, "recurrent", False)
+        self.buffer = buffer or make_buffer(agent, self.inputs[0].dim, envs[0].action_space, seed)
         self.transitions: queue.Queue = queue.Queue(maxsize=transition_queue_size)
         self.weights: list[queue.Queue] = [queue.Queue(maxsize=1) for _ in envs]
         self.publish_every, self.seed = publish_every, seed
@@ -79,11 +79,11 @@ class AsyncTrainer:
         version = 0
         while not self.stop.is_set():
             while not self.transitions.empty():
-                self.buffer.add(*self.transitions.get_nowait())
+                self._store(self.transitions.get_nowait())
             if len(self.buffer) < self.agent.config.learning_starts:
                 waited = time.monotonic()
                 try:  # not enough to learn from yet: wait for transitions
-                    self.buffer.add(*self.transitions.get(timeout=0.05))
+                    self._store(self.transitions.get(timeout=0.05))
                 except queue.Empty:
                     pass
                 self.stats.learner_wait_s += time.monotonic() - waited
@@ -101,17 +101,23 @@ class AsyncTrainer:
                     mailbox.put_nowait((version, policy))
                 self.stats.weights_published += 1
 
+    def _store(self, transition: tuple) -> None:
+        x, action, reward, x_next, done, extras = transition
+        if hasattr(self.agent, "track_input"):
+            self.agent.track_input(x)
+        self.buffer.add(x, action, reward, x_next, done, **extras)
+
     # --- an actor: act at the env's pace, never wait for the learner ---
     def _act(self, k: int) -> None:
-        env, encoder = self.envs[k], self.encoders[k]
+        env, inputs = self.envs[k], self.inputs[k]
         actor = copy.deepcopy(self.agent)  # its own policy copy: the learner's updates never race its forward pass
         version, episode = 0, 0
         while not self.stop.is_set():
             observation, _ = env.reset(seed=self.seed + 1000 * k + episode)
-            if encoder is not None:
-                encoder.reset()
-            x = agent_input(observation, null_action(env.action_space), env.action_space, encoder)
-            done, total = False, 0.0
+            x = inputs.reset(observation)
+            if self.recurrent:
+                actor.reset()
+            done, total, step = False, 0.0, 0
             while not done and not self.stop.is_set():
                 try:
                     version, policy = self.weights[k].get_nowait()
@@ -121,12 +127,14 @@ class AsyncTrainer:
                 self.stats.versions_used[k].add(version)
                 action = actor.act(x)
                 observation, reward, terminated, truncated, _ = env.step(action)
-                x_next = agent_input(observation, action, env.action_space, encoder)
+                x_next = inputs.step(observation, action)
+                extras = ({"hidden": actor.hidden_before, "episode": 1_000_000 * k + episode, "step": step}
+                          if self.recurrent else {})
                 try:
-                    self.transitions.put_nowait((x, action, reward, x_next, terminated))
+                    self.transitions.put_nowait((x, action, reward, x_next, terminated, extras))
                 except queue.Full:
                     self.stats.dropped_transitions += 1
-                x, total, done = x_next, total + reward, terminated or truncated
+                x, total, done, step = x_next, total + reward, terminated or truncated, step + 1
                 self.stats.actor_steps[k] += 1
             self.stats.episodes[k].append(total)
             episode += 1

@@ -8,9 +8,14 @@ from pathlib import Path
 
 import click
 
-ALGORITHMS = ("dqn", "r-dqn", "td3", "r-td3")
 FIDELITIES = ("ideal", "paper-delayed", "realistic")
 SOLVED_TAIL_STEPS = 200
+
+
+def _algorithms() -> tuple[str, ...]:
+    from pendkit.agents.variants import VARIANT_NAMES
+
+    return VARIANT_NAMES
 
 
 def _torch_or_exit() -> None:
@@ -21,25 +26,43 @@ def _torch_or_exit() -> None:
                                    "of torch first, see the README)") from None
 
 
-def _build(algo: str, fidelity: str, seed: int, max_steps: int, rig: dict | None = None):
+def _build(algo: str, fidelity: str, seed: int, max_steps: int, rig: dict | None = None, randomize: str = "",
+           preset: str | None = None):
+    """(env, agent, inputs) for a named learner; the env randomised per episode when `randomize` names any."""
     import pendkit
-    from pendkit.agents.dqn import DqnAgent, DqnConfig
-    from pendkit.agents.gru_encoder import GruEncoder
-    from pendkit.agents.td3 import Td3Agent, Td3Config
-    from pendkit.agents.train import step_dim
+    from pendkit.agents.variants import build_learner, variant
+    from pendkit.rig import RigParams
 
-    continuous = algo in ("td3", "r-td3")
-    env = pendkit.make(fidelity=fidelity, max_episode_steps=max_steps, **(rig or {}),
-                       action_mode="continuous" if continuous else "discrete")
-    encoder = GruEncoder(step_dim(env), hidden_size=32, seed=seed) if algo.startswith("r-") else None
-    input_dim = encoder.output_dim if encoder else step_dim(env)
-    agent = (Td3Agent(input_dim, env.action_space.shape[0], Td3Config(seed=seed)) if continuous
-             else DqnAgent(input_dim, env.action_space.n, DqnConfig(seed=seed)))
-    return env, agent, encoder
+    params = RigParams.preset(preset) if preset else None
+    env = pendkit.make(fidelity=fidelity, max_episode_steps=max_steps, params=params, **(rig or {}),
+                       **variant(algo).env_kwargs())
+    if randomize:
+        from pendkit.sim.randomize import DomainRandomization
+
+        env = DomainRandomization(env, randomize, seed)
+    agent, inputs = build_learner(algo, env, seed)
+    return env, agent, inputs
+
+
+def _check_randomize(ctx, param, value: str) -> str:
+    from pendkit.errors import ConfigError
+    from pendkit.sim.randomize import parse_randomize
+
+    try:
+        return ",".join(parse_randomize(value or ""))
+    except ConfigError as error:
+        raise click.BadParameter(str(error)) from None
+
+
+def _preset_names() -> list[str]:
+    from pendkit.rig import SERVO_PRESETS
+
+    return sorted(SERVO_PRESETS)
 
 
 @click.command()
-@click.option("--algo", type=click.Choice(ALGORITHMS), default="dqn", show_default=True)
+@click.option("--algo", type=click.Choice(_algorithms()), default="dqn", show_default=True,
+              help="The learner: an algorithm and what it sees (docs/rl.md).")
 @click.option("--fidelity", type=click.Choice(FIDELITIES), default="ideal", show_default=True)
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option("--episodes", type=click.IntRange(1), default=100, show_default=True)
@@ -48,6 +71,9 @@ def _build(algo: str, fidelity: str, seed: int, max_steps: int, rig: dict | None
               show_default=True)
 @click.option("--checkpoint-every", type=click.IntRange(1), default=10, show_default=True, help="Episodes.")
 @click.option("--resume", is_flag=True, help="Continue from the run's last checkpoint.")
+@click.option("--randomize", default="", callback=_check_randomize,
+              help="Domain randomisation per episode: any of servo,latency,masses (comma-separated).")
+@click.option("--preset", type=click.Choice(_preset_names()), default=None, help="The servo preset of the twin.")
 @click.option("--backend", type=click.Choice(("sim", "rig")), default="sim", show_default=True,
               help="rig: train on a rig over MQTT with the non-blocking trainer (for --seconds).")
 @click.option("--rig", "rig_id", default="r01", show_default=True)
@@ -55,21 +81,23 @@ def _build(algo: str, fidelity: str, seed: int, max_steps: int, rig: dict | None
 @click.option("--seconds", type=click.FloatRange(1), default=600.0, show_default=True,
               help="Wall-clock training time with --backend rig.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
-def train(algo, fidelity, seed, episodes, max_steps, out_dir, checkpoint_every, resume, backend, rig_id, broker,
-          seconds, quiet) -> None:
-    """Train DQN, R-DQN, TD3 or R-TD3 on the twin (or a rig); checkpoints, returns and config in --out."""
+def train(algo, fidelity, seed, episodes, max_steps, out_dir, checkpoint_every, resume, randomize, preset, backend,
+          rig_id, broker, seconds, quiet) -> None:
+    """Train a learner (DQN, R-DQN, TD3, R-TD3 and their variants) on the twin (or a rig); checkpoints,
+    returns and config in --out."""
     _torch_or_exit()
     from pendkit.agents.train import train_sync
 
     if backend == "rig":
         _train_on_rig(algo, seed, max_steps, out_dir, rig_id, broker, seconds)
         return
-    env, agent, encoder = _build(algo, fidelity, seed, max_steps)
+    env, agent, inputs = _build(algo, fidelity, seed, max_steps, randomize=randomize, preset=preset)
     out_dir.mkdir(parents=True, exist_ok=True)
     config = {"algo": algo, "fidelity": fidelity, "seed": seed, "episodes": episodes, "max_steps": max_steps,
+              "randomize": randomize, "preset": preset, "actions_seen": inputs.actions_seen,
               "agent": {k: v for k, v in vars(agent.config).items()}}
     (out_dir / "config.json").write_text(json.dumps(config, indent=2))
-    returns = train_sync(env, agent, episodes, encoder, seed=seed, progress=not quiet,
+    returns = train_sync(env, agent, episodes, inputs, seed=seed, progress=not quiet,
                          csv_path=out_dir / "returns.csv", checkpoint_path=out_dir / "checkpoint.pt",
                          checkpoint_every=checkpoint_every, resume=resume)
     from pendkit.agents.checkpoint import save_checkpoint
@@ -86,12 +114,12 @@ def _train_on_rig(algo, seed, max_steps, out_dir, rig_id, broker, seconds) -> No
     from pendkit.agents.async_trainer import AsyncTrainer
     from pendkit.agents.checkpoint import save_checkpoint
 
-    env, agent, encoder = _build(algo, "realistic", seed, max_steps, {"backend": "rig", "rig": rig_id,
-                                                                       "broker": broker})
+    env, agent, inputs = _build(algo, "realistic", seed, max_steps, {"backend": "rig", "rig": rig_id,
+                                                                      "broker": broker})
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "config.json").write_text(json.dumps({"algo": algo, "fidelity": "realistic", "backend": "rig",
                                                      "rig": rig_id, "seed": seed, "max_steps": max_steps}))
-    trainer = AsyncTrainer(agent, [env], [encoder] if encoder else None, seed=seed)
+    trainer = AsyncTrainer(agent, [env], [inputs], seed=seed)
     stats = trainer.run(seconds)
     env.close()
     returns = stats.episodes[0]
@@ -107,34 +135,27 @@ def _train_on_rig(algo, seed, max_steps, out_dir, rig_id, broker, seconds) -> No
 @click.command("eval")
 @click.argument("run_dir", type=click.Path(exists=True, file_okay=False, path_type=Path))
 @click.option("--episodes", type=click.IntRange(1), default=20, show_default=True)
-def evaluate(run_dir: Path, episodes: int) -> None:
+@click.option("--preset", type=click.Choice(_preset_names()), default=None,
+              help="Evaluate on this servo preset instead of the one trained on (no randomisation).")
+def evaluate(run_dir: Path, episodes: int, preset: str | None) -> None:
     """Greedy episodes of a trained run; "solved" = within 0.3 rad of upright for the last 200 steps."""
     _torch_or_exit()
     import numpy as np
     import torch
 
-    from pendkit.agents.train import agent_input, null_action
+    from pendkit.agents.train import run_episode
 
     config = json.loads((run_dir / "config.json").read_text())
-    env, agent, encoder = _build(config["algo"], config["fidelity"], config["seed"], config["max_steps"])
+    env, agent, inputs = _build(config["algo"], config["fidelity"], config["seed"], config["max_steps"],
+                                preset=preset or config.get("preset"))
     weights = run_dir / "final.pt" if (run_dir / "final.pt").exists() else run_dir / "checkpoint.pt"
     agent.load_state_dict(torch.load(weights, weights_only=False)["agent"])
     solved, returns = 0, []
     for episode in range(episodes):
-        observation, info = env.reset(seed=10_000 + episode)
-        if encoder is not None:
-            encoder.reset()
-        x = agent_input(observation, null_action(env.action_space), env.action_space, encoder)
-        done, total, angles = False, 0.0, []
-        while not done:
-            action = agent.act(x, explore=False)
-            observation, reward, terminated, truncated, info = env.step(action)
-            x = agent_input(observation, action, env.action_space, encoder)
-            total, done = total + reward, terminated or truncated
-            angles.append(abs(info["angle_from_upright_rad"]))
+        total, infos = run_episode(env, agent, inputs, seed=10_000 + episode, explore=False)
+        angles = [abs(info["angle_from_upright_rad"]) for info in infos]
         returns.append(total)
-        tail = angles[-SOLVED_TAIL_STEPS:]
-        solved += len(angles) >= SOLVED_TAIL_STEPS and max(tail) < 0.3
+        solved += len(angles) >= SOLVED_TAIL_STEPS and max(angles[-SOLVED_TAIL_STEPS:]) < 0.3
     click.echo(f"mean return {np.mean(returns):.1f} over {episodes} episodes; solved {solved}/{episodes}")
 
 

@@ -31,6 +31,7 @@ class DelayedAngleObserver:
         self.gain = self._kalman_gain(process_std, measurement_std_rad)
         self.estimate = np.zeros(4)
         self.target_in_force_rad = 0.0
+        self.ramp_in_force_rad_s = 0.0
         self._history: list[tuple[float, float]] = []  # (seconds before now, predicted pendulum angle)
 
     def _kalman_gain(self, process_std, measurement_std_rad: float) -> np.ndarray:
@@ -45,6 +46,7 @@ class DelayedAngleObserver:
         self.estimate = np.array([state.arm_angle_rad, state.pendulum_angle_rad, state.arm_velocity_rad_s,
                                   state.pendulum_velocity_rad_s])
         self.target_in_force_rad = state.servo_target_rad
+        self.ramp_in_force_rad_s = 0.0
         self._history = []
 
     def correct(self, state: RigState) -> np.ndarray:
@@ -62,16 +64,28 @@ class DelayedAngleObserver:
 
     def predict(self, new_target_rad: float) -> None:
         """Advance one control step: the old target acts until the new one arrives."""
+        self.predict_ramp(new_target_rad, 0.0)
+
+    def predict_ramp(self, new_target_rad: float | None, ramp_rad_s: float, limit_rad: float = math.inf) -> None:
+        """Advance one control step in which the target, once the command arrives, jumps to
+        `new_target_rad` (None: stays where it is) and moves at `ramp_rad_s` (a discrete action's
+        increments on every acting tick), held within +-`limit_rad` (the arm's range). Before the arrival
+        the previous ramp continues."""
         steps = max(1, round(self.period_s / SUBSTEP_S))
         switch = round(self.actuation_delay_s / SUBSTEP_S)
         x = self.estimate
         angles = []
+        target, ramp = self.target_in_force_rad, self.ramp_in_force_rad_s
         for k in range(steps):
-            target = self.target_in_force_rad if k < switch else new_target_rad
+            if k == switch:
+                target, ramp = (target if new_target_rad is None else new_target_rad), ramp_rad_s
             x = self._rk4(x, target, SUBSTEP_S)
+            target = min(max(target + ramp * SUBSTEP_S, -limit_rad), limit_rad)
             angles.append(x[1])
+        if switch >= steps:  # arrives at the step's very end: in force from the next step on
+            target, ramp = (target if new_target_rad is None else new_target_rad), ramp_rad_s
         self.estimate = x
-        self.target_in_force_rad = new_target_rad
+        self.target_in_force_rad, self.ramp_in_force_rad_s = target, ramp
         self._history = [((steps - 1 - k) * SUBSTEP_S, angle) for k, angle in enumerate(angles)]
 
     def _rk4(self, x: np.ndarray, target: float, dt: float) -> np.ndarray:
