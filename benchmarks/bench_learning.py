@@ -23,6 +23,7 @@ solved by at least half of the seeds:
 from __future__ import annotations
 
 import argparse
+import ast
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -69,17 +70,21 @@ def solved(env, agent, inputs) -> bool:
 
 
 def run_one(algo: str, fidelity: str | Fidelity | StepDelay, seed: int, max_episodes: int,
-            max_wall_s: float) -> tuple[int | None, float]:
+            max_wall_s: float, overrides: dict | None = None, verbose: bool = False) -> tuple[int | None, float]:
     """Episodes and seconds until solved, or (None, seconds spent)."""
     if algo == "sb3-dqn":
         return run_sb3(fidelity, seed, max_episodes, max_wall_s)
     env, probe = make_env(fidelity, algo), make_env(fidelity, algo)
-    agent, inputs = build_learner(algo, env, seed)
+    agent, inputs = build_learner(algo, env, seed, **(overrides or {}))
     probe_inputs = inputs_for(variant(algo), probe, seed)
     buffer = make_buffer(agent, inputs.dim, env.action_space, seed)
     started = time.perf_counter()
     for done_episodes in range(CHECK_EVERY, max_episodes + 1, CHECK_EVERY):
-        train_sync(env, agent, CHECK_EVERY, inputs, buffer, seed=seed + done_episodes, progress=False)
+        returns = train_sync(env, agent, CHECK_EVERY, inputs, buffer, seed=seed + done_episodes, progress=False)
+        if verbose:
+            print(f"    {algo} {setting_name(fidelity)} seed={seed} episodes={done_episodes} "
+                  f"mean_return={np.mean(returns):.0f} wall_s={time.perf_counter() - started:.0f}",
+                  file=sys.stderr, flush=True)
         if solved(probe, agent, probe_inputs):
             return done_episodes, time.perf_counter() - started
         if time.perf_counter() - started > max_wall_s:
@@ -145,9 +150,11 @@ def _print_run(algo: str, fidelity: str | Fidelity, seed: int, result: tuple[int
 
 
 def run_rows(rows: list[tuple[str, str | Fidelity]], seeds: int, max_episodes: int, max_wall_s: float,
-             jobs: int) -> list[list[tuple[int | None, float]]]:
+             jobs: int, overrides: dict | None = None, verbose: bool = False,
+             first_seed: int = 0) -> list[list[tuple[int | None, float]]]:
     """Each row's results, seed by seed; a row's line is printed as soon as its last seed is done."""
-    work = [(algo, fidelity, seed, max_episodes, max_wall_s) for algo, fidelity in rows for seed in range(seeds)]
+    work = [(algo, fidelity, seed, max_episodes, max_wall_s, overrides, verbose) for algo, fidelity in rows
+            for seed in range(first_seed, first_seed + seeds)]
     pool = (ProcessPoolExecutor(jobs, mp_context=get_context("spawn"), initializer=_one_thread)
             if jobs > 1 else None)
     try:
@@ -194,7 +201,13 @@ def main() -> None:
     parser.add_argument("--sweep-delay-steps", nargs="+", type=int, default=None,
                         help="instead of the fidelities: whole-step observation delays on the ideal twin")
     parser.add_argument("--jobs", type=int, default=1, help="runs in parallel, one process and thread each")
+    parser.add_argument("--first-seed", type=int, default=0)
+    parser.add_argument("--set", nargs="*", default=[], metavar="FIELD=VALUE",
+                        help="agent config overrides, e.g. --set batch_size=64 update_every=8")
+    parser.add_argument("--verbose", action="store_true", help="a line per 10 episodes of every run (stderr)")
     args = parser.parse_args()
+    overrides = {key: ast.literal_eval(value) for key, value in (item.split("=", 1) for item in args.set)}
+    _one_thread()  # also for --jobs 1: two benchmarks side by side must not fight with two threads each
     if args.quick:
         args.seeds, args.algos, args.fidelities, args.sb3 = 1, ["dqn"], ["ideal"], False
     delays_ms = args.sweep_delay_ms
@@ -208,7 +221,8 @@ def main() -> None:
         fidelities = args.fidelities
     algos = args.algos + (["sb3-dqn"] if args.sb3 else [])
     rows = [(algo, fidelity) for fidelity in fidelities for algo in algos]
-    results = run_rows(rows, args.seeds, args.max_episodes, args.max_wall_s, args.jobs)
+    results = run_rows(rows, args.seeds, args.max_episodes, args.max_wall_s, args.jobs, overrides, args.verbose,
+                       args.first_seed)
     if delays_ms is not None:
         for algo in algos:
             sweep_summary(algo, delays_ms, [r for (a, _), r in zip(rows, results) if a == algo])

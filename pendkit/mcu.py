@@ -121,6 +121,8 @@ class McuLogic:
             self.watchdog_timeout_ms = value
         elif kind == "overspin_limit":
             self.overspin_limit_rev_s = value
+        elif kind == "velocity_window":  # a shorter mean lags less and is noisier (lab 02)
+            self.estimator = FirmwareVelocityEstimator(int(value), self.params.encoder_counts)
         # periods, streaming on/off, modes, status requests belong to the scheduler and the link
 
     # --- acting tick ---

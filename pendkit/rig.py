@@ -103,7 +103,7 @@ class RigParams:
         _check_range("discrete_slow_step_counts", self.discrete_slow_step_counts, 1, self.servo_span_counts)
         _check_range("discrete_fast_step_counts", self.discrete_fast_step_counts,
                      self.discrete_slow_step_counts, self.servo_span_counts)
-        _check_range("velocity_mean_window", self.velocity_mean_window, 1, 64)
+        _check_range("velocity_mean_window", self.velocity_mean_window, 1, 16)  # the protocol's n<1..16>
         _check_range("filter_coefficient", self.filter_coefficient, 0.0, 0.999)
         _check_range("overspin_limit_rev_s", self.overspin_limit_rev_s, 0.1, 50.0)
         for name in ("control_step_ms", "streaming_period_ms", "acting_period_ms", "pwm_period_ms"):
@@ -234,6 +234,10 @@ class RigParams:
 
 # Counts and increments for the Turnigy and the HSB-9380TH are the authors' settings (rig-facts.md).
 # Speed and torque for the alternatives are approximate datasheet figures: measure your own servo.
+# A faster, less lagged stream the firmware can be asked for (`u10`, `n2`; docs/protocol.md): the rate is
+# centred 10 ms back instead of 50 ms, and coarser (0.3 rad/s per count instead of 0.06).
+FAST_STREAM: dict[str, Any] = {"streaming_period_ms": 10.0, "velocity_mean_window": 2}
+
 SERVO_PRESETS: dict[str, dict[str, Any]] = {
     "hitec-d645mw": {},
     "hitec-d645mw-4v8": {"servo_name": "Hitec D645MW @4.8 V", "servo_speed_s_per_60deg": 0.28,

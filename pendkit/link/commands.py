@@ -9,6 +9,8 @@
              | z | x | y | c | v                        one observation, stream on, off, continuous, discrete
              | h | r                                    v2: heartbeat; republish the retained status
              | w<50..5000> | p<float 0 or 0.5..20>      v2: watchdog timeout ms; over-spin limit rev/s (0 = off)
+             | n<1..16>                                 v2: velocity window (the rate is the mean of the last n
+                                                          per-reading rates; the history restarts)
 
 A float is `[+-]digits[.digits]` or `[+-].digits` (no exponent, no nan or inf), at most 16 characters.
 The firmware's C++ parser follows the same grammar; tests/vectors/commands.json holds both to it.
@@ -29,7 +31,8 @@ LETTER_ACTIONS = {"a": 2, "s": 1, "d": 0, "f": 3, "g": 4}  # letter -> action in
 FLAGS_ONLY = {"z": "observe_once", "x": "stream_on", "y": "stream_off", "c": "continuous_mode",
               "v": "discrete_mode", "h": "heartbeat", "r": "status"}
 INTEGER_SETTINGS = {"o": ("encoder_offset", 0, 1023), "u": ("streaming_period", 5, 1000),
-                    "i": ("acting_period", 5, 1000), "w": ("watchdog_timeout", 50, 5000), "m": ("action", 0, 4)}
+                    "i": ("acting_period", 5, 1000), "w": ("watchdog_timeout", 50, 5000), "m": ("action", 0, 4),
+                    "n": ("velocity_window", 1, 16)}
 FLOAT_SETTINGS = {"b": ("target", -1.0, 1.0), "e": ("filter", 0.0, 0.999), "p": ("overspin_limit", 0.0, 20.0)}
 _FLOAT = re.compile(r"[+-]?([0-9]+(\.[0-9]*)?|\.[0-9]+)")
 _INTEGER = re.compile(r"[+-]?[0-9]+")

@@ -64,8 +64,11 @@ class RigBackend:
             self.publish_failures += 1
 
     def _configure(self) -> None:
-        """What a fresh device needs: calibration, the host-side filter, streaming on."""
-        for text in (f"o{self.params.encoder_offset_counts}", "e0", "x"):
+        """What a fresh device needs: calibration, the host-side filter, the stream's period and velocity
+        window (RigParams' values; the defaults are the paper's), streaming on."""
+        p = self.params
+        for text in (f"o{p.encoder_offset_counts}", "e0", f"u{round(p.streaming_period_ms)}",
+                     f"n{p.velocity_mean_window}", "x"):
             self._send(text)
 
     # --- the env's backend interface ---

@@ -24,7 +24,7 @@ COMMANDS = [
     "i10", "e0.85", "e1", "e0.999", "z", "x", "y", "c", "v", "h", "r", "w150", "w49", "w5000", "p2", "p0", "p0.4",
     "p20.5", "q", "", " ", "g\n", "gg", "#7:g", "#4294967295:h", "#4294967296:h", "#:g", "#12g", "#1:", "g@1234",
     "#3:b0.5@99", "b0.5@", "b0.5@x", "@5", "S1,2,3", "m2.0", "u+25", "a" * 65, "b\u00e9", "g@\u00b2", "#1:g\nh",
-    "b1.", "b.", "b-", "#\u0661:g", "o\u0661", "e.5\r\n",
+    "b1.", "b.", "b-", "#\u0661:g", "o\u0661", "e.5\r\n", "n1", "n16", "n0", "n17", "#9:n2@5",
 ]
 
 
@@ -110,6 +110,8 @@ def _scenarios(params: RigParams) -> dict[str, list[dict]]:
         "offset_and_commands_rejected": [{"t": 0, "cmd": "o317"}, {"t": 1, "frame": encode_ssi_frame(317)},
                                          {"t": 26, "frame": encode_ssi_frame(320)}, {"t": 30, "cmd": "b7"},
                                          {"t": 31, "cmd": "#x:g"}, {"t": 32, "act": True}],
+        "velocity_window_shortened": [*spin(0, 8, 6, 0), {"t": 140, "cmd": "n1"}, *spin(48, 8, 3, 150),
+                                      {"t": 230, "cmd": "n2"}, *spin(72, -8, 4, 250)],
         "random_mix": random_events,
     }
 

@@ -62,6 +62,9 @@ void Device::handle(const Command& command, uint32_t now_ms) {
     case CommandKind::kFilter: device_filter_ = command.value; break;
     case CommandKind::kWatchdogTimeout: watchdog_timeout_ms_ = command.value; break;
     case CommandKind::kOverspinLimit: overspin_limit_rev_s_ = command.value; break;
+    case CommandKind::kSetVelocityWindow:  // a shorter mean lags less and is noisier; the history restarts
+      estimator_ = VelocityEstimator(static_cast<int>(command.value));
+      break;
     default: break;
   }
 }
