@@ -66,8 +66,12 @@ class DqnConfig:
 class DqnAgent:
     """`act(observation, explore)`, `update(batch) -> metrics`, `state_dict()`: no env, logger or clock inside."""
 
-    def __init__(self, observation_dim: int, n_actions: int, config: DqnConfig | None = None) -> None:
+    def __init__(self, observation_dim: int, n_actions: int, config: DqnConfig | None = None,
+                 parts=None) -> None:
+        """`parts`: a `pendkit.agents.lab_parts.StudentParts` whose functions replace the schedule, the
+        target or the loss (lab 07)."""
         self.config = config or DqnConfig()
+        self.parts = parts
         torch.manual_seed(self.config.seed)
         self.n_actions = n_actions
         self.q = mlp(observation_dim, n_actions, self.config.hidden)
@@ -80,6 +84,10 @@ class DqnAgent:
     @property
     def epsilon(self) -> float:
         c = self.config
+        if self.parts is not None and self.parts.epsilon is not None:
+            from pendkit.agents.lab_parts import call_epsilon
+
+            return call_epsilon(self.parts.epsilon, self.steps, c.epsilon_start, c.epsilon_end, c.epsilon_decay_steps)
         fraction = min(1.0, self.steps / c.epsilon_decay_steps)
         return c.epsilon_start + fraction * (c.epsilon_end - c.epsilon_start)
 
@@ -96,14 +104,26 @@ class DqnAgent:
         """One gradient step on the TD error; the target network follows every `target_update_every`."""
         c = self.config
         q_taken = self.q(batch.observations).gather(1, batch.actions.unsqueeze(1)).squeeze(1)
+        parts = self.parts
         with torch.no_grad():
-            if c.double:
+            if parts is not None and parts.td_target is not None:
+                from pendkit.agents.lab_parts import call_td_target
+
+                target = call_td_target(parts.td_target, batch.rewards, batch.dones, self.q(batch.next_observations),
+                                        self.target(batch.next_observations), c.gamma, c.double)
+            elif c.double:
                 best = self.q(batch.next_observations).argmax(dim=1, keepdim=True)
                 next_value = self.target(batch.next_observations).gather(1, best).squeeze(1)
+                target = batch.rewards + c.gamma * (1.0 - batch.dones) * next_value
             else:
                 next_value = self.target(batch.next_observations).max(dim=1).values
-            target = batch.rewards + c.gamma * (1.0 - batch.dones) * next_value
-        loss = nn.functional.huber_loss(q_taken, target, delta=c.huber_delta)
+                target = batch.rewards + c.gamma * (1.0 - batch.dones) * next_value
+        if parts is not None and parts.loss is not None:
+            from pendkit.agents.lab_parts import student_loss
+
+            loss = student_loss(parts.loss, q_taken - target, c.huber_delta)
+        else:
+            loss = nn.functional.huber_loss(q_taken, target, delta=c.huber_delta)
         self.optimizer.zero_grad()
         loss.backward()
         nn.utils.clip_grad_norm_(self.q.parameters(), 10.0, foreach=True)

@@ -1,0 +1,94 @@
+"""Students' own DQN pieces inside the kit's agent (lab 07): their exploration schedule chooses when to
+explore, their target is what the network regresses to, and their loss gives the gradient. A wrong piece
+changes what the agent learns, which is the point.
+
+The pieces are plain numpy functions, as the lab asks for them:
+- `epsilon(step, start, end, decay_steps) -> float`
+- `td_target(rewards, dones, next_q_online, next_q_target, gamma, double) -> (batch,) array`
+- `loss(errors, delta) -> elementwise array`; its gradient is taken numerically (central differences), so
+  a loss written in numpy trains the torch network as it is written.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from pendkit.errors import ConfigError
+
+DERIVATIVE_STEP = 1e-4
+
+
+class StudentCodeError(ConfigError):
+    """A student's function broke its contract (raised, or returned the wrong shape or a non-number)."""
+
+
+@dataclass(frozen=True)
+class StudentParts:
+    epsilon: Callable | None = None
+    td_target: Callable | None = None
+    loss: Callable | None = None
+
+
+def call_epsilon(fn: Callable, step: int, start: float, end: float, decay_steps: int) -> float:
+    try:
+        value = float(fn(step, start, end, decay_steps))
+    except Exception as error:
+        raise StudentCodeError(f"your epsilon({step}, {start}, {end}, {decay_steps}) raised {error!r}") from error
+    if not (math.isfinite(value) and 0.0 <= value <= 1.0):
+        raise StudentCodeError(f"your epsilon({step}, ...) returned {value}: a probability must be in [0, 1]")
+    return value
+
+
+def call_td_target(fn: Callable, rewards: torch.Tensor, dones: torch.Tensor, next_q_online: torch.Tensor,
+                   next_q_target: torch.Tensor, gamma: float, double: bool) -> torch.Tensor:
+    arrays = [t.detach().numpy().astype(np.float64) for t in (rewards, dones, next_q_online, next_q_target)]
+    try:
+        out = np.asarray(fn(*arrays, gamma, double), dtype=np.float64)
+    except Exception as error:
+        raise StudentCodeError(f"your td_target raised {error!r} on a batch of {len(rewards)}") from error
+    if out.shape != (len(rewards),):
+        raise StudentCodeError(f"your td_target returned shape {out.shape}; expected ({len(rewards)},), one "
+                               "target per transition")
+    if not np.all(np.isfinite(out)):
+        raise StudentCodeError("your td_target returned a non-finite target (nan or inf)")
+    return torch.from_numpy(out.astype(np.float32))
+
+
+class _NumpyLoss(torch.autograd.Function):
+    """Mean of a numpy elementwise loss; the gradient by central differences of the same function."""
+
+    @staticmethod
+    def forward(ctx, errors: torch.Tensor, fn, delta: float) -> torch.Tensor:
+        e = errors.detach().numpy().astype(np.float64)
+        values = _elementwise(fn, e, delta)
+        step = DERIVATIVE_STEP * np.maximum(1.0, np.abs(e))
+        slope = (_elementwise(fn, e + step, delta) - _elementwise(fn, e - step, delta)) / (2 * step)
+        ctx.save_for_backward(torch.from_numpy(slope.astype(np.float32)))
+        return torch.tensor(float(values.mean()), dtype=errors.dtype)
+
+    @staticmethod
+    def backward(ctx, grad_output):
+        (slope,) = ctx.saved_tensors
+        return grad_output * slope / slope.numel(), None, None
+
+
+def _elementwise(fn: Callable, errors: np.ndarray, delta: float) -> np.ndarray:
+    try:
+        out = np.asarray(fn(errors.copy(), delta), dtype=np.float64)
+    except Exception as error:
+        raise StudentCodeError(f"your loss raised {error!r} on {errors.size} errors") from error
+    if out.shape != errors.shape:
+        raise StudentCodeError(f"your loss returned shape {out.shape} for errors of shape {errors.shape}: "
+                               "it must be elementwise")
+    if not np.all(np.isfinite(out)):
+        raise StudentCodeError("your loss returned a non-finite value")
+    return out
+
+
+def student_loss(fn: Callable, errors: torch.Tensor, delta: float) -> torch.Tensor:
+    return _NumpyLoss.apply(errors, fn, delta)

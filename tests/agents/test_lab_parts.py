@@ -1,0 +1,80 @@
+"""Lab 07's hooks: a student's epsilon, TD target and loss run inside the kit's DQN; right ones reproduce the
+built-in agent, wrong ones change what it learns, broken ones give a message that says what is wrong."""
+
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch")
+
+from pendkit.agents.dqn import DqnAgent, DqnConfig  # noqa: E402
+from pendkit.agents.lab_parts import StudentCodeError, StudentParts  # noqa: E402
+from pendkit.agents.replay import ReplayBuffer  # noqa: E402
+
+
+def epsilon(step, start, end, decay_steps):
+    return start + min(1.0, step / decay_steps) * (end - start)
+
+
+def td_target(rewards, dones, next_q_online, next_q_target, gamma, double):
+    if double:
+        next_value = next_q_target[np.arange(len(rewards)), next_q_online.argmax(axis=1)]
+    else:
+        next_value = next_q_target.max(axis=1)
+    return rewards + gamma * (1 - dones) * next_value
+
+
+def huber(errors, delta):
+    e = np.abs(errors)
+    return np.where(e <= delta, 0.5 * e**2, delta * (e - 0.5 * delta))
+
+
+def batch_of(size=64, seed=0):
+    rng = np.random.default_rng(seed)
+    buffer = ReplayBuffer(500, 4, seed)
+    for _ in range(500):
+        buffer.add(rng.normal(size=4), int(rng.integers(3)), float(rng.normal()), rng.normal(size=4),
+                   bool(rng.random() < 0.1))
+    return buffer.sample(size)
+
+
+@pytest.mark.parametrize("double", [True, False])
+def test_right_parts_train_exactly_like_the_built_in_agent(double):
+    config = DqnConfig(seed=5, double=double, huber_delta=0.5)
+    built_in, student = DqnAgent(4, 3, config), DqnAgent(4, 3, config, StudentParts(epsilon, td_target, huber))
+    for k in range(20):
+        batch = batch_of(seed=k)
+        a, b = built_in.update(batch), student.update(batch)
+        assert b["loss"] == pytest.approx(a["loss"], rel=1e-4)
+    for p, q in zip(built_in.q.parameters(), student.q.parameters()):
+        torch.testing.assert_close(p, q, atol=2e-5, rtol=1e-4)
+    for steps in (0, 5000, 20_000):
+        built_in.steps = student.steps = steps
+        assert student.epsilon == pytest.approx(built_in.epsilon)
+
+
+def test_a_wrong_target_changes_the_learning():
+    def forgets_gamma(rewards, dones, next_q_online, next_q_target, gamma, double):
+        return rewards + (1 - dones) * next_q_target.max(axis=1)
+
+    config = DqnConfig(seed=5)
+    right, wrong = DqnAgent(4, 3, config, StudentParts(td_target=td_target)), \
+        DqnAgent(4, 3, config, StudentParts(td_target=forgets_gamma))
+    for k in range(20):
+        right.update(batch_of(seed=k)), wrong.update(batch_of(seed=k))
+    gap = max(float((p - q).detach().abs().max()) for p, q in zip(right.q.parameters(), wrong.q.parameters()))
+    assert gap > 1e-3
+
+
+def test_broken_parts_say_what_is_wrong():
+    batch = batch_of()
+    with pytest.raises(StudentCodeError, match=r"shape \(64, 1\)"):
+        DqnAgent(4, 3, parts=StudentParts(td_target=lambda r, d, o, t, g, dbl: r[:, None])).update(batch)
+    with pytest.raises(StudentCodeError, match="non-finite"):
+        with np.errstate(divide="ignore"):
+            DqnAgent(4, 3, parts=StudentParts(td_target=lambda r, d, o, t, g, dbl: r / 0.0)).update(batch)
+    with pytest.raises(StudentCodeError, match="elementwise"):
+        DqnAgent(4, 3, parts=StudentParts(loss=lambda e, delta: float(np.mean(e**2)))).update(batch)
+    with pytest.raises(StudentCodeError, match=r"\[0, 1\]"):
+        DqnAgent(4, 3, parts=StudentParts(epsilon=lambda s, a, b, n: 2.0)).act(np.zeros(4))
+    with pytest.raises(StudentCodeError, match="raised"):
+        DqnAgent(4, 3, parts=StudentParts(loss=lambda e, delta: undefined_name)).update(batch)  # noqa: F821
