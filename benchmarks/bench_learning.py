@@ -24,11 +24,13 @@ from __future__ import annotations
 
 import argparse
 import ast
+import json
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from multiprocessing import get_context
+from pathlib import Path
 
 import numpy as np
 
@@ -205,6 +207,8 @@ def main() -> None:
     parser.add_argument("--set", nargs="*", default=[], metavar="FIELD=VALUE",
                         help="agent config overrides, e.g. --set batch_size=64 update_every=8")
     parser.add_argument("--verbose", action="store_true", help="a line per 10 episodes of every run (stderr)")
+    parser.add_argument("--json", type=Path, default=None,
+                        help="also write every run's result there (lab 08 reads the delay sweep from such a file)")
     args = parser.parse_args()
     overrides = {key: ast.literal_eval(value) for key, value in (item.split("=", 1) for item in args.set)}
     _one_thread()  # also for --jobs 1: two benchmarks side by side must not fight with two threads each
@@ -223,9 +227,29 @@ def main() -> None:
     rows = [(algo, fidelity) for fidelity in fidelities for algo in algos]
     results = run_rows(rows, args.seeds, args.max_episodes, args.max_wall_s, args.jobs, overrides, args.verbose,
                        args.first_seed)
+    for algo in algos:  # one summary line per agent
+        mine = [(setting_name(f), r) for (a, f), r in zip(rows, results) if a == algo]
+        print(f"summary algo={algo} " + " ".join(f"{name}={sum(e is not None for e, _ in r)}/{len(r)}"
+                                                  for name, r in mine), flush=True)
     if delays_ms is not None:
         for algo in algos:
             sweep_summary(algo, delays_ms, [r for (a, _), r in zip(rows, results) if a == algo])
+    if args.json is not None:
+        write_json(args.json, rows, results, delays_ms, args)
+
+
+def write_json(path: Path, rows, results, delays_ms, args) -> None:
+    """Every run's (episodes to solve or null, seconds), by algorithm and setting; a sweep's delays in ms."""
+    record = {"command": "python benchmarks/bench_learning.py " + " ".join(sys.argv[1:]),
+              "solved_rule": f"greedy from hanging, |theta| < 0.3 rad for the last {TAIL_STEPS} of "
+                             f"{EPISODE_STEPS} steps, checked every {CHECK_EVERY} episodes",
+              "max_episodes": args.max_episodes, "max_wall_s": args.max_wall_s,
+              "delays_ms": delays_ms,
+              "runs": [{"algo": algo, "setting": setting_name(setting),
+                        "episodes": [e for e, _ in result], "wall_s": [round(s, 1) for _, s in result]}
+                       for (algo, setting), result in zip(rows, results)]}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(record, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -98,7 +98,8 @@ def train_sync(env, agent, episodes: int, inputs: StepInputs | GruEncoder | None
         bar = tqdm(total=episodes, initial=first, desc="training", unit="episode")
     try:
         for episode in range(first, episodes):
-            total, _ = run_episode(env, agent, inputs, buffer, seed=seed + episode, episode_key=seed * 100_000 + episode)
+            key = seed * 100_000 + episode  # unique per episode, also across resumed and repeated calls
+            total, _ = run_episode(env, agent, inputs, buffer, seed=seed + episode, episode_key=key)
             returns.append(total)
             if writer is not None:
                 writer.writerow([episode, f"{total:.4f}"])

@@ -10,7 +10,6 @@ rig (latency between none and poor WiFi), and +-10% on every mass (a heavier tip
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
 
 import gymnasium as gym
 import numpy as np
@@ -60,8 +59,8 @@ def sample_rig(base: RigParams, what: tuple[str, ...], rng: np.random.Generator)
 
 
 def sample_latency(rng: np.random.Generator) -> LatencyModel:
-    return LatencyModel(floor_ms=float(rng.uniform(*LATENCY_FLOOR_MS)), median_ms=float(rng.uniform(*LATENCY_MEDIAN_MS)),
-                        spread=float(rng.uniform(*LATENCY_SPREAD)))
+    return LatencyModel(floor_ms=float(rng.uniform(*LATENCY_FLOOR_MS)),
+                        median_ms=float(rng.uniform(*LATENCY_MEDIAN_MS)), spread=float(rng.uniform(*LATENCY_SPREAD)))
 
 
 class DomainRandomization(gym.Wrapper):
