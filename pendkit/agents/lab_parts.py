@@ -92,3 +92,56 @@ def _elementwise(fn: Callable, errors: np.ndarray, delta: float) -> np.ndarray:
 
 def student_loss(fn: Callable, errors: torch.Tensor, delta: float) -> torch.Tensor:
     return _NumpyLoss.apply(errors, fn, delta)
+
+
+class StudentInputs:
+    """What a delay-aware agent sees, built by a student's `augmented_state(observation, recent_actions,
+    n_actions)` (lab 08): `recent_actions` holds the last `actions_seen` action indices, newest first (0, the
+    stop, before the first action). Same interface as `pendkit.agents.inputs.StepInputs`."""
+
+    def __init__(self, fn: Callable, observation_dim: int, n_actions: int, actions_seen: int) -> None:
+        self.fn, self.n_actions, self.actions_seen = fn, n_actions, actions_seen
+        self.dim = observation_dim + n_actions * actions_seen
+        self._recent: list[int] = []
+
+    def reset(self, observation) -> np.ndarray:
+        self._recent = [0] * self.actions_seen
+        return self._make(observation)
+
+    def step(self, observation, action) -> np.ndarray:
+        self._recent = [int(action), *self._recent[:-1]]
+        return self._make(observation)
+
+    def _make(self, observation) -> np.ndarray:
+        try:
+            out = np.asarray(self.fn(np.array(observation, dtype=np.float32), list(self._recent), self.n_actions),
+                             dtype=np.float32)
+        except Exception as error:
+            raise StudentCodeError(f"your augmented_state raised {error!r}") from error
+        if out.shape != (self.dim,):
+            raise StudentCodeError(f"your augmented_state returned shape {out.shape}; expected ({self.dim},): "
+                                   f"the observation then {self.actions_seen} one-hot actions of {self.n_actions}")
+        if not np.all(np.isfinite(out)):
+            raise StudentCodeError("your augmented_state returned a non-finite value")
+        return out
+
+
+def train_with_parts(env, parts: StudentParts, episodes: int, seed: int = 0, learning_starts: int = 500,
+                     inputs=None):
+    """Train the kit's DQN with a student's pieces on `env`: (agent, returns), or (None, None) with a
+    one-line note when a piece is not written yet or breaks (the note says which and how)."""
+    from pendkit.agents.dqn import DqnAgent, DqnConfig
+    from pendkit.agents.inputs import StepInputs
+    from pendkit.agents.train import train_sync
+
+    inputs = inputs or StepInputs.for_env(env)
+    agent = DqnAgent(inputs.dim, env.action_space.n, DqnConfig(seed=seed, learning_starts=learning_starts), parts)
+    try:
+        returns = train_sync(env, agent, episodes, inputs, seed=seed, progress=False)
+    except StudentCodeError as error:
+        if isinstance(error.__cause__, NotImplementedError):
+            print(f"not trained: {str(error).split(' raised ')[0].replace('your ', '')} is not implemented yet")
+        else:
+            print(f"not trained: {error}")
+        return None, None
+    return agent, returns

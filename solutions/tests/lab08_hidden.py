@@ -6,6 +6,7 @@ import torch
 from pendkit.grading import expect, task
 
 gru = task("08.gru_step", function="gru_step", title="One step of a GRU cell")
+augmented = task("08.augmented_state", function="augmented_state", title="The augmented state of a delayed rig")
 delayed = task("08.delayed_view", function="delayed_view", title="What a delayed agent sees")
 
 
@@ -24,3 +25,22 @@ def longer_than_the_episode(fn, rng):
     observations = rng.normal(size=(4, 3))
     got = np.asarray(fn(observations, 10), dtype=float)
     expect(np.allclose(got, np.repeat(observations[:1], 4, axis=0)), "every row should be the first observation")
+
+
+@augmented.test(points=1, hidden=True, hint="It must agree with the kit's delay-aware input for any delay.")
+def matches_the_kit(fn, rng):
+    import gymnasium as gym
+
+    from pendkit.agents.inputs import StepInputs
+
+    for seen in (1, 3, 6):
+        inputs = StepInputs(4, gym.spaces.Discrete(5), actions_seen=seen)
+        observation = rng.normal(size=4)
+        x, recent = inputs.reset(observation), [0] * seen
+        for _ in range(8):
+            action = int(rng.integers(5))
+            recent = [action, *recent[:-1]]
+            observation = rng.normal(size=4)
+            x = inputs.step(observation, action)
+        got = np.asarray(fn(observation.astype(np.float32), list(recent), 5), dtype=float)
+        expect(got.shape == x.shape and np.allclose(got, x, atol=1e-6), f"differs from the kit with {seen} actions")

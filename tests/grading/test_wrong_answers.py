@@ -58,8 +58,15 @@ CORRECT = {
     "07.huber": lambda e, delta: np.where(np.abs(e) <= delta, 0.5 * e**2, delta * (np.abs(e) - 0.5 * delta)),
     "08.delayed_view": lambda obs, k: np.asarray(obs)[np.maximum(0, np.arange(len(obs)) - k)],
     "08.gru_step": lambda x, h, w_ih, w_hh, b_ih, b_hh: gru_step(x, h, w_ih, w_hh, b_ih, b_hh),
+    "08.augmented_state": lambda obs, recent, n: augmented_state(obs, recent, n),
     "08.breaking_delay": lambda d, p, r, t=0.5: next((a for a, b, c in zip(d, p, r) if b < t <= c), None),
 }
+
+
+def augmented_state(observation, recent, n, oldest_first=False, one_hot=True):
+    recent = list(recent)[::-1] if oldest_first else list(recent)
+    codes = np.eye(n)[recent].ravel() if one_hot else np.asarray(recent, dtype=float)
+    return np.concatenate([np.asarray(observation, dtype=float).ravel(), codes])
 
 
 def gru_step(x, h, w_ih, w_hh, b_ih, b_hh, swap_update=False):
@@ -273,6 +280,8 @@ MISTAKES = [
     ("08.delayed_view", lambda obs, k: np.roll(obs, k, axis=0), "np.roll"),
     ("08.delayed_view", lambda obs, k: np.asarray(obs), "nothing is delayed"),
     ("08.gru_step", lambda x, h, a, b, c, d: gru_step(x, h, a, b, c, d, swap_update=True), "swapped"),
+    ("08.augmented_state", lambda o, r, n: augmented_state(o, r, n, oldest_first=True), "wrong order"),
+    ("08.augmented_state", lambda o, r, n: augmented_state(o, r, n, one_hot=False), "one-hot codes"),
     ("08.breaking_delay", lambda d, p, r, t=0.5: d[int(np.argmin(p))], "first breaks"),
 ]
 

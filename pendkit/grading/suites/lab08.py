@@ -7,6 +7,7 @@ import numpy as np
 from pendkit.grading.core import Failed, expect, task
 
 delayed = task("08.delayed_view", function="delayed_view", title="What a delayed agent sees")
+augmented = task("08.augmented_state", function="augmented_state", title="The augmented state of a delayed rig")
 gru = task("08.gru_step", function="gru_step", title="One step of a GRU cell")
 contrast = task("08.breaking_delay", function="breaking_delay", title="Where plain DQN breaks")
 
@@ -33,6 +34,41 @@ def shifted_and_padded(fn, rng):
     expect(np.allclose(got, expected), message)
     same = _array(fn(observations.copy(), 0), "delayed_view(observations, 0)", (6, 2))
     expect(np.allclose(same, observations), "a delay of 0 should return the observations unchanged")
+
+
+def _numeric(value) -> bool:
+    try:
+        np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        return False
+    return True
+
+
+def reference_augmented_state(observation, recent_actions, n_actions):
+    codes = np.zeros((len(recent_actions), n_actions))
+    codes[np.arange(len(recent_actions)), list(recent_actions)] = 1.0
+    return np.concatenate([np.asarray(observation, dtype=float).ravel(), codes.ravel()])
+
+
+@augmented.test(points=3, hint="The observation, then one one-hot code per recent action, newest first "
+                                "(recent_actions is newest first already).")
+def observation_then_one_hot_actions(fn, rng):
+    observation, recent = np.array([0.5, -1.0, 2.0]), [4, 0, 2]
+    expected = reference_augmented_state(observation, recent, 5)
+    call = "augmented_state([0.5, -1, 2], [4, 0, 2], 5)"
+    raw = fn(observation.copy(), list(recent), 5)
+    flat = np.asarray(raw, dtype=float).ravel() if _numeric(raw) else None
+    if flat is not None and flat.shape == (6,) and np.allclose(flat, [0.5, -1.0, 2.0, *recent]):
+        raise Failed(f"{call} should have 18 values: use one-hot codes, not the action numbers (action 4 is not "
+                     "'twice' action 2)")
+    got = _array(raw, call, (18,))
+    message = f"{call} should be {expected.tolist()}, got {got.tolist()}"
+    if np.allclose(got, reference_augmented_state(observation, recent[::-1], 5)):
+        message += ": the actions are in the wrong order; keep recent_actions as given, newest first"
+    expect(np.allclose(got, expected), message)
+    single = _array(fn(np.zeros(2), [1], 3), "augmented_state([0, 0], [1], 3)", (5,))
+    expect(np.allclose(single, [0, 0, 0, 1, 0]), f"augmented_state([0, 0], [1], 3) should be [0, 0, 0, 1, 0], "
+                                                 f"got {single.tolist()}")
 
 
 def reference_gru_step(x, h, w_ih, w_hh, b_ih, b_hh):
