@@ -27,6 +27,24 @@ def test_two_twin_actors_feed_one_learner():
     assert not any(thread.is_alive() for thread in trainer._threads)  # close() stopped everything
 
 
+def test_a_trained_recurrent_learner_gets_whole_stretches_from_interleaved_actors():
+    from pendkit.agents.variants import build_learner
+
+    envs = [pendkit.make(fidelity="realistic", max_episode_steps=60) for _ in range(2)]
+    agent, inputs = build_learner("r-dqn", envs[0], learning_starts=64, batch_size=16, update_every=1)
+    trainer = AsyncTrainer(agent, envs, [inputs, build_learner("r-dqn", envs[1])[1]], publish_every=5)
+    stats = trainer.run(seconds=3.0)
+    assert stats.learner_updates > 10 and agent.normalizer.count == len(trainer.buffer)
+    buffer = trainer.buffer
+    stored = buffer.episode[:len(buffer)]
+    assert {int(key) // 1_000_000 for key in stored} == {0, 1}  # both actors' steps are in the one buffer
+    batch = buffer.sample(64)
+    assert batch.loss_mask.sum() > 0
+    for row in range(64):  # every trained step continues its stretch's episode, step by step
+        kept = batch.loss_mask[row].bool()
+        assert torch.all(batch.inputs[row][kept][1:, :7] == batch.next_inputs[row][kept][:-1, :7]) or kept.sum() < 2
+
+
 def test_a_rig_actor_keeps_its_control_period_while_the_learner_trains():
     rig = LocalRig()
     try:
