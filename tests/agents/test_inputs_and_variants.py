@@ -82,3 +82,14 @@ def test_estimated_features_are_closer_to_the_truth_than_the_readings(action_mod
     assert np.all(rms["estimated"] < 0.5 * rms["measured"]), rms  # arm angle and pendulum rate both
     with pytest.raises(ConfigError, match="features"):
         pendkit.make(features="guessed")
+
+
+def test_the_shipped_delay_sweep_is_a_benchmark_output_with_every_point():
+    from pendkit.agents.results import delay_sweep
+
+    sweep = delay_sweep()
+    assert "bench_learning.py" in sweep.command and "--sweep-delay-steps" in sweep.command
+    assert {"dqn", "dqn+actions", "r-dqn"} <= set(sweep.success_rate)
+    assert sweep.delays_ms == sorted(sweep.delays_ms) and sweep.delays_ms[0] == 0 and sweep.seeds >= 3
+    for rates in sweep.success_rate.values():
+        assert len(rates) == len(sweep.delays_ms) and all(0 <= r <= 1 for r in rates)

@@ -103,3 +103,29 @@ def test_in_the_labs_budget_a_wrong_target_visibly_fails_to_learn():
 
 
 LAB_EPISODES = 50
+
+
+def test_a_students_augmented_state_is_what_the_delay_aware_agent_sees():
+    import gymnasium as gym
+
+    from pendkit.agents.inputs import StepInputs
+    from pendkit.agents.lab_parts import StudentInputs
+
+    def right(observation, recent, n):
+        return np.concatenate([observation, np.eye(n)[recent].ravel()])
+
+    def oldest_first(observation, recent, n):
+        return right(observation, recent[::-1], n)
+
+    rng = np.random.default_rng(0)
+    kit, mine, wrong = StepInputs(3, gym.spaces.Discrete(5), 3), StudentInputs(right, 3, 5, 3), \
+        StudentInputs(oldest_first, 3, 5, 3)
+    observation = rng.normal(size=3).astype(np.float32)
+    xs = [(kit.reset(observation), mine.reset(observation), wrong.reset(observation))]
+    for _ in range(10):
+        observation, action = rng.normal(size=3).astype(np.float32), int(rng.integers(5))
+        xs.append((kit.step(observation, action), mine.step(observation, action), wrong.step(observation, action)))
+    assert all(np.array_equal(a, b) for a, b, _ in xs)  # a right answer trains exactly the kit's dqn+actions
+    assert any(not np.array_equal(a, c) for a, _, c in xs)  # a wrong one feeds the agent something else
+    with pytest.raises(StudentCodeError, match="expected \\(18,\\)"):
+        StudentInputs(lambda o, r, n: o, 3, 5, 3).reset(observation)

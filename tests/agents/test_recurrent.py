@@ -141,3 +141,22 @@ def test_recurrent_checkpoint_keeps_weights_normalisation_and_replay(tmp_path):
     assert agent.act(x, explore=False) == other.act(x, explore=False)
     assert torch.equal(other.hidden, agent.hidden)
     assert torch.equal(other_buffer.sample(4).inputs, buffer.sample(4).inputs)
+
+
+def test_r_dqn_resumed_from_a_checkpoint_is_the_uninterrupted_run(tmp_path):
+    import pendkit
+    from pendkit.agents.variants import build_learner
+
+    def fresh():
+        env = pendkit.make(fidelity="realistic", max_episode_steps=40)
+        agent, inputs = build_learner("r-dqn", env, seed=2, learning_starts=30, batch_size=8)
+        return env, agent, inputs
+
+    env, agent, inputs = fresh()
+    straight = train_sync(env, agent, 4, inputs, seed=2, progress=False)
+    env, agent, inputs = fresh()
+    train_sync(env, agent, 2, inputs, seed=2, progress=False, checkpoint_path=tmp_path / "c.pt", checkpoint_every=2)
+    env, agent, inputs = fresh()
+    resumed = train_sync(env, agent, 4, inputs, seed=2, progress=False, checkpoint_path=tmp_path / "c.pt",
+                         resume=True)
+    assert resumed == pytest.approx(straight, abs=1e-6)
