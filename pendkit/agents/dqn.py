@@ -35,18 +35,20 @@ def adam(parameters, learning_rate: float) -> torch.optim.Adam:
 
 @dataclass(frozen=True)
 class DqnConfig:
-    """DQN settings. The defaults suit the twin: small networks, a short epsilon schedule."""
+    """DQN settings. The defaults suit the twin: small networks, a short epsilon schedule, and a buffer of
+    the last 20 episodes (on the ideal twin, 3 seeds: a 50 000-step buffer took a median of 110 episodes to
+    solve, 10 000 took 70, and with epsilon decaying over 2 500 steps instead of 10 000, 50; docs/rl.md)."""
 
     hidden: tuple[int, ...] = (64, 64)
     learning_rate: float = 1e-3
     gamma: float = 0.98
     batch_size: int = 64
-    buffer_capacity: int = 50_000
+    buffer_capacity: int = 10_000
     learning_starts: int = 500
     target_update_every: int = 250
     epsilon_start: float = 1.0
     epsilon_end: float = 0.05
-    epsilon_decay_steps: int = 10_000
+    epsilon_decay_steps: int = 2_500
     huber_delta: float = 1.0
     double: bool = True
     seed: int = 0

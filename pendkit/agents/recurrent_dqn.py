@@ -7,8 +7,8 @@ input. What it leaves open, and what we chose:
   inputs, not encodings, and re-encodes stretches of episodes when they are sampled, starting from the
   recurrent state the actor had (stored with each step) and warming it up over a burn-in before the loss
   (Kapturowski et al. 2019, "stored state" with "burn-in"). A fixed, untrained GRU was our first version;
-  it saturates on raw inputs and carried less than the plain observation (docs/rl.md), so it survives only
-  as the `r-dqn-reservoir` ablation.
+  it saturates on raw inputs and adds little a probe can read (docs/rl.md), so it survives only as the
+  `r-dqn-reservoir` ablation.
 - Inputs (observation and recent actions) are normalised with running statistics before the GRU and the
   head; the statistics travel with the weights in checkpoints.
 - The target network is a copy of GRU and head; double-DQN targets; Huber loss, as in our plain DQN.
