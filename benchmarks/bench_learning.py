@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import ast
 import json
+import re
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -209,9 +210,17 @@ def main() -> None:
     parser.add_argument("--verbose", action="store_true", help="a line per 10 episodes of every run (stderr)")
     parser.add_argument("--json", type=Path, default=None,
                         help="also write every run's result there (lab 08 reads the delay sweep from such a file)")
+    parser.add_argument("--json-from-log", type=Path, default=None, metavar="LOG",
+                        help="instead of running: rebuild --json from the 'run' lines of an earlier sweep's log "
+                             "(a sweep stopped early keeps every delay all of whose runs finished); give the "
+                             "run's --max-episodes and --max-wall-s too")
     args = parser.parse_args()
+    if args.json_from_log is not None:
+        json_from_log(args.json_from_log, args.json or Path("sweep.json"), args)
+        return
     overrides = {key: ast.literal_eval(value) for key, value in (item.split("=", 1) for item in args.set)}
     _one_thread()  # also for --jobs 1: two benchmarks side by side must not fight with two threads each
+    print("# python benchmarks/bench_learning.py " + " ".join(sys.argv[1:]), file=sys.stderr, flush=True)
     if args.quick:
         args.seeds, args.algos, args.fidelities, args.sb3 = 1, ["dqn"], ["ideal"], False
     delays_ms = args.sweep_delay_ms
@@ -238,9 +247,29 @@ def main() -> None:
         write_json(args.json, rows, results, delays_ms, args)
 
 
-def write_json(path: Path, rows, results, delays_ms, args) -> None:
+RUN_LINE = re.compile(r"run algo=(\S+) fidelity=ideal-delayed-(\d+)-steps seed=(\d+) episodes=(\S+) wall_s=(\d+)")
+
+
+def json_from_log(log: Path, path: Path, args) -> None:
+    """The --json file of a whole-step sweep from its log: the delays where every algorithm has every seed."""
+    runs: dict[tuple[str, int], list[tuple[int | None, float]]] = {}
+    for match in RUN_LINE.finditer(log.read_text()):
+        algo, steps, _, episodes, wall = match.groups()
+        runs.setdefault((algo, int(steps)), []).append((None if episodes == "None" else int(episodes), float(wall)))
+    algos = list(dict.fromkeys(algo for algo, _ in runs))
+    seeds = max(len(r) for r in runs.values())
+    steps = sorted({s for _, s in runs if all(len(runs.get((a, s), [])) == seeds for a in algos)})
+    rows = [(algo, StepDelay(s)) for s in steps for algo in algos]
+    step_ms = pendkit.make().unwrapped.dt * 1000
+    first = log.read_text().splitlines()[0]
+    command = first.removeprefix("# ") if first.startswith("# ") else "python benchmarks/bench_learning.py (a sweep)"
+    write_json(path, rows, [runs[(a, d.delay_steps)] for a, d in rows], [s * step_ms for s in steps], args,
+               command=f"{command}; rebuilt from its log with --json-from-log")
+
+
+def write_json(path: Path, rows, results, delays_ms, args, command: str | None = None) -> None:
     """Every run's (episodes to solve or null, seconds), by algorithm and setting; a sweep's delays in ms."""
-    record = {"command": "python benchmarks/bench_learning.py " + " ".join(sys.argv[1:]),
+    record = {"command": command or "python benchmarks/bench_learning.py " + " ".join(sys.argv[1:]),
               "solved_rule": f"greedy from hanging, |theta| < 0.3 rad for the last {TAIL_STEPS} of "
                              f"{EPISODE_STEPS} steps, checked every {CHECK_EVERY} episodes",
               "max_episodes": args.max_episodes, "max_wall_s": args.max_wall_s,
