@@ -4,11 +4,11 @@ The paper's authors found that policies did not transfer between servos. Two tra
 on the realistic twin with the same budget: one on the default servo preset, one with domain randomisation
 (`pendkit.sim.randomize`: servo, latency and masses drawn anew every episode). Every 20 episodes each is
 evaluated greedy from the hanging start on every servo preset (solved: |theta| < 0.3 rad for the last 200
-of 500 steps); a training stops when >= 4 presets are solved or its time is up. One line per training:
+of 500 steps); a training stops when >= 4 presets are solved or its episodes (or time) are up. One line per training:
 
     transfer algo=<a> training=<one-preset|randomized> presets_solved=<k>/5 episodes=<e> wall_s=<s> solved=<names>
 
-    python benchmarks/bench_transfer.py --algo r-dqn --max-wall-s 900 --jobs 2
+    python benchmarks/bench_transfer.py --algo r-dqn --max-episodes 400 --jobs 2
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ def presets_solved(algo: str, agent, seed: int) -> list[str]:
     return solved
 
 
-def run(algo: str, randomized: bool, seed: int, max_wall_s: float, verbose: bool) -> tuple:
+def run(algo: str, randomized: bool, seed: int, max_episodes: int, max_wall_s: float, verbose: bool) -> tuple:
     import torch
 
     torch.set_num_threads(1)
@@ -53,7 +53,7 @@ def run(algo: str, randomized: bool, seed: int, max_wall_s: float, verbose: bool
     agent, inputs = build_learner(algo, env, seed)
     buffer = make_buffer(agent, inputs.dim, env.action_space, seed)
     started, episodes, best = time.perf_counter(), 0, []
-    while time.perf_counter() - started < max_wall_s:
+    while time.perf_counter() - started < max_wall_s and episodes < max_episodes:
         train_sync(env, agent, CHECK_EVERY, inputs, buffer, seed=seed + episodes, progress=False)
         episodes += CHECK_EVERY
         solved = presets_solved(algo, agent, seed)
@@ -70,11 +70,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--algo", default="r-dqn")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--max-wall-s", type=float, default=900.0)
+    parser.add_argument("--max-episodes", type=int, default=400)
+    parser.add_argument("--max-wall-s", type=float, default=1800.0)
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--verbose", action="store_true")
     args = parser.parse_args()
-    work = [(args.algo, randomized, args.seed, args.max_wall_s, args.verbose) for randomized in (False, True)]
+    work = [(args.algo, randomized, args.seed, args.max_episodes, args.max_wall_s, args.verbose)
+            for randomized in (False, True)]
     with ProcessPoolExecutor(args.jobs, mp_context=get_context("spawn")) as pool:
         for algo, randomized, solved, best, episodes, wall in pool.map(run, *zip(*work)):
             print(f"transfer algo={algo} training={'randomized' if randomized else 'one-preset'} "

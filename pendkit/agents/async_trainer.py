@@ -14,8 +14,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 
-from pendkit.agents.inputs import StepInputs
-from pendkit.agents.train import make_buffer
+from pendkit.agents.train import as_inputs, make_buffer
 
 
 @dataclass
@@ -38,7 +37,7 @@ class AsyncTrainer:
         or, as before, one fixed `GruEncoder` (or None) per env."""
         self.agent, self.envs = agent, envs
         given = inputs or [None] * len(envs)
-        self.inputs = [x if isinstance(x, StepInputs) else StepInputs.for_env(env, 1, x) for x, env in zip(given, envs)]
+        self.inputs = [as_inputs(env, x) for x, env in zip(given, envs)]
         self.recurrent = getattr(agent, "recurrent", False)
         self.buffer = buffer or make_buffer(agent, self.inputs[0].dim, envs[0].action_space, seed)
         self.transitions: queue.Queue = queue.Queue(maxsize=transition_queue_size)

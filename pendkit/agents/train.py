@@ -36,10 +36,12 @@ def make_buffer(agent, input_dim: int, action_space, seed: int = 0):
                         action_dim=action_space.shape[0] if continuous else None)
 
 
-def _as_inputs(env, inputs) -> StepInputs:
-    if isinstance(inputs, StepInputs):
+def as_inputs(env, inputs):
+    """`inputs` if it builds step inputs itself (`reset`, `step`, `dim`: a `StepInputs` or a lab's own);
+    otherwise observation and last action, through `inputs` if it is a fixed GruEncoder (the ablation)."""
+    if all(hasattr(inputs, name) for name in ("reset", "step", "dim")):
         return inputs
-    return StepInputs.for_env(env, 1, inputs)  # None, or a fixed GruEncoder (the reservoir ablation)
+    return StepInputs.for_env(env, 1, inputs)
 
 
 def run_episode(env, agent, inputs: StepInputs, buffer=None, seed: int | None = None, episode_key: int = 0,
@@ -78,7 +80,7 @@ def train_sync(env, agent, episodes: int, inputs: StepInputs | GruEncoder | None
     """Train until `episodes` episodes are done; return all their returns. `inputs` says what the agent sees
     (default: observation and last action). Returns are appended to `csv_path` as they come; with
     `checkpoint_path`, a checkpoint every `checkpoint_every` episodes, and `resume=True` continues from it."""
-    inputs = _as_inputs(env, inputs if inputs is not None else encoder)
+    inputs = as_inputs(env, inputs if inputs is not None else encoder)
     buffer = buffer if buffer is not None else make_buffer(agent, inputs.dim, env.action_space, seed)
     first, returns = 0, []
     if resume and checkpoint_path is not None and Path(checkpoint_path).exists():
