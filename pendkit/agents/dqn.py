@@ -33,6 +33,19 @@ def adam(parameters, learning_rate: float) -> torch.optim.Adam:
         return torch.optim.Adam(parameters, lr=learning_rate)
 
 
+def linear_epsilon(step: int, start: float, end: float, decay_steps: int) -> float:
+    """Exploration rate: linear from `start` to `end` over `decay_steps`, then flat."""
+    return start + min(1.0, step / decay_steps) * (end - start)
+
+
+def descend(optimizer: torch.optim.Optimizer, loss: torch.Tensor, parameters, max_grad_norm: float = 10.0) -> None:
+    """One optimiser step on `loss`, gradients clipped to `max_grad_norm`."""
+    optimizer.zero_grad()
+    loss.backward()
+    nn.utils.clip_grad_norm_(parameters, max_grad_norm, foreach=True)
+    optimizer.step()
+
+
 @dataclass(frozen=True)
 class DqnConfig:
     """DQN settings. The defaults suit the twin: small networks, a short epsilon schedule, and a buffer of
@@ -90,8 +103,7 @@ class DqnAgent:
             from pendkit.agents.lab_parts import call_epsilon
 
             return call_epsilon(self.parts.epsilon, self.steps, c.epsilon_start, c.epsilon_end, c.epsilon_decay_steps)
-        fraction = min(1.0, self.steps / c.epsilon_decay_steps)
-        return c.epsilon_start + fraction * (c.epsilon_end - c.epsilon_start)
+        return linear_epsilon(self.steps, c.epsilon_start, c.epsilon_end, c.epsilon_decay_steps)
 
     def act(self, observation, explore: bool = True) -> int:
         if explore:
@@ -126,10 +138,7 @@ class DqnAgent:
             loss = student_loss(parts.loss, q_taken - target, c.huber_delta)
         else:
             loss = nn.functional.huber_loss(q_taken, target, delta=c.huber_delta)
-        self.optimizer.zero_grad()
-        loss.backward()
-        nn.utils.clip_grad_norm_(self.q.parameters(), 10.0, foreach=True)
-        self.optimizer.step()
+        descend(self.optimizer, loss, self.q.parameters())
         self.updates += 1
         if self.updates % c.target_update_every == 0:
             self.target.load_state_dict(self.q.state_dict())

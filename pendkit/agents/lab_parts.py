@@ -136,15 +136,8 @@ def train_with_parts(env, parts: StudentParts, episodes: int, seed: int = 0, lea
 
     inputs = inputs or StepInputs.for_env(env)
     agent = DqnAgent(inputs.dim, env.action_space.n, DqnConfig(seed=seed, learning_starts=learning_starts), parts)
-    try:
-        returns = train_sync(env, agent, episodes, inputs, seed=seed, progress=False)
-    except StudentCodeError as error:
-        if isinstance(error.__cause__, NotImplementedError):
-            print(f"not trained: {str(error).split(' raised ')[0].replace('your ', '')} is not implemented yet")
-        else:
-            print(f"not trained: {error}")
-        return None, None
-    return agent, returns
+    returns = run_or_note(train_sync, env, agent, episodes, inputs, seed=seed, progress=False)
+    return (agent, returns) if returns is not None else (None, None)
 
 
 def run_or_note(fn: Callable, *args, **kwargs):
@@ -154,7 +147,7 @@ def run_or_note(fn: Callable, *args, **kwargs):
         return fn(*args, **kwargs)
     except StudentCodeError as error:
         if isinstance(error.__cause__, NotImplementedError):
-            print(f"skipped: {str(error).split(' raised ')[0].replace('your ', '')} is not implemented yet")
+            print(f"not run: {str(error).split(' raised ')[0].replace('your ', '')} is not implemented yet")
         else:
-            print(f"skipped: {error}")
+            print(f"not run: {error}")
         return None

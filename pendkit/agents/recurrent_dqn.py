@@ -24,7 +24,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from pendkit.agents.dqn import adam, mlp
+from pendkit.agents.dqn import adam, descend, linear_epsilon, mlp
 from pendkit.agents.normalizer import RunningNormalizer
 from pendkit.agents.recurrent import GruTrunk, masked_mean
 from pendkit.agents.sequence_replay import SequenceBatch, SequenceReplay
@@ -109,8 +109,7 @@ class RecurrentDqnAgent:
     @property
     def epsilon(self) -> float:
         c = self.config
-        fraction = min(1.0, self.steps / c.epsilon_decay_steps)
-        return c.epsilon_start + fraction * (c.epsilon_end - c.epsilon_start)
+        return linear_epsilon(self.steps, c.epsilon_start, c.epsilon_end, c.epsilon_decay_steps)
 
     def reset(self) -> None:
         self.hidden = torch.zeros(1, self.config.gru_size)
@@ -151,10 +150,7 @@ class RecurrentDqnAgent:
             target = batch.rewards[:, b:] + c.gamma * (1.0 - batch.dones[:, b:]) * next_value.squeeze(-1)
         mask = batch.loss_mask[:, b:]
         loss = masked_mean(nn.functional.huber_loss(q_taken, target, delta=c.huber_delta, reduction="none"), mask)
-        self.optimizer.zero_grad()
-        loss.backward()
-        nn.utils.clip_grad_norm_(self.q.parameters(), 10.0, foreach=True)
-        self.optimizer.step()
+        descend(self.optimizer, loss, self.q.parameters())
         self.updates += 1
         if self.updates % c.target_update_every == 0:
             self.target.load_state_dict(self.q.state_dict())
