@@ -33,6 +33,7 @@ class ReplayBuffer:
         self.rewards = np.zeros(capacity, dtype=np.float32)
         self.dones = np.zeros(capacity, dtype=np.float32)
         self.size = self.position = 0
+        self.added = 0  # every transition ever stored, also those the newest have since pushed out
         self.rng = np.random.default_rng(seed)
 
     def __len__(self) -> int:
@@ -44,6 +45,7 @@ class ReplayBuffer:
         self.actions[k], self.rewards[k], self.dones[k] = action, reward, float(done)
         self.position = (k + 1) % self.capacity
         self.size = min(self.size + 1, self.capacity)
+        self.added += 1
 
     def sample(self, batch_size: int) -> Batch:
         if self.size == 0:
