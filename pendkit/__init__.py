@@ -10,7 +10,7 @@ choose_gl_backend()  # must run before mujoco is first imported: it reads MUJOCO
 
 import gymnasium  # noqa: E402
 
-from pendkit.env import ENV_ID, SwingUpEnv  # noqa: E402
+from pendkit.env import ENV_ID, EPISODE_STEPS, SwingUpEnv  # noqa: E402
 from pendkit.errors import ActionError, ConfigError, PendkitError  # noqa: E402
 from pendkit.rig import RigParams  # noqa: E402
 from pendkit.sim.fidelity import FIDELITY_PRESETS, Fidelity  # noqa: E402
@@ -21,11 +21,17 @@ except PackageNotFoundError:  # running from a source tree without installing
     __version__ = "0.0.0+source"
 
 if ENV_ID not in gymnasium.registry:
-    gymnasium.register(id=ENV_ID, entry_point="pendkit.env:SwingUpEnv")
+    # The TimeLimit wrapper is the one episode limit for made envs (so make(max_episode_steps=1000) holds).
+    gymnasium.register(id=ENV_ID, entry_point="pendkit.env:SwingUpEnv", max_episode_steps=EPISODE_STEPS,
+                       kwargs={"max_episode_steps": None})
 
 
 def make(**kwargs) -> gymnasium.Env:
     """`gymnasium.make("pendkit/SwingUp-v0", **kwargs)`: e.g. `pendkit.make(fidelity="realistic")`."""
+    limit = kwargs.get("max_episode_steps", EPISODE_STEPS)  # gymnasium takes it for its TimeLimit: check it here
+    if isinstance(limit, bool) or not isinstance(limit, int) or limit < 1:
+        raise ConfigError(f"max_episode_steps must be a positive whole number (default {EPISODE_STEPS}), "
+                          f"got {limit!r}")
     return gymnasium.make(ENV_ID, **kwargs)
 
 

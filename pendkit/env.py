@@ -74,7 +74,10 @@ class SwingUpEnv(gym.Env):
     `pendulum_velocity_rad_s` exactly.
 
     ## Episode End
-    Never terminates; truncates after `max_episode_steps` (500) steps, about 30 s at 60 ms a step.
+    Never terminates; truncates after `max_episode_steps` (500) steps, about 30 s at 60 ms a step
+    (`pendkit.make(max_episode_steps=...)` sets the registered `TimeLimit`; `None` on the class: no limit).
+    Readings beyond a feature's range (the arm overshooting the servo's end stop) are clipped to it and
+    `info["observation_clipped"]` says so, so observations always lie in `observation_space`.
 
     ## Arguments
     backend ("sim"), action_mode ("discrete" | "continuous"), fidelity ("ideal" | "paper-delayed" |
@@ -95,7 +98,7 @@ class SwingUpEnv(gym.Env):
     def __init__(self, backend: str = "sim", action_mode: str = "discrete", fidelity: str | Fidelity = "ideal",
                  observation: tuple[str, ...] | str = PAPER_FEATURES, start: str = "random",
                  params: RigParams | None = None, filter_coefficient: float | None = None,
-                 max_episode_steps: int = EPISODE_STEPS, render_mode: str | None = None,
+                 max_episode_steps: int | None = EPISODE_STEPS, render_mode: str | None = None,
                  log_dir: str | None = None, rig: str = "r01", broker: str | None = None,
                  rig_options: dict[str, Any] | None = None, features: str = "measured") -> None:
         if action_mode not in ACTION_MODES:
@@ -106,9 +109,14 @@ class SwingUpEnv(gym.Env):
             raise ConfigError(f"features must be one of {FEATURE_SOURCES}, got {features!r}")
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ConfigError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
-        if not (isinstance(max_episode_steps, int) and max_episode_steps >= 1):
-            raise ConfigError(f"max_episode_steps must be a positive int, got {max_episode_steps!r}")
-        self.params = params or RigParams()
+        if max_episode_steps is not None and not (isinstance(max_episode_steps, (int, np.integer))
+                                                  and not isinstance(max_episode_steps, bool)
+                                                  and max_episode_steps >= 1):
+            raise ConfigError(f"max_episode_steps must be a positive whole number or None, got {max_episode_steps!r}")
+        if params is not None and not isinstance(params, RigParams):
+            raise ConfigError(f"params must be a pendkit.RigParams (e.g. RigParams.preset('mks-x5')), "
+                              f"got {type(params).__name__} {params!r}")
+        self.params = params if params is not None else RigParams()
         self.filter_coefficient = self.params.filter_coefficient if filter_coefficient is None \
             else float(filter_coefficient)
         if not 0.0 <= self.filter_coefficient < 1.0:
@@ -138,6 +146,7 @@ class SwingUpEnv(gym.Env):
             self._estimator = estimated_state_feed(self)
         self._filtered_unit = 0.0
         self._steps = 0
+        self._clipped = False
         self._gl_renderer = None
         self._drawn_frames = None
 
@@ -186,7 +195,7 @@ class SwingUpEnv(gym.Env):
         self._state = self.backend.step(command)
         self._shown = self._estimator.update(command, self._state) if self._estimator is not None else self._state
         self._steps += 1
-        truncated = self._steps >= self.max_episode_steps
+        truncated = self.max_episode_steps is not None and self._steps >= self.max_episode_steps
         return self._observation(), reward(self._state), False, truncated, self._info()
 
     def render(self):
@@ -244,7 +253,13 @@ class SwingUpEnv(gym.Env):
 
     # --- observation ---
     def _observation(self) -> np.ndarray:
-        return feature_vector(self._shown, self.features)
+        raw = feature_vector(self._shown, self.features)
+        observation = np.clip(raw, self.observation_space.low, self.observation_space.high)
+        self._clipped = not np.array_equal(observation, raw, equal_nan=True)
+        if np.isnan(observation).any():  # a backend bug: decoding rejects NaN readings
+            names = [f.name for f, value in zip(self.features, raw) if np.isnan(value)]
+            raise FloatingPointError(f"the observation has NaN in {names}")
+        return observation
 
     def _info(self) -> dict[str, Any]:
         state = self._state
@@ -254,6 +269,7 @@ class SwingUpEnv(gym.Env):
             "time_since_action_s": state.time_since_action_s,
             "servo_target_rad": state.servo_target_rad,
             "safety_flags": state.safety_flags,
+            "observation_clipped": self._clipped,  # a reading beyond its feature's range (e.g. arm overshoot)
             "state": state,
         }
         if isinstance(self.backend, SimBackend):

@@ -54,7 +54,7 @@ def run_episode(env, policy: Policy, *, seed: int | None = None, steps: int | No
         policy.reset(info["state"])  # stateful controllers (filters, modes) start afresh
     trace = EpisodeTrace()
     trace.add(info["state"], 0.0, 0.0, 0.0)
-    limit = steps or base.max_episode_steps
+    limit = steps or _episode_limit(env)
     bar = _progress(limit, "episode") if progress else None
     for step in range(1, limit + 1):
         action = policy(observation, info["state"])
@@ -67,6 +67,15 @@ def run_episode(env, policy: Policy, *, seed: int | None = None, steps: int | No
     if bar is not None:
         bar.close()
     return trace
+
+
+def _episode_limit(env) -> int:
+    """The env's own limit, else the registered TimeLimit's, else the kit's default."""
+    from pendkit.env import EPISODE_STEPS
+
+    own = env.unwrapped.max_episode_steps
+    spec = getattr(env, "spec", None)
+    return own or (spec.max_episode_steps if spec is not None and spec.max_episode_steps else EPISODE_STEPS)
 
 
 def energy_pumping_policy(env) -> Policy:

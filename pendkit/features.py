@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from operator import attrgetter
 
 import numpy as np
 
@@ -21,6 +22,14 @@ def angle_from_upright_rad(state: RigState) -> float:
     return (state.pendulum_angle_rad % TWO_PI) - math.pi
 
 
+def pendulum_cos(state: RigState) -> float:
+    return math.cos(angle_from_upright_rad(state))
+
+
+def pendulum_sin(state: RigState) -> float:
+    return math.sin(angle_from_upright_rad(state))
+
+
 @dataclass(frozen=True)
 class Feature:
     name: str
@@ -35,22 +44,22 @@ _INF = math.inf
 FEATURES: dict[str, Feature] = {f.name: f for f in (
     Feature("pendulum_angle", "rad", -math.pi, math.pi, angle_from_upright_rad,
             "pendulum angle from upright, wrapped to [-pi, pi)"),
-    Feature("pendulum_cos", "-", -1.0, 1.0, lambda s: math.cos(angle_from_upright_rad(s)),
+    Feature("pendulum_cos", "-", -1.0, 1.0, pendulum_cos,
             "cosine of the angle from upright (1 = upright)"),
-    Feature("pendulum_sin", "-", -1.0, 1.0, lambda s: math.sin(angle_from_upright_rad(s)),
+    Feature("pendulum_sin", "-", -1.0, 1.0, pendulum_sin,
             "sine of the angle from upright"),
-    Feature("arm_angle", "rad", -math.pi / 2, math.pi / 2, lambda s: s.arm_angle_rad,
+    Feature("arm_angle", "rad", -math.pi / 2, math.pi / 2, attrgetter("arm_angle_rad"),
             "arm angle (the servo command on a servo without feedback)"),
-    Feature("pendulum_velocity", "rad/s", -_INF, _INF, lambda s: s.pendulum_velocity_rad_s,
+    Feature("pendulum_velocity", "rad/s", -_INF, _INF, attrgetter("pendulum_velocity_rad_s"),
             "pendulum angular velocity"),
-    Feature("pendulum_acceleration", "rad/s^2", -_INF, _INF, lambda s: s.pendulum_acceleration_rad_s2,
+    Feature("pendulum_acceleration", "rad/s^2", -_INF, _INF, attrgetter("pendulum_acceleration_rad_s2"),
             "pendulum angular acceleration"),
-    Feature("arm_velocity", "rad/s", -_INF, _INF, lambda s: s.arm_velocity_rad_s, "arm angular velocity"),
-    Feature("servo_target", "rad", -math.pi / 2, math.pi / 2, lambda s: s.servo_target_rad,
+    Feature("arm_velocity", "rad/s", -_INF, _INF, attrgetter("arm_velocity_rad_s"), "arm angular velocity"),
+    Feature("servo_target", "rad", -math.pi / 2, math.pi / 2, attrgetter("servo_target_rad"),
             "the servo's current target (after the action filter)"),
-    Feature("time_since_action", "s", 0.0, _INF, lambda s: s.time_since_action_s,
+    Feature("time_since_action", "s", 0.0, _INF, attrgetter("time_since_action_s"),
             "time from sending the last action to this observation"),
-    Feature("observation_age", "s", 0.0, _INF, lambda s: s.observation_age_s,
+    Feature("observation_age", "s", 0.0, _INF, attrgetter("observation_age_s"),
             "time from receiving this observation to using it"),
 )}
 

@@ -18,10 +18,15 @@ import paho.mqtt.client as mqtt
 
 from pendkit.errors import ConfigError, PendkitError
 from pendkit.link.log import EpisodeLog
-from pendkit.link.protocol import ProtocolError, ReceivedObservation, parse_observation
+from pendkit.link.protocol import ANY_DEVICE, ProtocolError, ReadingLimits, ReceivedObservation, parse_observation
 
 LOG = logging.getLogger("pendkit.link")
 DEFAULT_BROKER = "mqtt://127.0.0.1:1883"
+# An observation older than the newest (time or v2 sequence), or a sequence number further ahead than
+# this, is a replayed or forged message while the stream is live; after RESYNC_AFTER_S of silence the
+# device may have rebooted (its clock and counters restart), so the next observation is taken as it is.
+SEQUENCE_WINDOW = 1000
+RESYNC_AFTER_S = 1.0
 
 
 class RigLinkError(PendkitError, ConnectionError):
@@ -57,6 +62,7 @@ class LinkCounters:
     connects: int = 0
     disconnects: int = 0
     dropped: int = 0  # gaps in the v2 observation sequence numbers: observations lost on the way
+    resyncs: int = 0  # a stream picked up afresh after silence (e.g. a device reboot)
 
 
 @dataclass(frozen=True)
@@ -75,8 +81,10 @@ class RigLink:
 
     def __init__(self, rig: str, broker: str = DEFAULT_BROKER, username: str | None = None,
                  password: str | None = None, tls_ca: str | None = None, keepalive_s: int = 5,
-                 log: EpisodeLog | None = None) -> None:
+                 log: EpisodeLog | None = None, limits: ReadingLimits = ANY_DEVICE) -> None:
+        """`limits`: what this rig's device can report (`ReadingLimits.for_rig(params)`); beyond it, malformed."""
         self.rig, self.address = rig, BrokerAddress.parse(broker)
+        self.limits = limits
         self.obs_topic, self.act_topic, self.status_topic = topics(rig)
         self.counters = LinkCounters()
         self.newest: Arrival | None = None
@@ -148,7 +156,8 @@ class RigLink:
             if message.topic == self.status_topic:
                 self.status = payload
                 return
-            received = parse_observation(message.payload)
+            received = parse_observation(message.payload, self.limits)
+            self._check_order(received, now)
         except ProtocolError as error:
             self.counters.malformed += 1
             LOG.info("rig %s: rejected observation (%s)", self.rig, error)
@@ -158,10 +167,26 @@ class RigLink:
             LOG.exception("rig %s: unexpected error decoding an observation", self.rig)
             return
         self.counters.received += 1
-        if received.version == 2:
-            last = self.newest.received.observation_seq if self.newest and self.newest.received.version == 2 else None
-            if last is not None and received.observation_seq > last + 1:
-                self.counters.dropped += received.observation_seq - last - 1
         self.newest = Arrival(received, now)
         if self.log is not None:
             self.log.write(now, "rx", self.obs_topic, payload)
+
+    def _check_order(self, received: ReceivedObservation, now: float) -> None:
+        """Reject what a live stream cannot send: time going backwards, a repeated or far-jumping v2
+        sequence number. Count dropped observations (sequence gaps) of an accepted one."""
+        newest = self.newest
+        if newest is None:
+            return
+        if now - newest.receive_time_s > RESYNC_AFTER_S:
+            self.counters.resyncs += 1
+            return
+        before = newest.received
+        if received.observation.millis < before.observation.millis:
+            raise ProtocolError(f"time went backwards: {received.observation.millis} ms after "
+                                f"{before.observation.millis} ms")
+        if received.version == 2 and before.version == 2:
+            gap = received.observation_seq - before.observation_seq
+            if not 1 <= gap <= SEQUENCE_WINDOW:
+                raise ProtocolError(f"observation seq {received.observation_seq} after {before.observation_seq}: "
+                                    f"expected the next one, at most {SEQUENCE_WINDOW} ahead")
+            self.counters.dropped += gap - 1

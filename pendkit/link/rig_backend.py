@@ -17,7 +17,7 @@ import numpy as np
 from pendkit.errors import ConfigError
 from pendkit.link.driver import DEFAULT_BROKER, RigLink, RigLinkError
 from pendkit.link.log import EpisodeLog
-from pendkit.link.protocol import format_command_v1
+from pendkit.link.protocol import ReadingLimits, format_command_v1
 from pendkit.mcu import observation_to_state
 from pendkit.rig import RigParams
 from pendkit.sim.fidelity import FIDELITY_PRESETS
@@ -44,7 +44,8 @@ class RigBackend:
         self.log_dir = Path(log_dir) if log_dir is not None else None
         self.fidelity = FIDELITY_PRESETS["realistic"].replace(name="rig")  # what the controllers should expect
         self.nominal_step_s = self.params.control_step_ms / 1000.0
-        self.link = RigLink(rig, broker or DEFAULT_BROKER, username, password, tls_ca)
+        self.link = RigLink(rig, broker or DEFAULT_BROKER, username, password, tls_ca,
+                            limits=ReadingLimits.for_rig(self.params))
         self.link.connect(connect_timeout_s)
         self._seq = 0
         self._deadline = time.monotonic()
@@ -90,10 +91,12 @@ class RigBackend:
             time.sleep(HEARTBEAT_S)
             self._send("h")
             now = time.monotonic()
+            waited = now - began
+            if waited < self.observation_timeout_s and not self._fresh(now):
+                continue  # a device just told to stream (or a slow network) gets its stated time
             self._require_fresh(now)
             omega = abs(self.link.newest.received.observation.omega_rev_s)
             quiet_since = (quiet_since or now) if omega < SETTLED_REV_S else None
-            waited = now - began
             settled = quiet_since is not None and now - quiet_since >= SETTLE_HOLD_S
             if waited >= self.reset_stop_s and (settled or not self.settle):
                 break
@@ -142,9 +145,13 @@ class RigBackend:
         return float("inf") if newest is None else time.monotonic() - newest.receive_time_s
 
     # --- observations ---
+    def _fresh(self, now: float) -> bool:
+        newest = self.link.newest
+        return newest is not None and now - newest.receive_time_s <= self.observation_timeout_s
+
     def _require_fresh(self, now: float) -> None:
         newest = self.link.newest
-        if newest is None or now - newest.receive_time_s > self.observation_timeout_s:
+        if not self._fresh(now):
             age = "none yet" if newest is None else f"the last {now - newest.receive_time_s:.2f} s ago"
             state = "connected" if self.link.connected else "NOT connected (reconnecting)"
             raise RigLinkError(f"no observation from rig {self.rig} within {self.observation_timeout_s:g} s ({age}); "

@@ -5,8 +5,14 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
+import numpy as np
+
 from pendkit.errors import ConfigError
 from pendkit.sim.latency import CLASSROOM_WIFI, NO_LATENCY, LatencyModel
+
+
+def _is_int(value) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
 
 
 @dataclass(frozen=True)
@@ -32,8 +38,13 @@ class Fidelity:
     observation_latency: LatencyModel | None = None
 
     def __post_init__(self) -> None:
-        if self.substeps_per_step is not None and self.substeps_per_step < 1:
-            raise ConfigError(f"substeps_per_step must be >= 1, got {self.substeps_per_step}")
+        if self.substeps_per_step is not None and not (_is_int(self.substeps_per_step)
+                                                       and 1 <= self.substeps_per_step <= 1000):
+            raise ConfigError(f"substeps_per_step must be None or a whole number in [1, 1000], "
+                              f"got {self.substeps_per_step!r}")
+        if not _is_int(self.post_observation_substeps_max):
+            raise ConfigError(f"post_observation_substeps_max must be a whole number, "
+                              f"got {self.post_observation_substeps_max!r}")
         if not 0 <= self.post_observation_substeps_max <= 100:
             raise ConfigError(f"post_observation_substeps_max must be in [0, 100], got "
                               f"{self.post_observation_substeps_max}")

@@ -11,6 +11,9 @@ import numpy as np
 
 from pendkit.errors import ConfigError
 
+# Beyond this a message is lost, not late: the rig's watchdog stops the servo after 0.5 s without commands.
+MAX_LATENCY_MS = 5_000.0
+
 
 @dataclass(frozen=True)
 class LatencyModel:
@@ -27,12 +30,12 @@ class LatencyModel:
     samples_ms: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
-        for name in ("floor_ms", "median_ms", "spread"):
+        for name, high in (("floor_ms", MAX_LATENCY_MS), ("median_ms", MAX_LATENCY_MS), ("spread", 5.0)):
             value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0):
-                raise ConfigError(f"LatencyModel.{name} must be finite and >= 0, got {value!r}")
-        if any(not (math.isfinite(s) and s >= 0) for s in self.samples_ms):
-            raise ConfigError("LatencyModel.samples_ms must all be finite and >= 0")
+            if not (math.isfinite(value) and 0 <= value <= high):
+                raise ConfigError(f"LatencyModel.{name} must be in [0, {high:g}], got {value!r}")
+        if any(not (math.isfinite(s) and 0 <= s <= MAX_LATENCY_MS) for s in self.samples_ms):
+            raise ConfigError(f"LatencyModel.samples_ms must all be in [0, {MAX_LATENCY_MS:g}] ms")
 
     @property
     def is_zero(self) -> bool:

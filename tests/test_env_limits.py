@@ -1,0 +1,85 @@
+"""The env keeps its promises: the episode limit asked for, observations inside observation_space,
+pickling, and clear errors for arguments that make no sense."""
+
+import pickle
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import pendkit
+from pendkit.sim.fidelity import Fidelity
+from pendkit.sim.latency import LatencyModel
+
+
+def episode_length(env) -> int:
+    env.reset(seed=0)
+    steps = 0
+    while True:
+        *_, terminated, truncated, _ = env.step(0)
+        steps += 1
+        if terminated or truncated:
+            return steps
+
+
+@pytest.mark.parametrize("limit", [7, 600])  # shorter and longer than the default 500
+def test_the_episode_limit_asked_for_is_the_one_kept(limit):
+    assert episode_length(pendkit.make(max_episode_steps=limit)) == limit
+
+
+def test_the_registered_spec_carries_the_limit_so_time_aware_wrappers_work():
+    env = pendkit.make()
+    assert env.spec.max_episode_steps == 500 and episode_length(env) == 500
+    wrapped = gym.wrappers.TimeAwareObservation(pendkit.make())
+    assert wrapped.observation_space.shape == (8,)
+
+
+@pytest.mark.parametrize("fidelity", ["ideal", "paper-delayed"])
+def test_observations_stay_inside_the_space_and_say_when_clipped(fidelity):
+    env = pendkit.make(fidelity=fidelity)
+    env.reset(seed=1)
+    clipped = 0
+    for k in range(300):  # pushed hard right: the arm overshoots the servo's end stop
+        observation, *_, info = env.step(4 if k % 60 < 40 else 1)
+        assert env.observation_space.contains(observation)
+        clipped += info["observation_clipped"]
+        if info["observation_clipped"]:
+            assert abs(info["state"].arm_angle_rad) > np.pi / 2  # the raw reading is still in the info
+    assert clipped > 0
+
+
+@pytest.mark.parametrize("fidelity", ["ideal", "realistic"])
+def test_the_env_pickles_and_the_copy_continues_identically(fidelity):
+    env = pendkit.make(fidelity=fidelity)
+    env.reset(seed=3)
+    env.step(2)
+    copy = pickle.loads(pickle.dumps(env))
+    for action in (4, 0, 1):
+        np.testing.assert_array_equal(env.step(action)[0], copy.step(action)[0])
+
+
+@pytest.mark.parametrize("kwargs, says", [
+    (dict(params={}), "RigParams"),
+    (dict(max_episode_steps=0), "max_episode_steps"),
+    (dict(max_episode_steps=2.5), "max_episode_steps"),
+    (dict(fidelity=Fidelity("x", latency=LatencyModel())), None),  # valid: no error
+])
+def test_make_names_the_bad_argument(kwargs, says):
+    if says is None:
+        pendkit.make(**kwargs).reset(seed=0)
+        return
+    with pytest.raises(pendkit.ConfigError, match=says):
+        pendkit.make(**kwargs)
+
+
+@pytest.mark.parametrize("build, says", [
+    (lambda: Fidelity("x", substeps_per_step=2.5), "substeps_per_step"),
+    (lambda: Fidelity("x", substeps_per_step=True), "substeps_per_step"),
+    (lambda: LatencyModel(floor_ms=1e9), "floor_ms"),   # would make reset wait forever
+    (lambda: LatencyModel(samples_ms=(5.0, 1e7)), "samples_ms"),
+    (lambda: pendkit.RigParams(encoder_offset_counts=5000), "encoder_offset_counts"),
+    (lambda: pendkit.RigParams(encoder_offset_counts=-1), "encoder_offset_counts"),
+])
+def test_settings_outside_their_range_are_refused(build, says):
+    with pytest.raises(pendkit.ConfigError, match=says):
+        build()
