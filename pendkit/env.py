@@ -8,6 +8,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from pendkit.device.logic import action_increments_counts, discrete_command
 from pendkit.errors import ActionError, ConfigError
 from pendkit.features import PAPER_FEATURES, angle_from_upright_rad, feature_vector, resolve_features, reward
 from pendkit.rig import RigParams
@@ -18,6 +19,7 @@ from pendkit.state import RigState, ServoCommand
 ENV_ID = "pendkit/SwingUp-v0"
 ACTION_MODES = ("discrete", "continuous")
 FEATURE_SOURCES = ("measured", "estimated")
+RIG_PROTOCOLS = {"v1": 1, "v2": 2}  # v1: the authors' firmware; v2: the kit's (docs/protocol.md)
 DISCRETE_ACTION_NAMES = ("stop", "left slow", "left fast", "right slow", "right fast")
 EPISODE_STEPS = 500
 _RANGE_TOLERANCE = 1e-6  # float32 policies may land a hair outside [-1, 1]
@@ -87,7 +89,8 @@ class SwingUpEnv(gym.Env):
     features ("measured": the readings as they arrive; "estimated": a model-based observer's estimate of the
     present state from the readings and the actions sent, `pendkit.control.estimated_state`);
     with backend="rig": rig ("r01"), broker (URL, default mqtt://127.0.0.1:1883), rig_options (username,
-    password, tls_ca, observation_timeout_s, reset_stop_s, settle).
+    password, tls_ca, observation_timeout_s, reset_stop_s, settle), protocol ("v2", or "v1" for a rig
+    flashed with the authors' firmware: single-letter commands, no heartbeat, no device watchdog).
 
     ## Version History
     v0: first release.
@@ -100,11 +103,16 @@ class SwingUpEnv(gym.Env):
                  params: RigParams | None = None, filter_coefficient: float | None = None,
                  max_episode_steps: int | None = EPISODE_STEPS, render_mode: str | None = None,
                  log_dir: str | None = None, rig: str = "r01", broker: str | None = None,
-                 rig_options: dict[str, Any] | None = None, features: str = "measured") -> None:
+                 rig_options: dict[str, Any] | None = None, features: str = "measured",
+                 protocol: str = "v2") -> None:
         if action_mode not in ACTION_MODES:
             raise ConfigError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
         if start not in STARTS:
             raise ConfigError(f"start must be one of {STARTS}, got {start!r}")
+        if protocol not in RIG_PROTOCOLS:
+            raise ConfigError(f"protocol must be one of {tuple(RIG_PROTOCOLS)}, got {protocol!r}")
+        if protocol != "v2" and backend != "rig":
+            raise ConfigError("protocol='v1' is for backend='rig' (a rig flashed with the authors' firmware)")
         if features not in FEATURE_SOURCES:
             raise ConfigError(f"features must be one of {FEATURE_SOURCES}, got {features!r}")
         if render_mode not in (None, *self.metadata["render_modes"]):
@@ -121,7 +129,8 @@ class SwingUpEnv(gym.Env):
             else float(filter_coefficient)
         if not 0.0 <= self.filter_coefficient < 1.0:
             raise ConfigError(f"filter_coefficient must be in [0, 1), got {self.filter_coefficient}")
-        self.backend = _make_backend(backend, self.params, fidelity, log_dir, rig, broker, rig_options or {})
+        rig_options = {**(rig_options or {}), "protocol": RIG_PROTOCOLS[protocol]} if backend == "rig" else {}
+        self.backend = _make_backend(backend, self.params, fidelity, log_dir, rig, broker, rig_options)
         self.action_mode = action_mode
         self.features = resolve_features(observation)
         self.start = start
@@ -151,10 +160,8 @@ class SwingUpEnv(gym.Env):
         self._drawn_frames = None
 
     def _set_increments(self) -> None:
-        p = self.params
-        self._increments = (0, -p.discrete_slow_step_counts, -p.discrete_fast_step_counts,
-                            p.discrete_slow_step_counts, p.discrete_fast_step_counts)
-        self._discrete_commands = tuple(ServoCommand("discrete", increment_counts=n) for n in self._increments)
+        self._increments = action_increments_counts(self.params)
+        self._discrete_commands = tuple(discrete_command(k, self.params) for k in range(len(self._increments)))
 
     def set_rig(self, params: RigParams, fidelity: str | Fidelity | None = None) -> None:
         """Swap the twin for one with other parameters (domain randomisation), from the next `reset()` on.

@@ -6,7 +6,7 @@ fails when the committed header and RigParams disagree.
 
 from __future__ import annotations
 
-from pendkit.mcu import STUCK_BAD_FRAMES, STUCK_TRAVEL_COUNTS
+from pendkit.device.logic import STUCK_BAD_FRAMES, STUCK_TRAVEL_COUNTS
 from pendkit.rig import RigParams
 
 

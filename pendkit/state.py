@@ -18,14 +18,16 @@ class ServoCommand:
 
     mode "discrete": move the servo target by `increment_counts` on every acting tick (0 = stop).
     mode "continuous": hold the servo target at `target_unit` in [-1, 1] (leftmost..rightmost).
+    `action`: the discrete action's index (0 stop .. 4 right fast), which is what goes on the wire.
     """
 
     mode: Literal["discrete", "continuous"]
     increment_counts: int = 0
     target_unit: float = 0.0
+    action: int | None = None
 
 
-STOP = ServoCommand("discrete", 0)
+STOP = ServoCommand("discrete", 0, action=0)
 
 
 class RigState(NamedTuple):

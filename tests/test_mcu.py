@@ -3,7 +3,7 @@
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pendkit.mcu import McuLogic, calibrate_position
+from pendkit.device.logic import McuLogic, calibrate_position
 from pendkit.rig import RigParams
 from pendkit.state import ServoCommand
 

@@ -11,6 +11,7 @@
 #include "device.h"
 #include "pins.h"
 #include "protocol.h"
+#include "scheduler.h"
 
 namespace {
 
@@ -26,13 +27,7 @@ Preferences preferences;
 WiFiClient network;
 PubSubClient mqtt(network);
 Adafruit_PWMServoDriver servo_driver(pins::kServoDriverAddress);
-pend::Device device;
-pend::Schedule acting(pend::kActingPeriodMs);
-pend::Schedule streaming(pend::kStreamingPeriodMs);
-bool streaming_on = true;
-bool observe_once = false;
-bool protocol_v2 = false;
-uint32_t observation_seq = 0, command_seq = 0, echo_host_ms = 0, rejected_commands = 0;
+pend::Scheduler scheduler;  // the device's logic and its loop: all of it in lib/pendcore, host-tested
 String topic_obs, topic_act, topic_status;
 
 void load_settings() {
@@ -85,36 +80,15 @@ void handle_serial_line(const String& line) {
 }
 
 void publish_status() {
-  char json[256];
-  snprintf(json, sizeof json,
-           "{\"firmware\":\"%s\",\"protocol\":2,\"rig\":\"%s\",\"streaming_ms\":%ld,\"acting_ms\":%ld,"
-           "\"mode\":\"%s\",\"flags\":%u,\"rejected_commands\":%lu}",
-           kFirmwareVersion, settings.rig.c_str(), static_cast<long>(pend::kStreamingPeriodMs),
-           static_cast<long>(pend::kActingPeriodMs), device.discrete() ? "discrete" : "continuous",
-           device.flags(), static_cast<unsigned long>(rejected_commands));
-  mqtt.publish(topic_status.c_str(), json, true);  // retained: a newcomer sees the rig's state at once
+  char json[320];
+  if (scheduler.status_json(kFirmwareVersion, settings.rig.c_str(), json, sizeof json) > 0) {
+    mqtt.publish(topic_status.c_str(), json, true);  // retained: a newcomer sees the rig's state at once
+  }
 }
 
 void on_command(char*, uint8_t* payload, unsigned int length) {
-  pend::Command command;
-  if (pend::parse_command(reinterpret_cast<const char*>(payload), length, command) != pend::ParseStatus::kOk) {
-    ++rejected_commands;  // a malformed command changes nothing
-    return;
-  }
-  if (command.has_seq) {
-    protocol_v2 = true;
-    command_seq = command.seq;
-  }
-  if (command.has_host_ms) echo_host_ms = command.host_ms;
-  switch (command.kind) {
-    case pend::CommandKind::kStreamOn: streaming_on = true; break;
-    case pend::CommandKind::kStreamOff: streaming_on = false; break;
-    case pend::CommandKind::kObserveOnce: observe_once = true; break;
-    case pend::CommandKind::kStreamingPeriod: streaming.set_period(static_cast<uint32_t>(command.value)); break;
-    case pend::CommandKind::kActingPeriod: acting.set_period(static_cast<uint32_t>(command.value)); break;
-    case pend::CommandKind::kStatus: publish_status(); break;
-    default: device.handle(command, millis()); break;
-  }
+  scheduler.receive(reinterpret_cast<const char*>(payload), length, millis());
+  if (scheduler.take_status_request()) publish_status();
 }
 
 // EMS-22A over SSI: chip select low, then 16 clock pulses; the encoder shifts a bit out on each rising
@@ -158,7 +132,7 @@ void setup() {
   Wire.begin(pins::kI2cSda, pins::kI2cScl);
   servo_driver.begin();
   servo_driver.setPWMFreq(1000 / pend::kPwmPeriodMs);
-  servo_driver.setPWM(pins::kServoChannel, 0, static_cast<uint16_t>(device.servo_counts()));
+  servo_driver.setPWM(pins::kServoChannel, 0, static_cast<uint16_t>(scheduler.device().servo_counts()));
   load_settings();
   WiFi.begin(settings.ssid.c_str(), settings.password.c_str());
   mqtt.setServer(settings.host.c_str(), settings.port);
@@ -181,14 +155,14 @@ void loop() {
   mqtt.loop();
   const uint32_t now = millis();
   // The core holds the servo itself when commands stop (watchdog), so a lost link is safe.
-  if (acting.due(now)) servo_driver.setPWM(pins::kServoChannel, 0, static_cast<uint16_t>(device.act(now)));
-  if ((streaming_on && streaming.due(now)) || observe_once) {
-    observe_once = false;
-    const pend::Observation observation = device.stream_frame(read_encoder_frame(), now);
+  if (scheduler.acting_due(now)) {
+    servo_driver.setPWM(pins::kServoChannel, 0, static_cast<uint16_t>(scheduler.device().act(now)));
+  }
+  if (scheduler.streaming_due(now)) {
+    const pend::Observation observation = scheduler.device().stream_frame(read_encoder_frame(), now);
     char line[96];
-    const size_t length = protocol_v2
-        ? pend::format_observation_v2(observation, observation_seq++, command_seq, echo_host_ms, line, sizeof line)
-        : pend::format_observation_v1(observation, line, sizeof line);
-    if (length > 0 && mqtt.connected()) mqtt.publish(topic_obs.c_str(), line);
+    if (scheduler.observation_line(observation, line, sizeof line) > 0 && mqtt.connected()) {
+      mqtt.publish(topic_obs.c_str(), line);
+    }
   }
 }

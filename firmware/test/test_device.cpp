@@ -34,7 +34,7 @@ TEST_CASE("schedule: fixed deadlines, no drift, no bursts after a stall") {
 
 TEST_CASE("safety: no command sequence moves the servo while over-spinning") {
   pend::Device device;
-  device.handle(parse("g"), 0);
+  device.apply(parse("g"), 0);
   for (uint32_t k = 0; k < 8; ++k) {
     device.stream_frame(frame_for(static_cast<int32_t>((60 * k) % 1024)), 25 * k);
   }
@@ -43,7 +43,7 @@ TEST_CASE("safety: no command sequence moves the servo while over-spinning") {
   const char* commands[] = {"g", "a", "b1", "b-1", "m4", "#9:g@5", "e0", "h"};
   uint32_t t = 300;
   for (const char* text : commands) {
-    device.handle(parse(text), t);
+    device.apply(parse(text), t);
     CHECK(device.act(t + 5) == held);
     t += 10;
   }
@@ -51,7 +51,7 @@ TEST_CASE("safety: no command sequence moves the servo while over-spinning") {
 
 TEST_CASE("safety: the watchdog holds the servo when commands stop") {
   pend::Device device;
-  device.handle(parse("g"), 0);
+  device.apply(parse("g"), 0);
   int32_t last = device.act(10);
   for (uint32_t t = 20; t <= 150; t += 10) last = device.act(t);  // still inside the timeout
   CHECK((device.flags() & pend::kFlagWatchdog) == 0);
@@ -67,7 +67,7 @@ TEST_CASE("safety: the servo never leaves its counts") {
   uint32_t t = 0;
   for (int round = 0; round < 50; ++round) {
     for (const char* text : commands) {
-      device.handle(parse(text), t);
+      device.apply(parse(text), t);
       for (int k = 0; k < 7; ++k) {
         const int32_t counts = device.act(t += 10);
         CHECK(counts >= pend::kServoMinCounts);
@@ -79,7 +79,7 @@ TEST_CASE("safety: the servo never leaves its counts") {
 
 TEST_CASE("a rejected command changes nothing") {
   pend::Device device;
-  device.handle(parse("g"), 0);
+  device.apply(parse("g"), 0);
   pend::Command command = parse("h");
   const char* bad[] = {"b2", "bnan", "#x:g", "", "q", "o1024", "p0.1"};
   for (const char* text : bad) {

@@ -5,10 +5,12 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "device.h"
 #include "encoder.h"
 #include "protocol.h"
+#include "scheduler.h"
 
 using nlohmann::json;
 
@@ -114,7 +116,7 @@ TEST_CASE("device scenarios") {
         pend::Command command;
         const pend::ParseStatus status = pend::parse_command(text.data(), text.size(), command);
         CHECK(std::string(pend::parse_status_name(status)) == want["status"].get<std::string>());
-        if (status == pend::ParseStatus::kOk) device.handle(command, t);
+        if (status == pend::ParseStatus::kOk) device.apply(command, t);
       } else if (event.contains("act")) {
         CHECK(device.act(t) == want["servo"].get<int>());
         CHECK((device.flags() & 15) == want["flags"].get<int>());
@@ -127,6 +129,48 @@ TEST_CASE("device scenarios") {
         CHECK(std::fabs(obs.arm_velocity_counts_s - want["arm_velocity"].get<double>()) <= tolerance);
         CHECK(obs.flags == want["flags"].get<int>());
       }
+    }
+  }
+}
+
+TEST_CASE("the device's loop: scheduler scenarios") {
+  const json vectors = load("scheduler.json");
+  for (const json& scenario : vectors["scenarios"]) {
+    CAPTURE(scenario["name"].get<std::string>());
+    pend::Scheduler scheduler;
+    std::vector<json> records;
+    const json& commands = scenario["commands"];
+    size_t next_command = 0;
+    for (const json& loop_ms : scenario["loop_ms"]) {
+      const uint32_t now = loop_ms.get<uint32_t>();
+      while (next_command < commands.size() && commands[next_command][0].get<uint32_t>() <= now) {
+        const std::string text = commands[next_command++][1].get<std::string>();
+        records.push_back({{"t", now}, {"cmd", text}, {"taken", scheduler.receive(text.data(), text.size(), now)}});
+      }
+      char buffer[320];
+      if (scheduler.take_status_request()) {
+        REQUIRE(scheduler.status_json("test", "r00", buffer, sizeof buffer) > 0);
+        json status = json::parse(buffer);
+        CHECK(status["firmware"] == "test");
+        CHECK(status["rig"] == "r00");
+        status.erase("firmware");
+        status.erase("rig");
+        records.push_back({{"t", now}, {"status", status}});
+      }
+      if (scheduler.acting_due(now)) records.push_back({{"t", now}, {"act", scheduler.device().act(now)}});
+      if (scheduler.streaming_due(now)) {
+        const json& want = scenario["records"].at(records.size());  // it names the encoder frame read now
+        const int64_t frame = want.value("frame", int64_t{0});
+        const pend::Observation observation = scheduler.device().stream_frame(frame, now);
+        REQUIRE(scheduler.observation_line(observation, buffer, sizeof buffer) > 0);
+        records.push_back({{"t", now}, {"frame", frame}, {"line", std::string(buffer)}});
+      }
+    }
+    const json& expected = scenario["records"];
+    REQUIRE(records.size() == expected.size());
+    for (size_t k = 0; k < records.size(); ++k) {
+      CAPTURE(k);
+      CHECK(records[k] == expected[k]);
     }
   }
 }

@@ -8,6 +8,8 @@ from pathlib import Path
 
 import click
 
+from pendkit.rig import SERVO_PRESETS
+
 
 @click.command()
 @click.option("--host", default="127.0.0.1", show_default=True, help="Address to listen on (loopback by default).")
@@ -56,13 +58,20 @@ def broker_config(rig_ids: tuple[str, ...], out_dir: Path, port: int, bind: str)
 @click.option("--password", default=None)
 @click.option("--encoder-fault", type=click.Choice(("stuck", "garbage")), default=None,
               help="Simulate a seized or broken encoder (safety demos).")
-def virtual_rig(rig_ids, broker_url, speed, impairment, username, password, encoder_fault) -> None:
+@click.option("--protocol", type=click.Choice(("v1", "v2")), default="v2", show_default=True,
+              help="v1: behave like a rig flashed with the authors' firmware.")
+@click.option("--preset", type=click.Choice(sorted(SERVO_PRESETS)), default="hitec-d645mw", show_default=True,
+              help="The servo (and its counts range) of the simulated rig.")
+def virtual_rig(rig_ids, broker_url, speed, impairment, username, password, encoder_fault, protocol,
+                preset) -> None:
     """Run virtual rigs: the twin with the firmware's logic, speaking the rig protocol over MQTT."""
     from pendkit.link.driver import RigLinkError
     from pendkit.link.virtual_rig import VirtualRig, VirtualRigGroup
+    from pendkit.rig import RigParams
 
-    rigs = [VirtualRig(rig, broker_url, impairment=impairment, encoder_fault=encoder_fault,
-                       username=username or (rig if password else None), password=password) for rig in rig_ids]
+    rigs = [VirtualRig(rig, broker_url, params=RigParams.preset(preset), impairment=impairment,
+                       encoder_fault=encoder_fault, username=username or (rig if password else None),
+                       password=password, protocol=int(protocol[1])) for rig in rig_ids]
     stop = threading.Event()
     signal.signal(signal.SIGINT, lambda *_: stop.set())
     signal.signal(signal.SIGTERM, lambda *_: stop.set())

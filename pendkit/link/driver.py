@@ -16,9 +16,9 @@ from urllib.parse import urlparse
 
 import paho.mqtt.client as mqtt
 
+from pendkit.device.protocol import ANY_DEVICE, ProtocolError, ReadingLimits, ReceivedObservation, parse_observation
 from pendkit.errors import ConfigError, PendkitError
 from pendkit.link.log import EpisodeLog
-from pendkit.link.protocol import ANY_DEVICE, ProtocolError, ReadingLimits, ReceivedObservation, parse_observation
 
 LOG = logging.getLogger("pendkit.link")
 DEFAULT_BROKER = "mqtt://127.0.0.1:1883"

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pendkit.link.protocol import ProtocolError, parse_observation
+from pendkit.device.protocol import ProtocolError, parse_observation
 
 
 @dataclass(frozen=True)

@@ -14,11 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
+from pendkit.device.commands import command_body, frame_command
+from pendkit.device.logic import observation_to_state
+from pendkit.device.protocol import ReadingLimits
+from pendkit.device.scheduler import PROTOCOLS
 from pendkit.errors import ConfigError
 from pendkit.link.driver import DEFAULT_BROKER, RigLink, RigLinkError
 from pendkit.link.log import EpisodeLog
-from pendkit.link.protocol import ReadingLimits, format_command_v1
-from pendkit.mcu import observation_to_state
 from pendkit.rig import RigParams
 from pendkit.sim.fidelity import FIDELITY_PRESETS
 from pendkit.state import STOP, RigState, ServoCommand
@@ -35,7 +37,15 @@ class RigBackend:
     def __init__(self, params: RigParams | None = None, rig: str = "r01", broker: str | None = None,
                  username: str | None = None, password: str | None = None, tls_ca: str | None = None,
                  observation_timeout_s: float = 0.5, reset_stop_s: float = 2.0, settle: bool = False,
-                 log_dir: str | Path | None = None, connect_timeout_s: float = 5.0) -> None:
+                 log_dir: str | Path | None = None, connect_timeout_s: float = 5.0, protocol: int = 2) -> None:
+        """`protocol=1`: a rig flashed with the authors' firmware (single letters, no framing, no heartbeats,
+        no watchdog on the device: the host is all the safety there is; see docs/protocol.md)."""
+        if protocol not in PROTOCOLS:
+            raise ConfigError(f"protocol must be 1 (the authors' firmware) or 2 (the kit's), got {protocol!r}")
+        self.protocol = protocol
+        if protocol == 1 and params is not None and params.velocity_mean_window != 4:
+            raise ConfigError(f"the authors' v1 firmware always averages 4 rates; params ask for "
+                              f"{params.velocity_mean_window} (use protocol 2, or RigParams' default window)")
         if not 0.05 <= observation_timeout_s <= 30:
             raise ConfigError(f"observation_timeout_s must be in [0.05, 30], got {observation_timeout_s}")
         self.params = params or RigParams()
@@ -59,17 +69,18 @@ class RigBackend:
     # --- commands ---
     def _send(self, text: str) -> None:
         """Publish without waiting; a failure is counted, and the observation timeout reports the outage."""
+        if self.protocol == 1 and text == "h":
+            return  # v1 has no heartbeat: commands themselves keep a v1 device going
         self._seq += 1
-        host_ms = int(time.monotonic() * 1000) % 4_294_967_296
-        if not self.link.publish(f"#{self._seq}:{text}@{host_ms}"):
+        if not self.link.publish(frame_command(text, self.protocol, self._seq, int(time.monotonic() * 1000))):
             self.publish_failures += 1
 
     def _configure(self) -> None:
         """What a fresh device needs: calibration, the host-side filter, the stream's period and velocity
         window (RigParams' values; the defaults are the paper's), streaming on."""
         p = self.params
-        for text in (f"o{p.encoder_offset_counts}", "e0", f"u{round(p.streaming_period_ms)}",
-                     f"n{p.velocity_mean_window}", "x"):
+        window = [f"n{p.velocity_mean_window}"] if self.protocol == 2 else []  # v1 firmware: always 4
+        for text in (f"o{p.encoder_offset_counts}", "e0", f"u{round(p.streaming_period_ms)}", *window, "x"):
             self._send(text)
 
     # --- the env's backend interface ---
@@ -84,7 +95,7 @@ class RigBackend:
             if previous is not None:
                 previous.close()
         self._configure()
-        self._send(format_command_v1(STOP, self.params))
+        self._send(command_body(STOP, self.params))
         began = time.monotonic()
         quiet_since = None
         while True:
@@ -109,13 +120,13 @@ class RigBackend:
     def emergency_stop(self) -> None:
         """Stop the servo now and keep it stopped: every later step sends stop instead of its action."""
         self.estopped = True
-        self._send(format_command_v1(STOP, self.params))
+        self._send(command_body(STOP, self.params))
 
     def release_stop(self) -> None:
         self.estopped = False
 
     def step(self, command: ServoCommand) -> RigState:
-        self._send(format_command_v1(STOP if self.estopped else command, self.params))
+        self._send(command_body(STOP if self.estopped else command, self.params))
         self._sent_at = time.monotonic()
         self._deadline += self.nominal_step_s
         pause = self._deadline - time.monotonic()
@@ -133,7 +144,7 @@ class RigBackend:
     def close(self) -> None:
         try:
             if self.link.connected:
-                self._send(format_command_v1(STOP, self.params))
+                self._send(command_body(STOP, self.params))
         finally:
             self.link.close()
             if self.link.log is not None:

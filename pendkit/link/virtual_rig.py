@@ -24,13 +24,11 @@ import mujoco
 import numpy as np
 import paho.mqtt.client as mqtt
 
+from pendkit.device.logic import McuObservation
+from pendkit.device.twin import ENCODER_FAULTS, TwinDevice
 from pendkit.errors import ConfigError
-from pendkit.link.commands import parse_command
 from pendkit.link.driver import DEFAULT_BROKER, BrokerAddress, RigLinkError, topics
-from pendkit.link.protocol import ProtocolError, format_observation_v1, format_observation_v2
-from pendkit.mcu import McuObservation
 from pendkit.rig import RigParams
-from pendkit.sim.device_twin import ENCODER_FAULTS, TwinDevice
 from pendkit.sim.latency import CLASSROOM_WIFI, NO_LATENCY, LatencyModel
 from pendkit.sim.model import PENDULUM_JOINT, build_model
 
@@ -66,7 +64,8 @@ class VirtualRig:
     def __init__(self, rig: str, broker: str = DEFAULT_BROKER, params: RigParams | None = None,
                  impairment: str | NetworkImpairment = "none", username: str | None = None,
                  password: str | None = None, seed: int = 0, mount_offset_counts: int | None = None,
-                 encoder_fault: str | None = None) -> None:
+                 encoder_fault: str | None = None, protocol: int = 2) -> None:
+        """`protocol=1` emulates a rig flashed with the authors' firmware (`DeviceScheduler`)."""
         if isinstance(impairment, str):
             if impairment not in IMPAIRMENTS:
                 raise ConfigError(f"unknown impairment {impairment!r}; choose from {sorted(IMPAIRMENTS)}")
@@ -81,7 +80,7 @@ class VirtualRig:
         model = build_model(self.params)
         data = mujoco.MjData(model)
         self.device = TwinDevice(self.params, model, data, model.joint(PENDULUM_JOINT).qposadr[0],
-                                 mount_offset_counts)
+                                 mount_offset_counts, protocol)
         self.device.encoder_fault = encoder_fault
         mujoco.mj_forward(model, data)
         self._rng = np.random.default_rng(seed)
@@ -90,9 +89,7 @@ class VirtualRig:
         self._sent = 0
         self._last_arrival_ms = 0.0
         self._last_delivery_s = 0.0
-        self.protocol_v2 = False
-        self.observation_seq = self.command_seq = self.echo_host_ms = 0
-        self.rejected_commands = self.lost_observations = self.lost_commands = self.published = 0
+        self.lost_observations = self.lost_commands = self.published = 0
         self._t0 = 0.0
         self.speed = 1.0
         self._connected = threading.Event()
@@ -122,22 +119,14 @@ class VirtualRig:
         self.publish_status()
 
     def _on_message(self, client, userdata, message) -> None:
-        received = time.monotonic()
-        try:
-            command = parse_command(message.payload)
-        except ProtocolError:
-            self.rejected_commands += 1  # counted; changes nothing
-            return
-        self._inbox.put((received, command))
+        self._inbox.put((time.monotonic(), message.payload))  # parsed by the device when it arrives there
+
+    @property
+    def rejected_commands(self) -> int:
+        return self.device.scheduler.rejected_commands
 
     def publish_status(self) -> None:
-        status = {"firmware": FIRMWARE_VERSION, "protocol": 2, "rig": self.rig,
-                  "streaming_ms": self.device.streaming_ticks * self.params.physics_step_ms,
-                  "acting_ms": self.device.acting_ticks * self.params.physics_step_ms,
-                  "mode": self.device.mcu.command.mode, "online": True,
-                  "flags": sum(1 << i for i, f in enumerate(("arm_limit", "overspin", "stuck_encoder", "watchdog"))
-                               if f in self.device.mcu.flags),
-                  "rejected_commands": self.rejected_commands,
+        status = {"firmware": FIRMWARE_VERSION, "rig": self.rig, **self.device.scheduler.status(),
                   # the device clock's origin on this machine's monotonic clock: one-way latency measurements
                   "clock_origin_s": self._t0, "speed": self.speed}
         self.client.publish(self.status_topic, json.dumps(status), qos=1, retain=True)
@@ -153,25 +142,21 @@ class VirtualRig:
         """Bring the twin up to `now_s`: deliver commands that arrived, run physics, send what is due."""
         while True:
             try:
-                received, command = self._inbox.get_nowait()
+                received, payload = self._inbox.get_nowait()
             except queue.Empty:
                 break
             if self._rng.random() * 100 < self.impairment.command_loss_pct:
                 self.lost_commands += 1
                 continue
-            if command.seq is not None:
-                self.protocol_v2, self.command_seq = True, command.seq
-            if command.host_ms is not None:
-                self.echo_host_ms = command.host_ms
-            if command.kind == "status":
-                self.publish_status()
-                continue
             arrival = max(self._sim_ms(received) + self.impairment.latency.sample_ms(self._rng), self._last_arrival_ms)
             self._last_arrival_ms = arrival
-            self.device.deliver(arrival, command)
+            self.device.deliver(arrival, payload)
         ticks = math.floor(self._sim_ms(now_s) / self.params.physics_step_ms) - self.device.tick
         if ticks > 0:
             self.device.run(ticks, self._emit)
+        if self.device.scheduler.status_requested:
+            self.device.scheduler.status_requested = False
+            self.publish_status()
         while self._outbox and self._outbox[0][0] <= now_s:
             _, _, line = heapq.heappop(self._outbox)
             self.client.publish(self.obs_topic, line, qos=0)
@@ -181,11 +166,7 @@ class VirtualRig:
         if self._rng.random() * 100 < self.impairment.observation_loss_pct:
             self.lost_observations += 1
             return
-        if self.protocol_v2:
-            line = format_observation_v2(observation, self.observation_seq, self.command_seq, self.echo_host_ms)
-        else:
-            line = format_observation_v1(observation)
-        self.observation_seq += 1
+        line = self.device.scheduler.observation_line(observation)
         delay_ms = self.impairment.latency.sample_ms(self._rng)
         due = max(self._t0 + (now_ms + delay_ms) / 1000.0 / self.speed, self._last_delivery_s)
         self._last_delivery_s = due  # TCP keeps order

@@ -10,12 +10,13 @@ from typing import Literal
 import mujoco
 import numpy as np
 
+from pendkit.device.commands import command_body, frame_command
+from pendkit.device.logic import McuObservation, observation_to_state
+from pendkit.device.protocol import format_observation_v1
+from pendkit.device.twin import TwinDevice
 from pendkit.errors import ConfigError
 from pendkit.link.log import EpisodeLog
-from pendkit.link.protocol import format_command_v1, format_observation_v1
-from pendkit.mcu import McuObservation, observation_to_state
 from pendkit.rig import RigParams
-from pendkit.sim.device_twin import TwinDevice
 from pendkit.sim.fidelity import Fidelity, resolve_fidelity
 from pendkit.sim.model import ARM_JOINT, PENDULUM_JOINT, build_model
 from pendkit.state import RigState, ServoCommand
@@ -60,6 +61,7 @@ class SimBackend:
                                    self.fidelity.encoder_mount_offset_counts)
                         if self.fidelity.mcu_pipeline else None)
         self._tick = 0
+        self._sent = 0
 
     @property
     def ticks(self) -> int:
@@ -165,9 +167,11 @@ class SimBackend:
         now_ms = self._device.now_ms
         arrival = max(now_ms + self.fidelity.latency.sample_ms(self._rng), self._last_command_arrival_ms)
         self._last_command_arrival_ms = arrival  # TCP keeps order: no overtaking
-        self._device.deliver(arrival, command)
+        self._sent += 1  # the host's own command path: the device parses what a rig would receive
+        text = frame_command(command_body(command, self.params), 2, self._sent, int(now_ms))
+        self._device.deliver(arrival, text)
         if self._log is not None:
-            self._log.write(now_ms / 1000, "tx", TWIN_ACT_TOPIC, format_command_v1(command, self.params))
+            self._log.write(now_ms / 1000, "tx", TWIN_ACT_TOPIC, text)
         self._run_mcu_substeps(self.substeps)
         return self._observe_mcu(time_since_action_s=self.substeps * self.physics_step_s)
 

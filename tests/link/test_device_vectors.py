@@ -7,9 +7,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from pendkit.device.commands import REASONS, parse_command
+from pendkit.device.protocol import ProtocolError, parse_observation_v1
 from pendkit.firmware_constants import render_header
-from pendkit.link.commands import REASONS, parse_command
-from pendkit.link.protocol import ProtocolError, parse_observation_v1
 from tests.vectors.make_device_vectors import build
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -18,7 +18,8 @@ ROOT = Path(__file__).resolve().parents[2]
 def test_device_vectors_are_not_stale():
     for name, content in build().items():
         committed = json.loads((ROOT / "tests" / "vectors" / name).read_text())
-        assert json.loads(json.dumps(content)) == committed, f"{name} is stale: run make_device_vectors.py"
+        stale = f"{name} is stale: run python -m tests.vectors.make_device_vectors"
+        assert json.loads(json.dumps(content)) == committed, stale
 
 
 def test_firmware_constants_header_matches_rig_params():

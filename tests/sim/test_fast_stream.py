@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 import pendkit
-from pendkit.link.commands import parse_command
-from pendkit.mcu import McuLogic
+from pendkit.device.commands import parse_command
+from pendkit.device.logic import McuLogic
 from pendkit.rig import FAST_STREAM, RigParams
 
 
@@ -30,7 +30,7 @@ def test_velocity_window_command_restarts_a_shorter_mean():
     for k in range(6):
         mcu.streaming_tick(10 * k, 25 * k)
     steady = mcu.omega_rev_s
-    mcu.handle(parse_command("#3:n1"), 150)
+    mcu.apply(parse_command("#3:n1"), 150)
     first = mcu.streaming_tick(60, 150).omega_rev_s  # the new history starts: no previous reading yet
     second = mcu.streaming_tick(80, 175).omega_rev_s  # one interval: 20 counts in 25 ms, not averaged
     assert steady == pytest.approx(10 / 1024 / 0.025)

@@ -1,7 +1,9 @@
 """Vectors for the device's logic and protocol, generated from the Python reference and replayed by the
-firmware's C++ tests: commands.json (parsing), observations.json (formatting), device.json (scenarios).
+firmware's C++ tests: commands.json (parsing), observations.json (formatting), device.json (scenarios),
+scheduler.json (the device's loop).
 
-Run `python tests/vectors/make_device_vectors.py` after a deliberate change; a test fails when stale.
+Run `python -m tests.vectors.make_device_vectors` (from the repository root) after a deliberate change;
+a test fails when stale.
 """
 
 from __future__ import annotations
@@ -11,11 +13,12 @@ from pathlib import Path
 
 import numpy as np
 
+from pendkit.device.commands import parse_command
+from pendkit.device.logic import McuLogic, McuObservation, round_half_up
+from pendkit.device.protocol import ProtocolError, format_observation_v1, format_observation_v2
 from pendkit.encoder import encode_ssi_frame
-from pendkit.link.commands import parse_command
-from pendkit.link.protocol import ProtocolError, format_observation_v1, format_observation_v2
-from pendkit.mcu import McuLogic, McuObservation, round_half_up
 from pendkit.rig import RigParams
+from tests.vectors.scheduler_scenarios import scheduler_vectors
 
 HERE = Path(__file__).parent
 COMMANDS = [
@@ -37,7 +40,7 @@ def command_vectors() -> dict:
                           "seq": cmd.seq, "host_ms": cmd.host_ms})
         except ProtocolError as error:
             cases.append({"text": text, "status": error.reason})
-    return {"description": "command grammar of pendkit.link.commands: status is 'ok' or the error reason",
+    return {"description": "command grammar of pendkit.device.commands: status is 'ok' or the error reason",
             "cases": cases}
 
 
@@ -124,7 +127,7 @@ def run_scenario(events: list[dict], params: RigParams) -> list[dict]:
         t = event["t"]
         if "cmd" in event:
             try:
-                mcu.handle(parse_command(event["cmd"]), t)
+                mcu.apply(parse_command(event["cmd"]), t)
                 results.append({"status": "ok"})
             except ProtocolError as error:
                 results.append({"status": error.reason})
@@ -153,7 +156,7 @@ def device_vectors() -> dict:
 
 def build() -> dict[str, dict]:
     return {"commands.json": command_vectors(), "observations.json": observation_vectors(),
-            "device.json": device_vectors()}
+            "device.json": device_vectors(), "scheduler.json": scheduler_vectors()}
 
 
 if __name__ == "__main__":

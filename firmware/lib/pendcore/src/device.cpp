@@ -40,7 +40,7 @@ void Device::reset(int32_t servo_counts, uint32_t now_ms) {
   flags_ = 0;
 }
 
-void Device::handle(const Command& command, uint32_t now_ms) {
+void Device::apply(const Command& command, uint32_t now_ms) {
   switch (command.kind) {
     case CommandKind::kAction:
       discrete_ = true;

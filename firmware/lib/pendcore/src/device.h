@@ -1,5 +1,5 @@
 // The device's logic with time passed in: commands, the acting and streaming ticks, safety stops.
-// Mirrors pendkit/mcu.py; tests/vectors/device.json holds both to the same results.
+// Mirrors pendkit/device/logic.py; tests/vectors/device.json holds both to the same results.
 #pragma once
 
 #include <cstdint>
@@ -23,8 +23,8 @@ class Device {
   Device();
   void reset(int32_t servo_counts, uint32_t now_ms);
 
-  // Settings and actions; periods, streaming on/off and status requests are the scheduler's and the link's.
-  void handle(const Command& command, uint32_t now_ms);
+  // The one entry for a decoded command: actions and settings (scheduling commands are the Scheduler's).
+  void apply(const Command& command, uint32_t now_ms);
 
   // Acting tick: advance the target, apply the safety stops last, return the counts to actuate.
   int32_t act(uint32_t now_ms);

@@ -1,4 +1,4 @@
-// Commands (v1 and v2) and observation lines: the grammar of pendkit.link.commands / protocol.
+// Commands (v1 and v2) and observation lines: the grammar of pendkit.device.commands / protocol.
 #pragma once
 
 #include <cstddef>

@@ -22,12 +22,16 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from pendkit.link.protocol import ProtocolError
+from pendkit.device.logic import action_increments_counts
+from pendkit.device.protocol import ProtocolError
+from pendkit.rig import RigParams
+from pendkit.state import ServoCommand
 
 MAX_COMMAND_LENGTH = 64
 MAX_UINT32 = 4294967295
 REASONS = ("empty", "too_long", "bad_framing", "unknown_command", "bad_number", "out_of_range")
-LETTER_ACTIONS = {"a": 2, "s": 1, "d": 0, "f": 3, "g": 4}  # letter -> action index (0 stop .. 4 fast right)
+ACTION_LETTERS = "dsafg"  # by action index: stop, left slow, left fast, right slow, right fast
+LETTER_ACTIONS = {letter: index for index, letter in enumerate(ACTION_LETTERS)}
 FLAGS_ONLY = {"z": "observe_once", "x": "stream_on", "y": "stream_off", "c": "continuous_mode",
               "v": "discrete_mode", "h": "heartbeat", "r": "status"}
 INTEGER_SETTINGS = {"o": ("encoder_offset", 0, 1023), "u": ("streaming_period", 5, 1000),
@@ -109,3 +113,24 @@ def _uint32(digits: str) -> int:
     if value > MAX_UINT32:
         raise _error("bad_framing", f"{digits} does not fit in 32 bits")
     return value
+
+
+def command_body(command: ServoCommand, params: RigParams) -> str:
+    """The command's body as both protocols spell it: a/s/d/f/g for a discrete action, b<target> otherwise."""
+    if command.mode == "continuous":
+        return f"b{command.target_unit:.4f}"
+    index = command.action
+    if index is None:  # a hand-made command: only the five actions have letters
+        increments = action_increments_counts(params)
+        if command.increment_counts not in increments:
+            raise ProtocolError(f"no action moves {command.increment_counts} counts a tick; the actions move "
+                                f"{increments}")
+        index = increments.index(command.increment_counts)
+    return ACTION_LETTERS[index]
+
+
+def frame_command(body: str, version: int, seq: int = 0, host_ms: int = 0) -> str:
+    """v1: the body alone (the authors' firmware knows nothing else); v2: `#<seq>:<body>@<host ms>`."""
+    if version == 1:
+        return body
+    return f"#{seq % (MAX_UINT32 + 1)}:{body}@{host_ms % (MAX_UINT32 + 1)}"

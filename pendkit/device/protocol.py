@@ -12,10 +12,9 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
+from pendkit.device.logic import FLAG_BITS, McuObservation
 from pendkit.errors import PendkitError
-from pendkit.mcu import FLAG_BITS, McuObservation
 from pendkit.rig import RigParams
-from pendkit.state import ServoCommand
 
 OBSERVATION_V1_FIELDS = 6
 MAX_UINT32 = 4_294_967_295
@@ -109,17 +108,6 @@ def parse_observation_v1(payload: str | bytes, limits: ReadingLimits = ANY_DEVIC
     return McuObservation(millis, position, servo, omega, accel, arm, frozenset())
 
 
-def format_command_v1(command: ServoCommand, params: RigParams) -> str:
-    """A command as the authors' firmware takes it: a/s/d/f/g (fast left .. fast right) or b<target>."""
-    if command.mode == "continuous":
-        return f"b{command.target_unit:.4f}"
-    letters = {0: "d", -params.discrete_slow_step_counts: "s", -params.discrete_fast_step_counts: "a",
-               params.discrete_slow_step_counts: "f", params.discrete_fast_step_counts: "g"}
-    if command.increment_counts not in letters:
-        raise ProtocolError(f"v1 has no letter for an increment of {command.increment_counts} counts")
-    return letters[command.increment_counts]
-
-
 OBSERVATION_V2_FIELDS = 10
 
 
@@ -128,7 +116,7 @@ def format_observation_v2(observation: McuObservation, observation_seq: int, com
     """`R<millis>,<obs seq>,<position>,<servo>,<omega>,<accel>,<arm vel>,<flag bits>,<cmd seq>,<echo ms>`.
 
     The last command's sequence number and host time come back, so the host can match replies and
-    measure the round trip; the flag bits are pendkit.mcu.FLAG_BITS.
+    measure the round trip; the flag bits are pendkit.device.logic.FLAG_BITS.
     """
     return (f"R{observation.millis},{observation_seq},{observation.position_counts},{observation.servo_counts},"
             f"{observation.omega_rev_s:.4f},{observation.acceleration_rev_s2:.4f},"

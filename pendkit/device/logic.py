@@ -62,6 +62,16 @@ def observation_to_state(observation: McuObservation, params: RigParams, observa
     )
 
 
+def action_increments_counts(params: RigParams) -> tuple[int, ...]:
+    """The one table from a discrete action index to the servo target's change per acting tick (counts)."""
+    slow, fast = params.discrete_slow_step_counts, params.discrete_fast_step_counts
+    return (0, -slow, -fast, slow, fast)
+
+
+def discrete_command(index: int, params: RigParams) -> ServoCommand:
+    return ServoCommand("discrete", action_increments_counts(params)[index], action=index)
+
+
 def round_half_up(value: float) -> int:
     """floor(x + 0.5): the rounding the C++ core uses (Python's round() rounds halves to even)."""
     return math.floor(value + 0.5)
@@ -102,13 +112,11 @@ class McuLogic:
         self.last_command_ms = now_ms
         self.flags.discard("watchdog")
 
-    def handle(self, command, now_ms: int) -> None:
-        """Apply a parsed `pendkit.link.commands.DeviceCommand` (settings, actions, heartbeat)."""
-        p, kind, value = self.params, command.kind, command.value
+    def apply(self, command, now_ms: int) -> None:
+        """The one entry for a decoded `pendkit.device.commands.DeviceCommand` (actions, settings, heartbeat)."""
+        kind, value = command.kind, command.value
         if kind == "action":
-            increments = (0, -p.discrete_slow_step_counts, -p.discrete_fast_step_counts,
-                          p.discrete_slow_step_counts, p.discrete_fast_step_counts)
-            self.receive(ServoCommand("discrete", increments[int(value)]), now_ms)
+            self.receive(discrete_command(int(value), self.params), now_ms)
         elif kind == "target":
             self.receive(ServoCommand("continuous", target_unit=value), now_ms)
         elif kind == "heartbeat":

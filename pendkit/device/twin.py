@@ -1,9 +1,10 @@
 """The twin's physics with the firmware's logic on top, advanced in 5 ms physics ticks.
 
 Shared by the realistic fidelity (which adds latency in memory) and the virtual rig (which speaks MQTT).
-Commands are delivered with an arrival time and applied on the next acting tick, the servo sees its
-target on 20 ms PWM frames, and every streaming tick reads the encoder and hands an observation to
-`emit`. Between those events the physics runs in one call.
+Commands are delivered as text with an arrival time and go through the device's one command path
+(`DeviceScheduler.receive`) when they arrive; the servo sees its target on 20 ms PWM frames, and every
+streaming tick reads the encoder and hands an observation to `emit`. Between those events the physics
+runs in one call.
 """
 
 from __future__ import annotations
@@ -14,13 +15,11 @@ from collections.abc import Callable
 
 import mujoco
 
+from pendkit.device.logic import McuObservation
+from pendkit.device.scheduler import DeviceScheduler
 from pendkit.encoder import encode_ssi_frame
-from pendkit.link.commands import DeviceCommand
-from pendkit.mcu import McuLogic, McuObservation
 from pendkit.rig import RigParams
-from pendkit.state import ServoCommand
 
-Delivery = ServoCommand | DeviceCommand
 ENCODER_FAULTS = (None, "stuck", "garbage")
 
 
@@ -28,95 +27,78 @@ class TwinDevice:
     """One simulated device: `deliver` commands, `run` ticks, observations to `emit(ms, observation)`."""
 
     def __init__(self, params: RigParams, model: mujoco.MjModel, data: mujoco.MjData, pendulum_qpos: int,
-                 mount_offset_counts: int = 0) -> None:
+                 mount_offset_counts: int = 0, protocol: int = 2) -> None:
         self.params, self.model, self.data = params, model, data
         self._pendulum_qpos = pendulum_qpos
         self.mount_offset_counts = mount_offset_counts
-        self.mcu = McuLogic(params)
+        self.scheduler = DeviceScheduler(params, protocol)
+        self.mcu = self.scheduler.logic
         self.mcu.offset_counts = mount_offset_counts  # a calibrated device
         self._tick_ms = params.physics_step_ms
         self._pwm_ticks = round(params.pwm_period_ms / self._tick_ms)
-        self.acting_ticks = round(params.acting_period_ms / self._tick_ms)
-        self.streaming_ticks = round(params.streaming_period_ms / self._tick_ms)
         self.encoder_fault: str | None = None
         self.reset(round(params.servo_centre_counts))
 
     def reset(self, servo_counts: int) -> None:
-        self.mcu.reset(servo_counts, 0)
+        self.scheduler.reset(servo_counts, 0)
         self.tick = 0
-        self._next_acting_tick = 0
-        self._pending: deque[tuple[float, Delivery]] = deque()
-        self.streaming_on = True
-        self._observe_once = False
+        self._pending: deque[tuple[float, str | bytes]] = deque()
         self._stuck_raw: int | None = None
+
+    @property
+    def streaming_on(self) -> bool:
+        return self.scheduler.streaming_on
 
     @property
     def now_ms(self) -> float:
         return self.tick * self._tick_ms
 
-    def deliver(self, arrival_ms: float, command: Delivery) -> None:
-        """A command reaching the device at `arrival_ms` (arrivals must not go back in time)."""
+    def deliver(self, arrival_ms: float, command: str | bytes) -> None:
+        """A command's text reaching the device at `arrival_ms` (arrivals must not go back in time)."""
         self._pending.append((arrival_ms, command))
 
     def run(self, ticks: int, emit: Callable[[float, McuObservation], None]) -> None:
         """Advance `ticks` physics ticks, stopping only where the device meets the physics."""
-        data, model, mcu = self.data, self.model, self.mcu
+        data, model, mcu, scheduler = self.data, self.model, self.mcu, self.scheduler
         end = self.tick + ticks
         while self.tick < end:
             tick = self.tick
             now_ms = tick * self._tick_ms
             at_pwm = tick % self._pwm_ticks == 0
             arrived = bool(self._pending) and self._pending[0][0] <= now_ms
-            if at_pwm or arrived or self._stream_due(tick):
-                self._catch_up(tick)
+            if at_pwm or arrived or self._stream_due(now_ms):
+                self._catch_up(now_ms)
             if at_pwm:
                 data.act[0] = self.params.servo_counts_to_rad(mcu.servo_counts)
-            if self._stream_due(tick):
-                self._observe_once = False
+            if scheduler.streaming_due(now_ms):
                 emit(now_ms, self._read_and_stream())
             next_event = min(end, (tick // self._pwm_ticks + 1) * self._pwm_ticks)
             if self.streaming_on:
-                next_event = min(next_event, (tick // self.streaming_ticks + 1) * self.streaming_ticks)
+                next_event = min(next_event, max(tick + 1, math.ceil(scheduler.streaming.next_ms / self._tick_ms)))
             if self._pending:  # a command may change streaming or ask for an observation
                 next_event = min(next_event, max(tick + 1, math.ceil(self._pending[0][0] / self._tick_ms)))
             mujoco.mj_step(model, data, next_event - tick)
             self.tick = next_event
 
-    def _stream_due(self, tick: int) -> bool:
-        return (self.streaming_on and tick % self.streaming_ticks == 0) or self._observe_once
+    def _stream_due(self, now_ms: float) -> bool:
+        scheduler = self.scheduler
+        return (scheduler.streaming_on and scheduler.streaming.next_ms <= now_ms) or scheduler.observe_once
 
-    def _catch_up(self, up_to_tick: int) -> None:
+    def _catch_up(self, now_ms: float) -> None:
         """Acting ticks and command arrivals up to now, in time order (a command before a tick at the
         same moment). Commands act on arrival, as in the firmware's message callback."""
-        now_ms = up_to_tick * self._tick_ms
+        scheduler = self.scheduler
         while True:
-            acting_ms = self._next_acting_tick * self._tick_ms if self._next_acting_tick <= up_to_tick else math.inf
+            acting_ms = scheduler.acting.next_ms if scheduler.acting.next_ms <= now_ms else math.inf
             command_ms = self._pending[0][0] if self._pending and self._pending[0][0] <= now_ms else math.inf
             if acting_ms == math.inf and command_ms == math.inf:
                 return
             if command_ms <= acting_ms:
-                self._apply(self._pending.popleft()[1], int(math.ceil(command_ms / self._tick_ms) * self._tick_ms))
+                arrival_ms, payload = self._pending.popleft()
+                scheduler.receive(payload, int(math.ceil(arrival_ms / self._tick_ms) * self._tick_ms))
             else:
-                self.mcu.acting_tick(acting_ms)
-                self._next_acting_tick += self.acting_ticks
-
-    def _apply(self, command: Delivery, now_ms: int) -> None:
-        if isinstance(command, ServoCommand):
-            self.mcu.receive(command, now_ms)
-            return
-        kind, value = command.kind, command.value
-        if kind == "stream_on":
-            self.streaming_on = True
-        elif kind == "stream_off":
-            self.streaming_on = False
-        elif kind == "observe_once":
-            self._observe_once = True
-        elif kind == "streaming_period":
-            self.streaming_ticks = max(1, round(value / self._tick_ms))
-        elif kind == "acting_period":
-            self.acting_ticks = max(1, round(value / self._tick_ms))
-        else:
-            self.mcu.handle(command, now_ms)
+                scheduler.acting_due(acting_ms)
+                self.mcu.acting_tick(int(acting_ms))
 
     def raw_encoder_counts(self) -> int:
         counts = self.params.encoder_counts
