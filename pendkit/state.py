@@ -49,3 +49,16 @@ class RigState(NamedTuple):
     time_since_action_s: float = 0.0
     encoder_counts: int | None = None
     safety_flags: frozenset[str] = frozenset()
+
+
+@dataclass(frozen=True)
+class BackendTiming:
+    """What a backend tells its controllers about time, in seconds: the mean step, the mean time from
+    sending a command to the servo acting on it, and from an encoder reading to the host having it
+    (beyond the age each state reports). `firmware_readings`: the readings are the device's estimates
+    (quantised, averaged, the servo command for the arm), so an observer is worth running."""
+
+    step_s: float
+    command_delay_s: float = 0.0
+    reading_delay_s: float = 0.0
+    firmware_readings: bool = False

@@ -9,7 +9,7 @@ import pytest
 
 import pendkit
 from pendkit.sim.fidelity import Fidelity
-from pendkit.sim.latency import LatencyModel
+from pendkit.sim.latency import LatencyModel, NetworkImpairment
 
 
 def episode_length(env) -> int:
@@ -62,7 +62,7 @@ def test_the_env_pickles_and_the_copy_continues_identically(fidelity):
     (dict(params={}), "RigParams"),
     (dict(max_episode_steps=0), "max_episode_steps"),
     (dict(max_episode_steps=2.5), "max_episode_steps"),
-    (dict(fidelity=Fidelity("x", latency=LatencyModel())), None),  # valid: no error
+    (dict(fidelity=Fidelity("x", network=NetworkImpairment(LatencyModel()))), None),  # valid: no error
 ])
 def test_make_names_the_bad_argument(kwargs, says):
     if says is None:

@@ -70,7 +70,7 @@ def env_delay_s(env) -> float:
         delay += getattr(layer, "delay_steps", 0) * env.unwrapped.dt
         layer = layer.env
     base = env.unwrapped
-    actuation_s, reading_s = expected_delays_s(base) if hasattr(base.backend, "fidelity") else (0.0, 0.0)
+    actuation_s, reading_s = expected_delays_s(base) if hasattr(base.backend, "timing") else (0.0, 0.0)
     return delay + actuation_s + reading_s
 
 

@@ -112,7 +112,7 @@ class LqrBalancer:
         internal = base.filter_coefficient == 0  # no filter in the env: smooth our own targets
         design_filter = base.params.filter_coefficient if internal else base.filter_coefficient
         observer = None
-        if base.backend.fidelity.mcu_pipeline:
+        if base.backend.timing.firmware_readings:
             observer = DelayedAngleObserver(FurutaModel.from_rig(base.params), base.dt, actuation_s, reading_s)
             delay = actuation_s  # the observer's estimate is of "now": only the command's way remains
         else:
@@ -162,19 +162,7 @@ class LqrBalancer:
 
 
 def expected_delays_s(env) -> tuple[float, float]:
-    """(actuation, reading) delays of a twin env, in seconds: mean time from sending a command to the
-    servo acting on it, and from an encoder reading to the host receiving it (beyond the age the env
-    reports).
-
-    Ideal: none. Paper-delayed: the 0-2 substeps run after the observation (mean one) count as reading
-    delay. Realistic: a latency, half an acting tick and half a PWM frame for the command; a latency
-    for the reading.
-    """
-    base = env.unwrapped
-    fidelity, p = base.backend.fidelity, base.params
-    if not fidelity.mcu_pipeline:
-        return 0.0, fidelity.post_observation_substeps_max / 2 * p.physics_step_ms / 1000
-    latency = fidelity.latency
-    median_ms = float(np.median(latency.samples_ms)) if latency.samples_ms else latency.floor_ms + latency.median_ms
-    actuation_ms = median_ms + p.acting_period_ms / 2 + p.pwm_period_ms / 2
-    return min(actuation_ms / 1000, 0.9 * base.dt), median_ms / 1000
+    """(command, reading) delays in seconds that the env's backend reports (`backend.timing`): mean time
+    from sending a command to the servo acting on it, and from an encoder reading to the host having it."""
+    timing = env.unwrapped.backend.timing
+    return timing.command_delay_s, timing.reading_delay_s

@@ -22,13 +22,14 @@ from pendkit.errors import ConfigError
 from pendkit.link.driver import DEFAULT_BROKER, RigLink, RigLinkError
 from pendkit.link.log import EpisodeLog
 from pendkit.rig import RigParams
-from pendkit.sim.fidelity import FIDELITY_PRESETS
-from pendkit.state import STOP, RigState, ServoCommand
+from pendkit.sim.latency import CLASSROOM_WIFI, median_latency_ms
+from pendkit.state import STOP, BackendTiming, RigState, ServoCommand
 
 SETTLED_REV_S = 0.05
 SETTLE_HOLD_S = 1.0
 SETTLE_LIMIT_S = 60.0
 HEARTBEAT_S = 0.05
+ASSUMED_LATENCY_MS = median_latency_ms(CLASSROOM_WIFI)  # until you measure your room's (lab 06)
 
 
 class RigBackend:
@@ -37,8 +38,10 @@ class RigBackend:
     def __init__(self, params: RigParams | None = None, rig: str = "r01", broker: str | None = None,
                  username: str | None = None, password: str | None = None, tls_ca: str | None = None,
                  observation_timeout_s: float = 0.5, reset_stop_s: float = 2.0, settle: bool = False,
-                 log_dir: str | Path | None = None, connect_timeout_s: float = 5.0, protocol: int = 2) -> None:
-        """`protocol=1`: a rig flashed with the authors' firmware (single letters, no framing, no heartbeats,
+                 log_dir: str | Path | None = None, connect_timeout_s: float = 5.0, protocol: int = 2,
+                 network_latency_ms: float = ASSUMED_LATENCY_MS) -> None:
+        """`network_latency_ms`: the one-way latency controllers should expect (measure yours in lab 06).
+        `protocol=1`: a rig flashed with the authors' firmware (single letters, no framing, no heartbeats,
         no watchdog on the device: the host is all the safety there is; see docs/protocol.md)."""
         if protocol not in PROTOCOLS:
             raise ConfigError(f"protocol must be 1 (the authors' firmware) or 2 (the kit's), got {protocol!r}")
@@ -52,8 +55,13 @@ class RigBackend:
         self.rig, self.observation_timeout_s = rig, observation_timeout_s
         self.reset_stop_s, self.settle = reset_stop_s, settle
         self.log_dir = Path(log_dir) if log_dir is not None else None
-        self.fidelity = FIDELITY_PRESETS["realistic"].replace(name="rig")  # what the controllers should expect
+        if not 0 <= network_latency_ms <= 1000:
+            raise ConfigError(f"network_latency_ms must be in [0, 1000], got {network_latency_ms!r}")
         self.nominal_step_s = self.params.control_step_ms / 1000.0
+        p = self.params
+        command_s = (network_latency_ms + p.acting_period_ms / 2 + p.pwm_period_ms / 2) / 1000
+        self.timing = BackendTiming(self.nominal_step_s, min(command_s, 0.9 * self.nominal_step_s),
+                                    network_latency_ms / 1000, firmware_readings=True)
         self.link = RigLink(rig, broker or DEFAULT_BROKER, username, password, tls_ca,
                             limits=ReadingLimits.for_rig(self.params))
         self.link.connect(connect_timeout_s)

@@ -18,7 +18,6 @@ import subprocess
 import sys
 import threading
 import time
-from dataclasses import dataclass
 
 import mujoco
 import numpy as np
@@ -29,33 +28,11 @@ from pendkit.device.twin import ENCODER_FAULTS, TwinDevice
 from pendkit.errors import ConfigError
 from pendkit.link.driver import DEFAULT_BROKER, BrokerAddress, RigLinkError, topics
 from pendkit.rig import RigParams
-from pendkit.sim.latency import CLASSROOM_WIFI, NO_LATENCY, LatencyModel
+from pendkit.sim.latency import IMPAIRMENTS, NetworkImpairment
 from pendkit.sim.model import PENDULUM_JOINT, build_model
 
 LOG = logging.getLogger("pendkit.virtual_rig")
 FIRMWARE_VERSION = "0.1.0-virtual"
-
-
-@dataclass(frozen=True)
-class NetworkImpairment:
-    """What the rig's WiFi adds to the broker's own path: latency each way, and lost messages (QoS 0)."""
-
-    latency: LatencyModel = NO_LATENCY
-    observation_loss_pct: float = 0.0
-    command_loss_pct: float = 0.0
-
-    def __post_init__(self) -> None:
-        for name in ("observation_loss_pct", "command_loss_pct"):
-            value = getattr(self, name)
-            if not 0 <= value <= 100:
-                raise ConfigError(f"{name} must be in [0, 100], got {value}")
-
-
-IMPAIRMENTS = {
-    "none": NetworkImpairment(),
-    "classroom-wifi": NetworkImpairment(CLASSROOM_WIFI, 0.2, 0.2),
-    "poor-wifi": NetworkImpairment(LatencyModel(floor_ms=4.0, median_ms=15.0, spread=0.8), 3.0, 3.0),
-}
 
 
 class VirtualRig:
@@ -167,7 +144,7 @@ class VirtualRig:
             self.lost_observations += 1
             return
         line = self.device.scheduler.observation_line(observation)
-        delay_ms = self.impairment.latency.sample_ms(self._rng)
+        delay_ms = self.impairment.observation_latency_model.sample_ms(self._rng)
         due = max(self._t0 + (now_ms + delay_ms) / 1000.0 / self.speed, self._last_delivery_s)
         self._last_delivery_s = due  # TCP keeps order
         self._sent += 1

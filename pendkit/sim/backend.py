@@ -18,8 +18,9 @@ from pendkit.errors import ConfigError
 from pendkit.link.log import EpisodeLog
 from pendkit.rig import RigParams
 from pendkit.sim.fidelity import Fidelity, resolve_fidelity
+from pendkit.sim.latency import median_latency_ms
 from pendkit.sim.model import ARM_JOINT, PENDULUM_JOINT, build_model
-from pendkit.state import RigState, ServoCommand
+from pendkit.state import BackendTiming, RigState, ServoCommand
 
 Start = Literal["random", "rest", "upright"]
 STARTS = ("random", "rest", "upright")
@@ -73,6 +74,20 @@ class SimBackend:
         """Mean duration of one env step (the paper-delayed preset adds 0..max substeps)."""
         extra = self.fidelity.post_observation_substeps_max / 2
         return (self.substeps + extra) * self.physics_step_s
+
+    @property
+    def timing(self) -> BackendTiming:
+        """Ideal: no delays. Paper-delayed: the 0-2 substeps run after the observation (mean one) are reading
+        delay. MCU pipeline: the network's median latency plus half an acting tick and half a PWM frame
+        for a command, the observation latency for a reading."""
+        p, fidelity = self.params, self.fidelity
+        if not fidelity.mcu_pipeline:
+            extra_s = fidelity.post_observation_substeps_max / 2 * self.physics_step_s
+            return BackendTiming(self.nominal_step_s, 0.0, extra_s)
+        network = fidelity.network
+        command_ms = median_latency_ms(network.latency) + p.acting_period_ms / 2 + p.pwm_period_ms / 2
+        return BackendTiming(self.nominal_step_s, min(command_ms / 1000, 0.9 * self.nominal_step_s),
+                             median_latency_ms(network.observation_latency_model) / 1000, firmware_readings=True)
 
     # --- reset ---
     def reset(self, rng: np.random.Generator, start: Start = "random",
@@ -164,12 +179,14 @@ class SimBackend:
 
     # --- the MCU pipeline (realistic) ---
     def _step_mcu(self, command: ServoCommand) -> RigState:
-        now_ms = self._device.now_ms
-        arrival = max(now_ms + self.fidelity.latency.sample_ms(self._rng), self._last_command_arrival_ms)
-        self._last_command_arrival_ms = arrival  # TCP keeps order: no overtaking
+        now_ms, network = self._device.now_ms, self.fidelity.network
         self._sent += 1  # the host's own command path: the device parses what a rig would receive
         text = frame_command(command_body(command, self.params), 2, self._sent, int(now_ms))
-        self._device.deliver(arrival, text)
+        lost = network.command_loss_pct > 0 and self._rng.random() * 100 < network.command_loss_pct
+        if not lost:
+            arrival = max(now_ms + network.latency.sample_ms(self._rng), self._last_command_arrival_ms)
+            self._last_command_arrival_ms = arrival  # TCP keeps order: no overtaking
+            self._device.deliver(arrival, text)
         if self._log is not None:
             self._log.write(now_ms / 1000, "tx", TWIN_ACT_TOPIC, text)
         self._run_mcu_substeps(self.substeps)
@@ -184,7 +201,10 @@ class SimBackend:
                 self._log.write(self._newest[0] / 1000, "rx", TWIN_OBS_TOPIC, format_observation_v1(self._newest[1]))
 
     def _in_flight_append(self, now_ms: float, observation: McuObservation) -> None:
-        delivery = max(now_ms + self.fidelity.observation_latency_model.sample_ms(self._rng), self._last_delivery_ms)
+        network = self.fidelity.network
+        if network.observation_loss_pct > 0 and self._rng.random() * 100 < network.observation_loss_pct:
+            return
+        delivery = max(now_ms + network.observation_latency_model.sample_ms(self._rng), self._last_delivery_ms)
         self._last_delivery_ms = delivery  # TCP keeps order: no overtaking
         self._in_flight.append((delivery, observation))
 

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pendkit.errors import ConfigError
-from pendkit.sim.latency import CLASSROOM_WIFI, NO_LATENCY, LatencyModel
+from pendkit.sim.latency import CLASSROOM_WIFI, PERFECT_NETWORK, LatencyModel, NetworkImpairment
 
 
 def _is_int(value) -> bool:
@@ -25,8 +25,8 @@ class Fidelity:
     mcu_pipeline: run the firmware's loop (acting and streaming ticks, counts, quantised encoder,
         estimated velocities, PWM frames, safety stops) instead of reading the true state.
     encoder_mount_offset_counts: raw encoder reading when the pendulum hangs (calibrated away by the MCU).
-    latency: one-way network latency, both directions (only with `mcu_pipeline`).
-    observation_latency: latency of observations only, replacing `latency` on that path (None: `latency`).
+    network: latency and loss between device and host (only with `mcu_pipeline`), the same settings a
+        virtual rig takes. `replace(latency=...)` is a shortcut for the network's latency.
     """
 
     name: str
@@ -34,8 +34,7 @@ class Fidelity:
     post_observation_substeps_max: int = 0
     mcu_pipeline: bool = False
     encoder_mount_offset_counts: int = 0
-    latency: LatencyModel = NO_LATENCY
-    observation_latency: LatencyModel | None = None
+    network: NetworkImpairment = PERFECT_NETWORK
 
     def __post_init__(self) -> None:
         if self.substeps_per_step is not None and not (_is_int(self.substeps_per_step)
@@ -48,17 +47,19 @@ class Fidelity:
         if not 0 <= self.post_observation_substeps_max <= 100:
             raise ConfigError(f"post_observation_substeps_max must be in [0, 100], got "
                               f"{self.post_observation_substeps_max}")
-        if not self.mcu_pipeline and not self.latency.is_zero:
-            raise ConfigError("latency needs mcu_pipeline=True (latency applies to MQTT messages)")
-        if not self.mcu_pipeline and self.observation_latency is not None and not self.observation_latency.is_zero:
-            raise ConfigError("observation_latency needs mcu_pipeline=True (latency applies to MQTT messages)")
+        if not isinstance(self.network, NetworkImpairment):
+            raise ConfigError(f"network must be a NetworkImpairment, got {self.network!r}")
+        if not self.mcu_pipeline and not self.network.is_perfect:
+            raise ConfigError("a network (latency, loss) needs mcu_pipeline=True: it applies to MQTT messages")
 
-    def replace(self, **changes) -> Fidelity:
+    def replace(self, latency: LatencyModel | None = None, **changes) -> Fidelity:
+        if latency is not None:
+            changes["network"] = changes.get("network", self.network).replace(latency=latency)
         return dataclasses.replace(self, **changes)
 
     @property
-    def observation_latency_model(self) -> LatencyModel:
-        return self.latency if self.observation_latency is None else self.observation_latency
+    def latency(self) -> LatencyModel:
+        return self.network.latency
 
 
 FIDELITY_PRESETS: dict[str, Fidelity] = {
@@ -68,15 +69,15 @@ FIDELITY_PRESETS: dict[str, Fidelity] = {
     "paper-delayed": Fidelity("paper-delayed", substeps_per_step=6, post_observation_substeps_max=2),
     # The MCU's pipeline with the rig's periods and an assumed classroom WiFi latency.
     "realistic": Fidelity("realistic", mcu_pipeline=True, encoder_mount_offset_counts=317,
-                          latency=CLASSROOM_WIFI),
+                          network=NetworkImpairment(CLASSROOM_WIFI)),
 }
 
 
 def observation_delay_fidelity(delay_ms: float) -> Fidelity:
     """The realistic MCU pipeline with a fixed observation latency of `delay_ms` and instant commands: one
     knob for delay sweeps (the velocities are still the firmware's estimates)."""
-    return FIDELITY_PRESETS["realistic"].replace(
-        name=f"obs-delay-{delay_ms:g}ms", latency=NO_LATENCY, observation_latency=LatencyModel(floor_ms=delay_ms))
+    network = NetworkImpairment(observation_latency=LatencyModel(floor_ms=delay_ms))
+    return FIDELITY_PRESETS["realistic"].replace(name=f"obs-delay-{delay_ms:g}ms", network=network)
 
 
 def resolve_fidelity(fidelity: str | Fidelity) -> Fidelity:

@@ -1,7 +1,9 @@
-"""Network latency between the MCU and the host: a parametric default or samples measured on a rig."""
+"""The network between the MCU and the host: latency (a parametric default or samples measured on a rig)
+and lost messages, as one `NetworkImpairment` shared by the realistic twin and the virtual rig."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from dataclasses import dataclass
@@ -69,3 +71,47 @@ class LatencyModel:
 
 NO_LATENCY = LatencyModel()
 CLASSROOM_WIFI = LatencyModel(floor_ms=2.0, median_ms=6.0, spread=0.6)
+
+
+@dataclass(frozen=True)
+class NetworkImpairment:
+    """What the rig's WiFi adds: one-way latency (both ways, or `observation_latency` for readings only)
+    and lost messages in percent (MQTT QoS 0 drops, it never resends)."""
+
+    latency: LatencyModel = NO_LATENCY
+    observation_loss_pct: float = 0.0
+    command_loss_pct: float = 0.0
+    observation_latency: LatencyModel | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("observation_loss_pct", "command_loss_pct"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and 0 <= value <= 100):
+                raise ConfigError(f"{name} must be in [0, 100], got {value!r}")
+
+    @property
+    def observation_latency_model(self) -> LatencyModel:
+        return self.latency if self.observation_latency is None else self.observation_latency
+
+    @property
+    def is_perfect(self) -> bool:
+        return (self.latency.is_zero and self.observation_latency_model.is_zero
+                and self.observation_loss_pct == 0 and self.command_loss_pct == 0)
+
+    def replace(self, **changes) -> NetworkImpairment:
+        return dataclasses.replace(self, **changes)
+
+
+PERFECT_NETWORK = NetworkImpairment()
+IMPAIRMENTS: dict[str, NetworkImpairment] = {
+    "none": PERFECT_NETWORK,
+    "classroom-wifi": NetworkImpairment(CLASSROOM_WIFI, 0.2, 0.2),
+    "poor-wifi": NetworkImpairment(LatencyModel(floor_ms=4.0, median_ms=15.0, spread=0.8), 3.0, 3.0),
+}
+
+
+def median_latency_ms(latency: LatencyModel) -> float:
+    """The model's median one-way latency in ms (of the samples, or floor + lognormal median)."""
+    if latency.samples_ms:
+        return float(np.median(latency.samples_ms))
+    return latency.floor_ms + latency.median_ms

@@ -3,7 +3,7 @@ import pytest
 
 from pendkit.errors import ConfigError
 from pendkit.sim.fidelity import FIDELITY_PRESETS, Fidelity
-from pendkit.sim.latency import CLASSROOM_WIFI, LatencyModel
+from pendkit.sim.latency import CLASSROOM_WIFI, IMPAIRMENTS, LatencyModel, NetworkImpairment
 
 
 def test_default_classroom_latency_percentiles():
@@ -51,7 +51,7 @@ def test_bad_settings():
     with pytest.raises(ConfigError, match="median_ms"):
         LatencyModel(median_ms=-1)
     with pytest.raises(ConfigError, match="mcu_pipeline"):
-        Fidelity("x", latency=CLASSROOM_WIFI)
+        Fidelity("x", network=NetworkImpairment(CLASSROOM_WIFI))
 
 
 def test_observation_delay_ages_observations_and_leaves_commands_instant():
@@ -70,6 +70,23 @@ def test_observation_delay_ages_observations_and_leaves_commands_instant():
     assert true_paths[0] == true_paths[1]  # the delay is on the way back only: same physics
 
 
-def test_observation_latency_needs_the_mcu_pipeline():
-    with pytest.raises(ConfigError, match="observation_latency"):
-        Fidelity("x", observation_latency=LatencyModel(floor_ms=5))
+def test_any_network_imperfection_needs_the_mcu_pipeline():
+    for network in (NetworkImpairment(observation_latency=LatencyModel(floor_ms=5)),
+                    NetworkImpairment(command_loss_pct=1.0)):
+        with pytest.raises(ConfigError, match="mcu_pipeline"):
+            Fidelity("x", network=network)
+
+
+def test_the_twin_and_the_virtual_rig_take_the_same_network_settings():
+    """One settings class: a virtual rig's named impairment drives the realistic twin too."""
+    import pendkit
+
+    poor = FIDELITY_PRESETS["realistic"].replace(name="poor-wifi", network=IMPAIRMENTS["poor-wifi"])
+    env = pendkit.make(fidelity=poor)
+    env.reset(seed=0)
+    ages = [env.step(0)[4]["state"].observation_age_s for _ in range(200)]
+    clean = pendkit.make(fidelity="realistic")
+    clean.reset(seed=0)
+    clean_ages = [clean.step(0)[4]["state"].observation_age_s for _ in range(200)]
+    assert np.mean(ages) > np.mean(clean_ages)  # 3% of readings lost: the newest is older on average
+    assert env.unwrapped.backend.timing.reading_delay_s > clean.unwrapped.backend.timing.reading_delay_s
