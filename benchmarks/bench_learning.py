@@ -39,6 +39,7 @@ import pendkit
 from pendkit.agents.dqn import DqnConfig
 from pendkit.agents.train import make_buffer, run_episode, train_sync
 from pendkit.agents.variants import build_learner, inputs_for, variant
+from pendkit.features import UPRIGHT_RAD, holds_upright
 from pendkit.sim.fidelity import Fidelity, observation_delay_fidelity
 from pendkit.sim.observation_delay import ObservationDelay
 
@@ -69,7 +70,7 @@ def solved(env, agent, inputs) -> bool:
     """A greedy episode from hanging holds |theta| < 0.3 rad for its last 200 steps."""
     _, infos = run_episode(env, agent, inputs, seed=123, explore=False, options={"start": "rest"})
     angles = [abs(info["angle_from_upright_rad"]) for info in infos]
-    return len(angles) >= TAIL_STEPS and max(angles[-TAIL_STEPS:]) < 0.3
+    return holds_upright(angles, TAIL_STEPS)
 
 
 def run_one(algo: str, fidelity: str | Fidelity | StepDelay, seed: int, max_episodes: int,
@@ -134,7 +135,7 @@ def solved_sb3(env, model) -> bool:
         observation, _, terminated, truncated, info = env.step(int(model.predict(observation, deterministic=True)[0]))
         angles.append(abs(info["angle_from_upright_rad"]))
         done = terminated or truncated
-    return len(angles) >= TAIL_STEPS and max(angles[-TAIL_STEPS:]) < 0.3
+    return holds_upright(angles, TAIL_STEPS)
 
 
 def _one_thread() -> None:
@@ -270,7 +271,7 @@ def json_from_log(log: Path, path: Path, args) -> None:
 def write_json(path: Path, rows, results, delays_ms, args, command: str | None = None) -> None:
     """Every run's (episodes to solve or null, seconds), by algorithm and setting; a sweep's delays in ms."""
     record = {"command": command or "python benchmarks/bench_learning.py " + " ".join(sys.argv[1:]),
-              "solved_rule": f"greedy from hanging, |theta| < 0.3 rad for the last {TAIL_STEPS} of "
+              "solved_rule": f"greedy from hanging, |theta| < {UPRIGHT_RAD:g} rad for the last {TAIL_STEPS} of "
                              f"{EPISODE_STEPS} steps, checked every {CHECK_EVERY} episodes",
               "max_episodes": args.max_episodes, "max_wall_s": args.max_wall_s,
               "delays_ms": delays_ms,

@@ -22,6 +22,7 @@ from multiprocessing import get_context
 import pendkit
 from pendkit.agents.train import make_buffer, run_episode, train_sync
 from pendkit.agents.variants import build_learner, inputs_for, variant
+from pendkit.features import holds_upright
 from pendkit.rig import SERVO_PRESETS, RigParams
 from pendkit.sim.randomize import DomainRandomization
 
@@ -38,7 +39,7 @@ def presets_solved(algo: str, agent, seed: int) -> list[str]:
         _, infos = run_episode(env, agent, inputs_for(variant(algo), env, seed), seed=123, explore=False,
                                options={"start": "rest"})
         angles = [abs(info["angle_from_upright_rad"]) for info in infos]
-        if max(angles[-TAIL_STEPS:]) < 0.3:
+        if holds_upright(angles, TAIL_STEPS):
             solved.append(name)
     return solved
 

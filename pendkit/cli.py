@@ -9,7 +9,9 @@ from pathlib import Path
 
 import click
 
-FIDELITIES = ("ideal", "paper-delayed", "realistic")
+from pendkit.sim.fidelity import FIDELITY_PRESETS
+
+FIDELITIES = tuple(FIDELITY_PRESETS)
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})

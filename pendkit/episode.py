@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pendkit.features import angle_from_upright_rad
+from pendkit.features import UPRIGHT_RAD, angle_from_upright_rad, pendulum_energy
 from pendkit.state import RigState
 
 Policy = Callable[[np.ndarray, RigState], object]
@@ -103,11 +103,8 @@ def energy_pumping_policy(env) -> Policy:
     return policy
 
 
-UPRIGHT_RAD = 0.3  # "upright" in the benchmarks and labs: within 0.3 rad of the top
-
-
 def time_to_upright_s(angles_from_upright_rad, dt_s: float) -> float | None:
-    """Start of the final run of |theta| < 0.3 rad that lasts to the end; None if the end is not upright."""
+    """Start of the final run of |theta| < UPRIGHT_RAD that lasts to the end; None if the end is not upright."""
     angles = np.abs(np.asarray(angles_from_upright_rad))
     outside = np.nonzero(angles >= UPRIGHT_RAD)[0]
     if len(outside) == 0:
@@ -115,13 +112,6 @@ def time_to_upright_s(angles_from_upright_rad, dt_s: float) -> float | None:
     if outside[-1] == len(angles) - 1:
         return None
     return float((outside[-1] + 1) * dt_s)
-
-
-def pendulum_energy(trace: EpisodeTrace, natural_frequency_rad_s: float) -> np.ndarray:
-    """Normalised pendulum energy per step: -1 hanging still, +1 upright still."""
-    data = trace.as_arrays()
-    return 0.5 * (data["pendulum_velocity_rad_s"] / natural_frequency_rad_s) ** 2 + np.cos(
-        data["pendulum_from_upright_rad"])
 
 
 def plot_episode(trace: EpisodeTrace, path: str | Path | None = None, title: str = "Episode",
@@ -146,7 +136,9 @@ def plot_episode(trace: EpisodeTrace, path: str | Path | None = None, title: str
     axes[2].plot(t, data["reward"], color=PALETTE["reward"])
     axes[2].set_ylabel("reward")
     if natural_frequency_rad_s:
-        axes[3].plot(t, pendulum_energy(trace, natural_frequency_rad_s), color=PALETTE["pendulum"])
+        energy = pendulum_energy(data["pendulum_from_upright_rad"] + np.pi, data["pendulum_velocity_rad_s"],
+                                 natural_frequency_rad_s)
+        axes[3].plot(t, energy, color=PALETTE["pendulum"])
         axes[3].axhline(1.0, color=PALETTE["limit"], lw=0.8, linestyle=":")
         axes[3].set_ylabel("energy (upright = 1)")
     axes[-1].set_xlabel("time (s)")

@@ -17,6 +17,22 @@ TWO_PI = 2 * math.pi
 VELOCITY_PENALTY_WEIGHT = 0.5
 
 
+# "Upright" everywhere in the kit (benchmarks' solved rule, CLI evaluation, widgets, labs): within this of the top.
+UPRIGHT_RAD = 0.3
+
+
+def holds_upright(angles_from_upright_rad, tail_steps: int) -> bool:
+    """Whether the last `tail_steps` angles all lie within UPRIGHT_RAD of the top (the solved rule)."""
+    angles = np.abs(np.asarray(angles_from_upright_rad, dtype=float))
+    return len(angles) >= tail_steps and bool(angles[-tail_steps:].max() < UPRIGHT_RAD)
+
+
+def pendulum_energy(angle_from_bottom_rad, velocity_rad_s, natural_frequency_rad_s: float):
+    """Normalised pendulum energy 0.5 (omega / w0)^2 - cos(alpha), alpha from the bottom: -1 hanging still,
+    +1 upright still. Floats or arrays."""
+    return 0.5 * (np.asarray(velocity_rad_s) / natural_frequency_rad_s) ** 2 - np.cos(angle_from_bottom_rad)
+
+
 def angle_from_upright_rad(state: RigState) -> float:
     """Pendulum angle from upright, wrapped to [-pi, pi)."""
     return (state.pendulum_angle_rad % TWO_PI) - math.pi

@@ -34,6 +34,14 @@ class RigParams:
     pivot_height_m: float = 0.018
     encoder_mount_mass_kg: float = 0.010
     encoder_mass_kg: float = 0.017
+    # Small parts' shapes (the twin's MJCF and the analytic model both read them)
+    horn_radius_m: float = 0.012
+    horn_half_height_m: float = 0.002
+    mount_half_x_m: float = 0.006
+    mount_half_y_m: float = 0.012
+    encoder_radius_m: float = 0.011
+    encoder_half_length_m: float = 0.006
+    encoder_inset_m: float = 0.017  # encoder body centre, inboard of the pivot along the arm
 
     # --- pendulum: pine dowel with a printed tip weight, hanging from the encoder shaft ---
     coupler_mass_kg: float = 0.015
@@ -44,6 +52,7 @@ class RigParams:
     tip_mass_kg: float = 0.0095
     tip_diameter_m: float = 0.040
     tip_height_m: float = 0.012
+    coupler_radius_m: float = 0.010
     pendulum_damping_n_m_s_per_rad: float = 0.0015
 
     # --- encoder: Bourns EMS-22A, absolute ---
@@ -171,10 +180,6 @@ class RigParams:
         return self.dowel_length_m - self.tip_height_m / 2
 
     @property
-    def coupler_radius_m(self) -> float:
-        return 0.010
-
-    @property
     def pendulum_com_from_pivot_m(self) -> float:
         moment = self.dowel_mass_kg * self.dowel_length_m / 2 + self.tip_mass_kg * self.tip_centre_from_pivot_m
         return moment / self.pendulum_mass_kg
@@ -197,11 +202,24 @@ class RigParams:
                          / self.pendulum_inertia_about_pivot_kg_m2)
 
     @functools.cached_property
+    def pendulum_long_axis_inertia_kg_m2(self) -> float:
+        """The pendulum's inertia about its own long axis (it turns with the arm when hanging)."""
+        return (self.dowel_mass_kg * (self.dowel_diameter_m / 2) ** 2 / 2
+                + self.tip_mass_kg * (self.tip_diameter_m / 2) ** 2 / 2
+                + self.coupler_mass_kg * 0.4 * self.coupler_radius_m**2)
+
+    @functools.cached_property
     def arm_inertia_kg_m2(self) -> float:
-        """Inertia about the servo axis of everything the servo turns (pendulum hanging)."""
+        """Inertia about the servo axis of everything the servo turns (pendulum hanging), part by part as
+        the twin's MJCF builds them; the gear train's reflected inertia is not included."""
+        r = self.pivot_radius_m
         arm = self.arm_mass_kg * (self.arm_length_m**2 / 3 + self.arm_tube_width_m**2 / 12)
-        at_pivot = (self.pivot_point_masses_kg + self.pendulum_mass_kg) * self.pivot_radius_m**2
-        return arm + at_pivot
+        horn = self.servo_horn_mass_kg * self.horn_radius_m**2 / 2
+        mount = self.encoder_mount_mass_kg * ((2 * self.mount_half_x_m) ** 2 + (2 * self.mount_half_y_m) ** 2) / 12 \
+            + self.encoder_mount_mass_kg * r**2
+        encoder = self.encoder_mass_kg * (3 * self.encoder_radius_m**2 + (2 * self.encoder_half_length_m) ** 2) / 12 \
+            + self.encoder_mass_kg * (r - self.encoder_inset_m) ** 2
+        return arm + horn + mount + encoder + self.pendulum_mass_kg * r**2 + self.pendulum_long_axis_inertia_kg_m2
 
     @functools.cached_property
     def servo_centre_counts(self) -> float:

@@ -9,7 +9,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal, NamedTuple
 
-SAFETY_FLAGS = ("arm_limit", "overspin", "stuck_encoder", "watchdog")
+# The one flag table: the bits a v2 observation carries (firmware/lib/pendcore/src/device.h mirrors it).
+FLAG_BITS = {"arm_limit": 1, "overspin": 2, "stuck_encoder": 4, "watchdog": 8, "frame_error": 16}
+SAFETY_FLAGS = tuple(name for name in FLAG_BITS if name != "frame_error")  # frame_error marks one reading
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,10 @@ from pathlib import Path
 
 import click
 
-FIDELITIES = ("ideal", "paper-delayed", "realistic")
+from pendkit.link import DEFAULT_BROKER
+from pendkit.sim.fidelity import FIDELITY_PRESETS
+
+FIDELITIES = tuple(FIDELITY_PRESETS)
 SOLVED_TAIL_STEPS = 200
 
 
@@ -77,7 +80,7 @@ def _preset_names() -> list[str]:
 @click.option("--backend", type=click.Choice(("sim", "rig")), default="sim", show_default=True,
               help="rig: train on a rig over MQTT with the non-blocking trainer (for --seconds).")
 @click.option("--rig", "rig_id", default="r01", show_default=True)
-@click.option("--broker", default=None, help="Broker URL for --backend rig (default mqtt://127.0.0.1:1883).")
+@click.option("--broker", default=None, help=f"Broker URL for --backend rig (default {DEFAULT_BROKER}).")
 @click.option("--seconds", type=click.FloatRange(1), default=600.0, show_default=True,
               help="Wall-clock training time with --backend rig.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
@@ -144,6 +147,7 @@ def evaluate(run_dir: Path, episodes: int, preset: str | None) -> None:
     import torch
 
     from pendkit.agents.train import run_episode
+    from pendkit.features import holds_upright
 
     config = json.loads((run_dir / "config.json").read_text())
     env, agent, inputs = _build(config["algo"], config["fidelity"], config["seed"], config["max_steps"],
@@ -155,7 +159,7 @@ def evaluate(run_dir: Path, episodes: int, preset: str | None) -> None:
         total, infos = run_episode(env, agent, inputs, seed=10_000 + episode, explore=False)
         angles = [abs(info["angle_from_upright_rad"]) for info in infos]
         returns.append(total)
-        solved += len(angles) >= SOLVED_TAIL_STEPS and max(angles[-SOLVED_TAIL_STEPS:]) < 0.3
+        solved += holds_upright(angles, SOLVED_TAIL_STEPS)
     click.echo(f"mean return {np.mean(returns):.1f} over {episodes} episodes; solved {solved}/{episodes}")
 
 

@@ -30,7 +30,6 @@ import scipy.linalg
 
 from pendkit.errors import ConfigError
 from pendkit.rig import GRAVITY_M_S2, RigParams
-from pendkit.sim import model as mjcf
 
 STATE_NAMES = ("arm_angle_rad", "pendulum_angle_rad", "arm_velocity_rad_s", "pendulum_velocity_rad_s")
 INPUT_NAMES = ("servo_target_rad",)
@@ -55,25 +54,14 @@ class FurutaModel:
 
     @classmethod
     def from_rig(cls, params: RigParams | None = None) -> FurutaModel:
-        """Mass properties of the twin's parts, computed by hand from RigParams and the shapes in the MJCF."""
+        """Mass properties from RigParams (the same parts, shapes and masses the twin's MJCF is built from)."""
         p = params or RigParams()
         r = p.pivot_radius_m
-        arm = p.arm_mass_kg * (p.arm_length_m**2 / 3 + p.arm_tube_width_m**2 / 12)
-        horn = p.servo_horn_mass_kg * mjcf.HORN_RADIUS_M**2 / 2
-        mount = p.encoder_mount_mass_kg * ((2 * mjcf.MOUNT_HALF_X_M) ** 2 + (2 * mjcf.MOUNT_HALF_Y_M) ** 2) / 12 \
-            + p.encoder_mount_mass_kg * r**2
-        encoder_x = r - mjcf.ENCODER_INSET_M
-        encoder = p.encoder_mass_kg * (3 * mjcf.ENCODER_RADIUS_M**2 + (2 * mjcf.ENCODER_HALF_LENGTH_M) ** 2) / 12 \
-            + p.encoder_mass_kg * encoder_x**2
-        long_axis = (p.dowel_mass_kg * (p.dowel_diameter_m / 2) ** 2 / 2
-                     + p.tip_mass_kg * (p.tip_diameter_m / 2) ** 2 / 2
-                     + p.coupler_mass_kg * 0.4 * p.coupler_radius_m**2)
         mass, com = p.pendulum_mass_kg, p.pendulum_com_from_pivot_m
-        arm_total = arm + horn + mount + encoder + mass * r**2 + long_axis + p.servo_reflected_inertia_kg_m2
         return cls(
-            arm_inertia_kg_m2=arm_total,
+            arm_inertia_kg_m2=p.arm_inertia_kg_m2 + p.servo_reflected_inertia_kg_m2,
             pendulum_inertia_kg_m2=p.pendulum_inertia_about_pivot_kg_m2,
-            pendulum_long_axis_inertia_kg_m2=long_axis,
+            pendulum_long_axis_inertia_kg_m2=p.pendulum_long_axis_inertia_kg_m2,
             coupling_kg_m2=mass * r * com,
             gravity_torque_n_m=mass * GRAVITY_M_S2 * com,
             pendulum_damping_n_m_s_per_rad=p.pendulum_damping_n_m_s_per_rad,

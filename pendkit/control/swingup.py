@@ -19,7 +19,7 @@ import numpy as np
 
 from pendkit.control.lqr import LqrBalancer, expected_delays_s
 from pendkit.errors import ConfigError
-from pendkit.features import angle_from_upright_rad
+from pendkit.features import angle_from_upright_rad, pendulum_energy
 from pendkit.rig import RigParams
 from pendkit.state import RigState
 
@@ -86,11 +86,6 @@ def loop_phase_lag_rad(balancer: LqrBalancer, loop_delay_s: float = 0.0,
     return lag
 
 
-def normalised_energy(state: RigState, natural_frequency_rad_s: float) -> float:
-    """0.5 (alpha'/w0)^2 - cos(alpha): -1 hanging still, +1 upright still."""
-    return 0.5 * (state.pendulum_velocity_rad_s / natural_frequency_rad_s) ** 2 - math.cos(state.pendulum_angle_rad)
-
-
 class SwingUpController:
     """Swing up, catch with LQR, and swing up again after a fall. `mode` is "swing" or "balance"."""
 
@@ -121,7 +116,8 @@ class SwingUpController:
     def swing_rate_rad_s(self, state: RigState) -> float:
         """The target's rate that pumps energy towards `target_energy` (or bleeds off any excess)."""
         cfg = self.config
-        missing = cfg.target_energy - normalised_energy(state, self.natural_frequency_rad_s)
+        missing = cfg.target_energy - float(pendulum_energy(state.pendulum_angle_rad, state.pendulum_velocity_rad_s,
+                                                                    self.natural_frequency_rad_s))
         # Rotate the swing's phase-space point (alpha, alpha'/w0) forward by the lead: exact for small swings.
         w0, lead = self.natural_frequency_rad_s, self.phase_lead_rad
         angle = (state.pendulum_angle_rad + math.pi) % (2 * math.pi) - math.pi  # from the bottom, wrapped

@@ -17,9 +17,8 @@ from dataclasses import dataclass
 
 from pendkit.encoder import FirmwareVelocityEstimator, frame_status
 from pendkit.rig import RigParams
-from pendkit.state import STOP, RigState, ServoCommand
+from pendkit.state import FLAG_BITS, STOP, RigState, ServoCommand
 
-FLAG_BITS = {"arm_limit": 1, "overspin": 2, "stuck_encoder": 4, "watchdog": 8, "frame_error": 16}
 HOLDING_FLAGS = ("watchdog", "overspin", "stuck_encoder")
 STUCK_BAD_FRAMES = 8
 STUCK_TRAVEL_COUNTS = 60

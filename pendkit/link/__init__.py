@@ -1,1 +1,3 @@
-"""The rig link: the MQTT protocol, episode logs (and, with the rig-link work, the driver and virtual rig)."""
+"""The host's side of the rig link: MQTT driver, rig backend, virtual rigs, brokers."""
+
+DEFAULT_BROKER = "mqtt://127.0.0.1:1883"

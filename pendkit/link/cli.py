@@ -8,7 +8,9 @@ from pathlib import Path
 
 import click
 
+from pendkit.link import DEFAULT_BROKER
 from pendkit.rig import SERVO_PRESETS
+from pendkit.sim.latency import IMPAIRMENTS
 
 
 @click.command()
@@ -49,10 +51,10 @@ def broker_config(rig_ids: tuple[str, ...], out_dir: Path, port: int, bind: str)
 @click.command("virtual-rig")
 @click.option("--rig", "rig_ids", multiple=True, default=("r01",), show_default=True,
               help="Rig id; repeat for several rigs in this process.")
-@click.option("--broker", "broker_url", default="mqtt://127.0.0.1:1883", show_default=True)
+@click.option("--broker", "broker_url", default=DEFAULT_BROKER, show_default=True)
 @click.option("--speed", type=click.FloatRange(0.1, 100), default=1.0, show_default=True,
               help="Simulated seconds per real second.")
-@click.option("--impairment", type=click.Choice(("none", "classroom-wifi", "poor-wifi")), default="none",
+@click.option("--impairment", type=click.Choice(list(IMPAIRMENTS)), default="none",
               show_default=True, help="Extra latency and loss, as a rig's WiFi would add.")
 @click.option("--username", default=None, help="MQTT user (default: the rig id when --password is given).")
 @click.option("--password", default=None)

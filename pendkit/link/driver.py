@@ -18,10 +18,10 @@ import paho.mqtt.client as mqtt
 
 from pendkit.device.protocol import ANY_DEVICE, ProtocolError, ReadingLimits, ReceivedObservation, parse_observation
 from pendkit.errors import ConfigError, PendkitError
+from pendkit.link import DEFAULT_BROKER
 from pendkit.link.log import EpisodeLog
 
 LOG = logging.getLogger("pendkit.link")
-DEFAULT_BROKER = "mqtt://127.0.0.1:1883"
 # An observation older than the newest (time or v2 sequence), or a sequence number further ahead than
 # this, is a replayed or forged message while the stream is live; after RESYNC_AFTER_S of silence the
 # device may have rebooted (its clock and counters restart), so the next observation is taken as it is.

@@ -9,6 +9,7 @@ keeps whatever motion it has), or until it has settled when asked.
 
 from __future__ import annotations
 
+import json
 import time
 from pathlib import Path
 
@@ -121,9 +122,25 @@ class RigBackend:
                 break
             if waited > SETTLE_LIMIT_S:
                 raise RigLinkError(f"rig {self.rig}: the pendulum did not settle within {SETTLE_LIMIT_S:g} s")
+        self._check_device_config()
         self._deadline = self._sent_at = time.monotonic()
         self.last_step_at = None
         return self._state(time.monotonic())
+
+    def _check_device_config(self) -> None:
+        """A v2 device's retained status says which servo range it was built for: refuse to drive a rig whose
+        firmware and host disagree (the arm angles and the limits would both be wrong)."""
+        try:
+            status = json.loads(self.link.status) if self.link.status else {}
+        except json.JSONDecodeError:
+            return
+        device_range = status.get("servo_counts_range") if isinstance(status, dict) else None
+        host_range = [self.params.servo_min_counts, self.params.servo_max_counts]
+        if isinstance(device_range, list) and device_range != host_range:
+            raise ConfigError(f"rig {self.rig}'s firmware drives servo counts {device_range[0]}..{device_range[-1]}, "
+                              f"but the host's RigParams say {host_range[0]}..{host_range[1]} "
+                              f"({self.params.servo_name}): pass params=RigParams.preset(...) for the servo "
+                              "the rig was built and flashed with")
 
     def emergency_stop(self) -> None:
         """Stop the servo now and keep it stopped: every later step sends stop instead of its action."""

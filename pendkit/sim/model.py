@@ -23,11 +23,6 @@ ARM_JOINT = "arm"
 PENDULUM_JOINT = "pendulum"
 SERVO_ACTUATOR = "servo"
 SERVO_HEIGHT_M = 0.55  # height of the arm above the floor in drawings; physics does not depend on it
-# Small parts' shapes (their masses are RigParams'); shared with the analytic model in pendkit.control.
-HORN_RADIUS_M, HORN_HALF_HEIGHT_M = 0.012, 0.002
-MOUNT_HALF_X_M, MOUNT_HALF_Y_M = 0.006, 0.012
-ENCODER_RADIUS_M, ENCODER_HALF_LENGTH_M = 0.011, 0.006
-ENCODER_INSET_M = 0.017  # encoder body centre, inboard of the pivot along the arm
 
 _TEMPLATE = """
 <mujoco model="pendkit-furuta">
@@ -95,13 +90,14 @@ def model_xml(params: RigParams, *, lock_arm: bool = False, energy: bool = False
         arm_damping=params.servo_back_emf_damping_n_m_s_per_rad,
         arm_half=params.arm_length_m / 2, tube_half_w=params.arm_tube_width_m / 2,
         tube_half_h=params.arm_tube_height_m / 2, arm_mass=params.arm_mass_kg,
-        horn_r=HORN_RADIUS_M, horn_hh=HORN_HALF_HEIGHT_M,
-        horn_z=params.arm_tube_height_m / 2 + HORN_HALF_HEIGHT_M, horn_mass=params.servo_horn_mass_kg,
-        mount_hx=MOUNT_HALF_X_M, mount_hy=MOUNT_HALF_Y_M, enc_r=ENCODER_RADIUS_M, enc_hl=ENCODER_HALF_LENGTH_M,
+        horn_r=params.horn_radius_m, horn_hh=params.horn_half_height_m,
+        horn_z=params.arm_tube_height_m / 2 + params.horn_half_height_m, horn_mass=params.servo_horn_mass_kg,
+        mount_hx=params.mount_half_x_m, mount_hy=params.mount_half_y_m, enc_r=params.encoder_radius_m,
+        enc_hl=params.encoder_half_length_m,
         pivot_r=params.pivot_radius_m, pivot_z=params.pivot_height_m,
         mount_half_h=params.pivot_height_m / 2, mount_z=params.pivot_height_m / 2,
         mount_mass=params.encoder_mount_mass_kg,
-        encoder_x=params.pivot_radius_m - ENCODER_INSET_M, encoder_mass=params.encoder_mass_kg,
+        encoder_x=params.pivot_radius_m - params.encoder_inset_m, encoder_mass=params.encoder_mass_kg,
         pendulum_damping=params.pendulum_damping_n_m_s_per_rad,
         coupler_r=params.coupler_radius_m, coupler_mass=params.coupler_mass_kg,
         dowel_len=params.dowel_length_m, dowel_r=params.dowel_diameter_m / 2, dowel_mass=params.dowel_mass_kg,

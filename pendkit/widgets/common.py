@@ -6,6 +6,7 @@ import io
 import os
 
 from pendkit.episode import EpisodeTrace, plot_episode
+from pendkit.features import UPRIGHT_RAD
 
 
 def live_frontend() -> bool:
@@ -36,6 +37,6 @@ def trace_alt_text(trace: EpisodeTrace, title: str) -> str:
     data = trace.as_arrays()
     import numpy as np
 
-    near_top = float(np.mean(np.abs(data["pendulum_from_upright_rad"]) < 0.3))
+    near_top = float(np.mean(np.abs(data["pendulum_from_upright_rad"]) < UPRIGHT_RAD))
     return (f"{title}: {len(data['time_s']) - 1} steps over {data['time_s'][-1]:.1f} s; return "
-            f"{trace.episode_return:.1f}; within 0.3 rad of upright {100 * near_top:.0f}% of the time.")
+            f"{trace.episode_return:.1f}; within {UPRIGHT_RAD:g} rad of upright {100 * near_top:.0f}% of the time.")

@@ -8,9 +8,10 @@ import pytest
 
 import pendkit
 from pendkit.control.lqr import LqrBalancer, LqrWeights, lqr_gain
-from pendkit.control.swingup import SwingUpConfig, SwingUpController, normalised_energy
+from pendkit.control.swingup import SwingUpConfig, SwingUpController
 from pendkit.episode import run_episode, time_to_upright_s
 from pendkit.errors import ConfigError
+from pendkit.features import pendulum_energy
 
 
 @pytest.mark.parametrize("fidelity", ["ideal", "paper-delayed", "realistic"])
@@ -73,8 +74,9 @@ def test_energy_is_minus_one_hanging_and_one_upright():
     env = pendkit.make(start="rest")
     _, info = env.reset(seed=0)
     w0 = env.unwrapped.params.pendulum_natural_frequency_rad_s
-    assert normalised_energy(info["state"], w0) == pytest.approx(-1.0)
-    assert normalised_energy(info["state"]._replace(pendulum_angle_rad=math.pi), w0) == pytest.approx(1.0)
+    state = info["state"]
+    assert pendulum_energy(state.pendulum_angle_rad, state.pendulum_velocity_rad_s, w0) == pytest.approx(-1.0)
+    assert pendulum_energy(math.pi, 0.0, w0) == pytest.approx(1.0)
 
 
 @pytest.mark.parametrize("kwargs, words", [

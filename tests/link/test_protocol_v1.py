@@ -58,3 +58,13 @@ def test_a_v1_device_has_no_watchdog_so_the_host_is_the_safety():
 def test_protocol_is_checked(kwargs):
     with pytest.raises(pendkit.ConfigError, match="protocol"):
         pendkit.make(**kwargs)
+
+
+def test_a_host_with_another_servo_range_than_the_device_is_refused(broker_url):
+    with VirtualRigGroup([VirtualRig("r03", broker_url, params=TURNIGY)]):  # built for 200..400
+        env = pendkit.make(backend="rig", rig="r03", broker=broker_url, rig_options={"reset_stop_s": 0.2})
+        try:
+            with pytest.raises(pendkit.ConfigError, match="200..400.*150..450"):
+                env.reset(seed=0)
+        finally:
+            env.close()
