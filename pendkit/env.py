@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import os
+import re
 from typing import Any
 
 import gymnasium as gym
@@ -20,6 +22,9 @@ ENV_ID = "pendkit/SwingUp-v0"
 ACTION_MODES = ("discrete", "continuous")
 FEATURE_SOURCES = ("measured", "estimated")
 RIG_PROTOCOLS = {"v1": 1, "v2": 2}  # v1: the authors' firmware; v2: the kit's (docs/protocol.md)
+RIG_OPTIONS = ("username", "password", "tls_ca", "observation_timeout_s", "reset_stop_s", "settle",
+               "connect_timeout_s", "network_latency_ms")
+RIG_ID = re.compile(r"[A-Za-z0-9_-]{1,32}")  # it becomes part of MQTT topics: no '/', '+', '#' or spaces
 DISCRETE_ACTION_NAMES = ("stop", "left slow", "left fast", "right slow", "right fast")
 EPISODE_STEPS = 500
 _RANGE_TOLERANCE = 1e-6  # float32 policies may land a hair outside [-1, 1]
@@ -89,7 +94,8 @@ class SwingUpEnv(gym.Env):
     features ("measured": the readings as they arrive; "estimated": a model-based observer's estimate of the
     present state from the readings and the actions sent, `pendkit.control.estimated_state`);
     with backend="rig": rig ("r01"), broker (URL, default mqtt://127.0.0.1:1883), rig_options (username,
-    password, tls_ca, observation_timeout_s, reset_stop_s, settle), protocol ("v2", or "v1" for a rig
+    password, tls_ca, observation_timeout_s, reset_stop_s, settle, connect_timeout_s, network_latency_ms),
+    protocol ("v2", or "v1" for a rig
     flashed with the authors' firmware: single-letter commands, no heartbeat, no device watchdog).
 
     ## Version History
@@ -125,10 +131,22 @@ class SwingUpEnv(gym.Env):
             raise ConfigError(f"params must be a pendkit.RigParams (e.g. RigParams.preset('mks-x5')), "
                               f"got {type(params).__name__} {params!r}")
         self.params = params if params is not None else RigParams()
+        if filter_coefficient is not None and (isinstance(filter_coefficient, bool)
+                                               or not isinstance(filter_coefficient, (int, float, np.number))):
+            raise ConfigError(f"filter_coefficient must be a number in [0, 1), got {filter_coefficient!r}")
         self.filter_coefficient = self.params.filter_coefficient if filter_coefficient is None \
             else float(filter_coefficient)
         if not 0.0 <= self.filter_coefficient < 1.0:
             raise ConfigError(f"filter_coefficient must be in [0, 1), got {self.filter_coefficient}")
+        if log_dir is not None and not isinstance(log_dir, (str, os.PathLike)):
+            raise ConfigError(f"log_dir must be a folder path, got {type(log_dir).__name__} {log_dir!r}")
+        if rig_options and backend != "rig":
+            raise ConfigError(f"rig_options are for backend='rig', got {sorted(rig_options)} with backend={backend!r}")
+        unknown = set(rig_options or {}) - set(RIG_OPTIONS)
+        if unknown:
+            raise ConfigError(f"unknown rig_options {sorted(unknown)}; accepted: {', '.join(RIG_OPTIONS)}")
+        if backend == "rig" and not (isinstance(rig, str) and RIG_ID.fullmatch(rig)):
+            raise ConfigError(f"rig must be a rig id of letters, digits, '-' or '_' (1-32, e.g. 'r01'), got {rig!r}")
         rig_options = {**(rig_options or {}), "protocol": RIG_PROTOCOLS[protocol]} if backend == "rig" else {}
         self.backend = _make_backend(backend, self.params, fidelity, log_dir, rig, broker, rig_options)
         self.action_mode = action_mode

@@ -62,6 +62,11 @@ def test_the_env_pickles_and_the_copy_continues_identically(fidelity):
     (dict(params={}), "RigParams"),
     (dict(max_episode_steps=0), "max_episode_steps"),
     (dict(max_episode_steps=2.5), "max_episode_steps"),
+    (dict(rig_options={"settle": True}), "backend='rig'"),
+    (dict(backend="rig", rig_options={"setle": True}), "unknown rig_options"),
+    (dict(backend="rig", rig="r01/#"), "rig id"),
+    (dict(log_dir=123), "log_dir"),
+    (dict(filter_coefficient="0.5"), "filter_coefficient"),
     (dict(fidelity=Fidelity("x", network=NetworkImpairment(LatencyModel()))), None),  # valid: no error
 ])
 def test_make_names_the_bad_argument(kwargs, says):
