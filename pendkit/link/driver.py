@@ -29,6 +29,14 @@ SEQUENCE_WINDOW = 1000
 RESYNC_AFTER_S = 1.0
 
 
+def send_without_delay(client: mqtt.Client) -> None:
+    """TCP_NODELAY on a connected client's socket: small messages leave at once (no Nagle), as the firmware's
+    `setNoDelay(true)` does on the rig."""
+    sock = client.socket()
+    if sock is not None and hasattr(sock, "setsockopt"):
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+
+
 class RigLinkError(PendkitError, ConnectionError):
     """The rig or its broker cannot be reached, or has gone quiet."""
 
@@ -138,9 +146,7 @@ class RigLink:
             self._refused = str(reason_code)
             LOG.warning("broker %s refused the connection: %s", self.address, reason_code)
             return
-        sock = client.socket()
-        if sock is not None and hasattr(sock, "setsockopt"):
-            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        send_without_delay(client)
         client.subscribe([(self.obs_topic, 0), (self.status_topic, 0)])
         self.counters.connects += 1
         self._connected.set()

@@ -26,7 +26,7 @@ import paho.mqtt.client as mqtt
 from pendkit.device.logic import McuObservation
 from pendkit.device.twin import ENCODER_FAULTS, TwinDevice
 from pendkit.errors import ConfigError
-from pendkit.link.driver import DEFAULT_BROKER, BrokerAddress, RigLinkError, topics
+from pendkit.link.driver import DEFAULT_BROKER, BrokerAddress, RigLinkError, send_without_delay, topics
 from pendkit.rig import RigParams
 from pendkit.sim.latency import IMPAIRMENTS, NetworkImpairment
 from pendkit.sim.model import PENDULUM_JOINT, build_model
@@ -91,6 +91,7 @@ class VirtualRig:
         if reason_code.is_failure:
             LOG.warning("virtual rig %s: broker refused the connection: %s", self.rig, reason_code)
             return
+        send_without_delay(client)  # as the firmware does: observations leave at once
         client.subscribe(self.act_topic, qos=0)
         self._connected.set()
         self.publish_status()
