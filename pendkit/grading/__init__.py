@@ -15,6 +15,7 @@ from pendkit.grading.core import (
     format_report,
     load_hidden,
     load_lab,
+    outcomes,
     run_task,
     task,
 )
@@ -52,4 +53,4 @@ def attempt(fn: Callable, *args, **kwargs) -> Any:
 
 
 __all__ = ["TASKS", "Failed", "GradingError", "Task", "TestResult", "attempt", "budget", "check", "expect",
-           "format_report", "load_hidden", "load_lab", "mode", "run_task", "strict", "task"]
+           "format_report", "load_hidden", "load_lab", "mode", "outcomes", "run_task", "strict", "task"]

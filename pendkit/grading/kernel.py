@@ -1,41 +1,43 @@
-"""The grader's side inside a student's kernel: find each task's function, test it, report as JSON.
+"""The only grading code that runs inside a student's kernel: call one of their functions on inputs the
+grader sent, and send back what came out, as data.
 
-`pendkit grade` appends one cell per task that calls `report_task`; the result is printed on one line
-behind a marker with a per-run nonce, so the runner can tell it from anything the notebook printed.
-Only test names and messages leave the kernel, never the hidden tests' code.
+`pendkit grade` runs every test in its own process and calls the student's function through `serve_call`
+(see `pendkit.grading.remote`). Expected values and hidden tests never enter the kernel, and nothing the
+kernel sends back is code or a score: a student who replaces this module only changes what their own
+function appears to return, which is no better than writing that function.
 """
 
 from __future__ import annotations
 
 import difflib
-import json
-from dataclasses import asdict
-from pathlib import Path
+import sys
 from typing import Any
 
-from pendkit.grading.core import TASKS, TestResult, load_hidden, load_lab, run_task
-
-MARKER = "PENDKIT-GRADE-RESULT"
+from pendkit.grading import wire
 
 
-def report_task(task_id: str, namespace: dict[str, Any], hidden_paths: list[str], nonce: str) -> None:
-    print(f"{MARKER}:{nonce}:" + json.dumps(grade_task(task_id, namespace, hidden_paths)))
-
-
-def grade_task(task_id: str, namespace: dict[str, Any], hidden_paths: list[str]) -> dict[str, Any]:
-    load_lab(task_id.split(".", 1)[0])
-    for path in hidden_paths:
-        if Path(path).exists():
-            load_hidden(path)
-    task = TASKS[task_id]
-    fn = namespace.get(task.function)
+def serve_call(request: str) -> str:
+    """`request`: {"function": name, "calls": [[args...], ...]} (wire format). Returns (wire format)
+    {"found": bool, "close": name or None, "outcomes": [{"result": value, "args_after": [digest per
+    argument], "raised": None or {"mro": [class names], "message": str}}, ...]}."""
+    spec = wire.loads(request, allow_kit=True)
+    name = spec["function"]
+    namespace = vars(sys.modules["__main__"])
+    fn = namespace.get(name)
     if fn is None or not callable(fn):
-        message = f"function `{task.function}` not found: did you rename it or delete its cell?"
-        candidates = [name for name, value in namespace.items() if callable(value) and not name.startswith("_")]
-        close = difflib.get_close_matches(task.function, candidates, n=1, cutoff=0.6)
-        if close:
-            message += f" (found `{close[0]}`: keep the name `{task.function}`)"
-        results = [TestResult(t.name, 0.0, t.points, False, message, t.hidden) for t in task.tests]
-    else:
-        results = run_task(task_id, fn, include_hidden=True)
-    return {"task": task_id, "title": task.title, "results": [asdict(r) for r in results]}
+        candidates = [key for key, value in namespace.items() if callable(value) and not key.startswith("_")]
+        close = difflib.get_close_matches(name, candidates, n=1, cutoff=0.6)
+        return wire.dumps({"found": False, "close": close[0] if close else None})
+    return wire.dumps({"found": True, "close": None, "outcomes": [_call(fn, list(args)) for args in spec["calls"]]})
+
+
+def _call(fn, args: list) -> dict[str, Any]:
+    outcome: dict[str, Any] = {"result": None, "raised": None}
+    try:
+        outcome["result"] = fn(*args)
+    except KeyboardInterrupt:
+        raise
+    except BaseException as error:  # noqa: BLE001 - whatever the student's code raised is their result
+        outcome["raised"] = {"mro": [kind.__name__ for kind in type(error).__mro__], "message": str(error)[:500]}
+    outcome["args_after"] = [wire.digest(arg) for arg in args]  # the grader compares them with what it sent
+    return outcome

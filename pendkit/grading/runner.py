@@ -8,7 +8,6 @@ broken cell costs only what depends on it. Nothing that could not run scores a p
 from __future__ import annotations
 
 import os
-import secrets
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -16,8 +15,8 @@ from pathlib import Path
 
 import nbformat
 
-from pendkit.grading.core import TASKS, TIMEOUT_CAP_VARIABLE, TestResult, load_hidden, load_lab
-from pendkit.grading.kernel import MARKER
+from pendkit.grading.core import TASKS, TIMEOUT_CAP_VARIABLE, TestResult, load_hidden, load_lab, run_test
+from pendkit.grading.remote import KernelLost, KernelSession, RemoteFunction
 
 MAX_RUNS = 5
 GRADING_SLACK_S = 20.0
@@ -142,28 +141,22 @@ class _Run:
                 self._grade_task(client, notebook, task_id, CellTimeoutError, DeadKernelError)
 
     def _grade_task(self, client, notebook, task_id: str, timeout_error, dead_error) -> None:
-        nonce = secrets.token_hex(8)
-        cell = nbformat.v4.new_code_cell(
-            "from pendkit.grading.kernel import report_task as _pendkit_report_task\n"
-            f"_pendkit_report_task({task_id!r}, globals(), {self.hidden!r}, {nonce!r})")
-        notebook.cells.append(cell)
-        limit = sum(min(t.timeout_s, self.check_timeout_s or t.timeout_s) for t in TASKS[task_id].tests)
-        limit += GRADING_SLACK_S
-        client.timeout = int(limit)
-        try:
-            client.execute_cell(cell, len(notebook.cells) - 1)
-        except (timeout_error, dead_error) as error:
-            what = "timed out" if isinstance(error, timeout_error) else "killed the kernel"
-            self.skipped[task_id] = f"testing `{TASKS[task_id].function}` {what}: 0 points for this task"
-            self.grade.notes.append(f"{task_id}: {self.skipped[task_id]}")
-            raise _Restart from error
-        payload = _find_payload(cell, nonce)
-        if payload is None:
-            self.skipped[task_id] = "the grader could not test this task (its cell failed): 0 points"
-            self.grade.notes.append(f"{task_id}: {self.skipped[task_id]}")
-            return
-        results = [TestResult(**r) for r in payload["results"]]
-        self.graded[task_id] = TaskGrade(task_id, payload["title"], results)
+        """Every test runs here, in the grader; only the student's function runs in their kernel."""
+        task = TASKS[task_id]
+        session = KernelSession(client)
+        fn = RemoteFunction(session, task.function)
+        results: list[TestResult] = []
+        for test in task.tests:
+            limit = min(test.timeout_s, self.check_timeout_s or test.timeout_s)
+            session.start_test(limit)
+            try:
+                result = run_test(test, fn, time_limit=False)
+            except KernelLost as error:
+                self.skipped[task_id] = f"testing `{task.function}`: {error}; 0 points for this task"
+                self.grade.notes.append(f"{task_id}: {self.skipped[task_id]}")
+                raise _Restart from error
+            results.append(result)
+        self.graded[task_id] = TaskGrade(task_id, task.title, results)
 
     def _note_error(self, index: int, cell) -> None:
         for output in cell.get("outputs", []):
@@ -176,22 +169,6 @@ class _Run:
 def _where(index: int, cell) -> str:
     first = next((line.strip() for line in cell.source.splitlines() if line.strip()), "")
     return f"cell {index + 1} ({first[:50]})" if first else f"cell {index + 1}"
-
-
-def _find_payload(cell, nonce: str) -> dict | None:
-    import json
-
-    prefix = f"{MARKER}:{nonce}:"
-    for output in cell.get("outputs", []):
-        if output.get("output_type") != "stream":
-            continue
-        for line in str(output.get("text", "")).splitlines():
-            if line.startswith(prefix):
-                try:
-                    return json.loads(line[len(prefix):])
-                except ValueError:
-                    return None
-    return None
 
 
 @contextmanager
