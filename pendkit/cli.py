@@ -144,9 +144,11 @@ def labs_check(solutions_dir: Path, labs_dir: Path) -> None:
 @click.option("--notebook-timeout", type=float, default=600.0, show_default=True, help="Seconds per notebook.")
 @click.option("--check-timeout", type=float, default=None,
               help="Cap on each test's own time limit, in seconds (default: the test's, usually 10).")
+@click.option("--jobs", type=click.IntRange(1, 64), default=1, show_default=True,
+              help="Notebooks graded at once (each runs its own kernel: about one core each).")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 def grade(submissions: Path, lab: str | None, out_dir: Path, hidden_dir: Path, cell_timeout: float,
-          notebook_timeout: float, check_timeout: float | None, quiet: bool) -> None:
+          notebook_timeout: float, check_timeout: float | None, jobs: int, quiet: bool) -> None:
     """Run and grade every submitted notebook; write Gradescope results.json files and a CSV."""
     from pendkit.grading.report import grade_folder
 
@@ -156,7 +158,7 @@ def grade(submissions: Path, lab: str | None, out_dir: Path, hidden_dir: Path, c
     if hidden is None:
         click.echo(f"no hidden tests at {hidden_dir}: grading with public tests only", err=True)
     grades = grade_folder(submissions, out_dir, lab, hidden, cell_timeout, notebook_timeout, check_timeout,
-                          progress=not quiet)
+                          progress=not quiet, jobs=jobs)
     if not grades:
         raise click.ClickException(f"no notebooks found in {submissions}")
     for result in grades:

@@ -160,17 +160,35 @@ _LOADED_HIDDEN: set[str] = set()
 
 def load_hidden(path: str | Path) -> None:
     """Import an instructor's hidden-test module (it attaches tests with hidden=True); once per content,
-    so the same tests copied elsewhere (a grading folder, a course archive) load only once."""
+    so the same tests copied elsewhere (a grading folder, a course archive) load only once. A file that
+    fails (a syntax error, a test name twice) adds nothing and raises ConfigError saying why."""
     path = Path(path).resolve()
-    digest = hashlib.sha256(path.read_bytes()).hexdigest()
+    try:
+        source = path.read_bytes()
+    except OSError as error:
+        raise ConfigError(f"cannot read hidden tests {path.name}: {error}") from None
+    load_hidden_source(path, source)
+
+
+def load_hidden_source(path: Path, source: bytes) -> None:
+    """`load_hidden` from bytes read earlier (the grader reads every hidden file before any student code runs)."""
+    digest = hashlib.sha256(source).hexdigest()
     if digest in _LOADED_HIDDEN:
         return
+    before = {task_id: len(t.tests) for task_id, t in TASKS.items()}
+    try:
+        module = importlib.util.module_from_spec(importlib.util.spec_from_loader(f"pendkit_hidden_{path.stem}",
+                                                                                 loader=None))
+        module.__file__ = str(path)
+        exec(compile(source, str(path), "exec"), module.__dict__)  # noqa: S102 - the instructor's own file
+    except BaseException as error:  # noqa: BLE001 - any failure: undo what it registered, report it
+        for task_id in list(TASKS):
+            if task_id not in before:
+                del TASKS[task_id]
+            else:
+                del TASKS[task_id].tests[before[task_id]:]
+        raise ConfigError(f"hidden tests {path.name} were not loaded ({type(error).__name__}: {error})") from None
     _LOADED_HIDDEN.add(digest)
-    spec = importlib.util.spec_from_file_location(f"pendkit_hidden_{path.stem}", path)
-    if spec is None or spec.loader is None:
-        raise ConfigError(f"cannot load hidden tests from {path}")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
 
 
 def run_test(test: TestCase, fn: Callable, time_limit: bool = True) -> TestResult:

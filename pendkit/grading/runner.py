@@ -7,7 +7,10 @@ broken cell costs only what depends on it. Nothing that could not run scores a p
 
 from __future__ import annotations
 
+import logging
 import os
+import shutil
+import tempfile
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -15,9 +18,12 @@ from pathlib import Path
 
 import nbformat
 
+from pendkit.errors import ConfigError
 from pendkit.grading.core import TASKS, TIMEOUT_CAP_VARIABLE, TestResult, load_hidden, load_lab, run_test
 from pendkit.grading.remote import KernelLost, KernelSession, RemoteFunction
+from pendkit.grading.sandbox import Sandbox, isolation_problem
 
+LOG = logging.getLogger("pendkit.grading")
 MAX_RUNS = 5
 GRADING_SLACK_S = 20.0
 
@@ -45,6 +51,7 @@ class SubmissionGrade:
     tasks: list[TaskGrade] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     execution_time_s: float = 0.0
+    isolated: bool = False  # the kernel ran in the sandbox
 
     @property
     def score(self) -> float:
@@ -53,6 +60,23 @@ class SubmissionGrade:
     @property
     def max_score(self) -> float:
         return sum(t.max_score for t in self.tasks)
+
+
+def _sandbox_for(notebook: Path, isolate: bool | None) -> Sandbox | None:
+    """A sandbox holding the notebook's folder without any other notebook (another student's, in a flat
+    submissions folder); None where isolation is off or unavailable."""
+    if isolate is False or (isolate is None and isolation_problem() is not None):
+        return None
+    staging = Path(tempfile.mkdtemp(prefix="pendkit-submission-"))
+    try:
+        for item in notebook.parent.iterdir():
+            if item.suffix == ".ipynb" and item != notebook or item.name == ".ipynb_checkpoints":
+                continue
+            target = staging / item.name
+            shutil.copytree(item, target) if item.is_dir() else shutil.copy2(item, target)
+        return Sandbox(staging)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
 
 
 class _Restart(Exception):
@@ -66,13 +90,17 @@ def zero_grade(task_id: str, message: str) -> TaskGrade:
 
 
 def grade_notebook(path: Path, student: str, lab: str, hidden_paths: list[Path], cell_timeout_s: float = 120.0,
-                   notebook_timeout_s: float = 600.0, check_timeout_s: float | None = None) -> SubmissionGrade:
-    """Run `path` and grade lab `lab`'s tasks in it. Never raises for anything the notebook does."""
+                   notebook_timeout_s: float = 600.0, check_timeout_s: float | None = None,
+                   isolate: bool | None = None) -> SubmissionGrade:
+    """Run `path` and grade lab `lab`'s tasks in it. Never raises for anything the notebook does.
+    `isolate`: run the kernel in the bubblewrap sandbox (None: where it is available)."""
     started = time.monotonic()
     task_ids = [t.id for t in load_lab(lab)]
-    hidden = [str(Path(p).resolve()) for p in hidden_paths if Path(p).exists()]
-    for hidden_path in hidden:
-        load_hidden(hidden_path)
+    for hidden_path in hidden_paths:
+        try:
+            load_hidden(hidden_path)
+        except ConfigError as problem:
+            LOG.warning("%s", problem)  # the instructor's file: said to them, not in a student's feedback
     grade = SubmissionGrade(student, str(path), lab)
     try:
         notebook = nbformat.read(path, as_version=4)
@@ -80,17 +108,24 @@ def grade_notebook(path: Path, student: str, lab: str, hidden_paths: list[Path],
         grade.notes.append(f"could not read the notebook ({type(error).__name__}: {error}); nothing was run")
         grade.tasks = [zero_grade(t, "the notebook could not be read") for t in task_ids]
         return grade
-    run = _Run(notebook, Path(path).parent, task_ids, hidden, cell_timeout_s, started + notebook_timeout_s, grade)
-    run.check_timeout_s = check_timeout_s
-    with _grading_environment(check_timeout_s):
-        for _ in range(MAX_RUNS):
-            try:
-                run.once()
-                break
-            except _Restart:
-                continue
-        else:
-            grade.notes.append(f"gave up after {MAX_RUNS} kernel restarts")
+    sandbox = _sandbox_for(Path(path), isolate)
+    grade.isolated = sandbox is not None
+    workdir = sandbox.work if sandbox is not None else Path(path).parent
+    run = _Run(notebook, workdir, task_ids, cell_timeout_s, started + notebook_timeout_s, grade)
+    run.check_timeout_s, run.sandbox = check_timeout_s, sandbox
+    try:
+        with _grading_environment(check_timeout_s):
+            for _ in range(MAX_RUNS):
+                try:
+                    run.once()
+                    break
+                except _Restart:
+                    continue
+            else:
+                grade.notes.append(f"gave up after {MAX_RUNS} kernel restarts")
+    finally:
+        if sandbox is not None:
+            sandbox.close()
     grade.tasks = [run.graded.get(t) or zero_grade(t, run.skipped.get(t, "not graded: the notebook did not "
                                                                          "get this far"))
                    for t in task_ids]
@@ -99,22 +134,24 @@ def grade_notebook(path: Path, student: str, lab: str, hidden_paths: list[Path],
 
 
 class _Run:
-    def __init__(self, notebook, workdir: Path, task_ids, hidden, cell_timeout_s, deadline, grade) -> None:
-        self.notebook, self.workdir, self.task_ids, self.hidden = notebook, workdir, task_ids, hidden
+    def __init__(self, notebook, workdir: Path, task_ids, cell_timeout_s, deadline, grade) -> None:
+        self.notebook, self.workdir, self.task_ids = notebook, workdir, task_ids
         self.cell_timeout_s, self.deadline, self.grade = cell_timeout_s, deadline, grade
         self.excluded: set[int] = set()
         self.graded: dict[str, TaskGrade] = {}
         self.skipped: dict[str, str] = {}
         self.noted_errors: set[int] = set()
         self.check_timeout_s: float | None = None
+        self.sandbox: Sandbox | None = None
 
     def once(self) -> None:
         from nbclient import NotebookClient
         from nbclient.exceptions import CellTimeoutError, DeadKernelError
 
         notebook = nbformat.from_dict(self.notebook)  # a fresh copy per run
-        client = NotebookClient(notebook, timeout=self.cell_timeout_s, kernel_name="python3", allow_errors=True,
-                                interrupt_on_timeout=False, record_timing=False,
+        km = self.sandbox.kernel_manager() if self.sandbox is not None else None
+        client = NotebookClient(notebook, km=km, timeout=self.cell_timeout_s, kernel_name="python3",
+                                allow_errors=True, interrupt_on_timeout=False, record_timing=False,
                                 resources={"metadata": {"path": str(self.workdir)}})
         with client.setup_kernel():
             for index, cell in enumerate(notebook.cells):

@@ -60,16 +60,16 @@ def encode(value: Any, allow_kit: bool = False, depth: int = 0) -> Any:
         return {"opaque": ["nested", f"deeper than {MAX_DEPTH} levels"]}
     if value is None or isinstance(value, bool):
         return value
+    if isinstance(value, (np.ndarray, np.generic)):  # before float: np.float64 is a float too
+        return _encode_numpy(value)
     if isinstance(value, str):
         return {"str": str(value)[:MAX_TEXT]}
-    if isinstance(value, int) and not isinstance(value, bool):
-        return {"int": str(value)} if abs(value) < 10**4300 else {"opaque": ["int", "too large"]}
+    if isinstance(value, int):
+        return {"int": int.__repr__(value)} if abs(value) < 10**4000 else {"opaque": ["int", "too large"]}
     if isinstance(value, float):
-        return {"float": repr(value)}
+        return {"float": float.__repr__(value)}
     if isinstance(value, complex):
-        return {"complex": [repr(value.real), repr(value.imag)]}
-    if isinstance(value, (np.ndarray, np.generic)):
-        return _encode_numpy(value)
+        return {"complex": [float.__repr__(value.real), float.__repr__(value.imag)]}
     if isinstance(value, (list, tuple)):
         key = "list" if isinstance(value, list) else "tuple"
         if len(value) > MAX_ELEMENTS:

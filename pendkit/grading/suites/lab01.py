@@ -42,6 +42,13 @@ def _rejects(fn, frame: int) -> bool:
     return False
 
 
+def _accepts_a_good_frame(fn, test: str) -> None:
+    """A rejection test is only worth points if good frames still decode (rejecting everything is wrong)."""
+    frame = encode_ssi_frame(420)
+    expect(not _rejects(fn, frame), f"decode_frame(0x{frame:04X}) rejected a valid frame: {test} only counts "
+                                    "when valid frames still decode")
+
+
 @decode.test(points=3, hint="Position = bits 15..6 of the 16-bit frame, most significant bit first.")
 def positions_of_clean_frames(fn, rng):
     for position in (0, 1, 2, 511, 512, 700, 1023, *rng.integers(0, 1024, 5).tolist()):
@@ -52,6 +59,7 @@ def positions_of_clean_frames(fn, rng):
 
 @decode.test(points=2, hint="Count the ones in all 16 bits: an odd count means a corrupted frame.")
 def bad_parity_is_rejected(fn, rng):
+    _accepts_a_good_frame(fn, "bad_parity_is_rejected")
     for position in (0, 300, 1023):
         frame = encode_ssi_frame(position)
         for bit in (0, 6, 15):
@@ -73,6 +81,7 @@ def bad_status_is_rejected(fn, rng):
         ({"linearity_alarm": True}, "LIN (bit 3) is 1: the magnet is misaligned"),
         ({"magnet_closer": True, "magnet_away": True}, "MagINC and MagDEC are both 1: magnet out of range"),
     ]
+    _accepts_a_good_frame(fn, "bad_status_is_rejected")
     for flags, why in cases:
         frame = encode_ssi_frame(420, **flags)
         expect(_rejects(fn, frame), f"decode_frame(0x{frame:04X}) was accepted but {why}")
