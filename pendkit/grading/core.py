@@ -17,6 +17,7 @@ from __future__ import annotations
 import hashlib
 import importlib
 import importlib.util
+import numbers
 import os
 import zlib
 from collections.abc import Callable
@@ -75,6 +76,18 @@ def outcomes(fn: Callable, calls: list[tuple]) -> list[Outcome]:
         except Exception as error:
             results.append(Outcome(error=error))
     return results
+
+
+def is_real(value) -> bool:
+    """Any real number a student may return: int, float, numpy scalars (not bool)."""
+    return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+
+
+def is_sequence_of(value, length: int) -> bool:
+    """A tuple, list or 1-D array of `length` items: what "return a pair" accepts."""
+    if isinstance(value, np.ndarray):
+        return value.ndim >= 1 and len(value) == length
+    return isinstance(value, (tuple, list)) and len(value) == length
 
 
 def expect(condition: bool, message: str) -> None:

@@ -106,6 +106,7 @@ class Sandbox:
                 "--memory-mb", str(self.limits.memory_mb), "--file-mb", str(self.limits.file_mb),
                 "--nproc", str(_process_cap(self.limits.processes)), "--", "-f", "{connection_file}"]
         spec = {"argv": argv, "display_name": "pendkit sandbox", "language": "python",
+                "interrupt_mode": "message",  # a signal would reach bwrap, not the kernel inside it
                 "env": {"PYTHONNOUSERSITE": "1"}}
         folder = self.root / "specs" / KERNEL_NAME
         folder.mkdir()

@@ -51,3 +51,25 @@ def every_short_step(fn, rng):
     for (start, step), outcome in zip(pairs, outcomes(fn, calls)):
         got = outcome.error or outcome.value
         expect(got == step, f"wrap_delta({(start + step) % 1024}, {start}) should be {step}, got {got!r}")
+
+
+upright = task("01.angle_from_upright", function="angle_from_upright", title="Angle from upright")
+
+
+@upright.test(points=1, hidden=True, hint="Any angle, any number of turns: the result is in [-pi, pi).")
+def random_angles_and_the_seam(fn, rng):
+    angles = [*rng.uniform(-40, 40, 60).tolist(), 0.0, 2 * math.pi, -2 * math.pi, math.pi, -math.pi, 4 * math.pi]
+    for angle, outcome in zip(angles, outcomes(fn, [(a,) for a in angles])):
+        expected = (angle % (2 * math.pi)) - math.pi
+        got = outcome.value
+        expect(outcome.error is None and -math.pi <= float(got) < math.pi and abs(float(got) - expected) < 1e-9,
+               f"angle_from_upright({angle:.4f}) should be {expected:.4f} in [-pi, pi), got {outcome.error or got!r}")
+
+
+@wrap.test(points=1, hidden=True, hint="512 keeps its sign, 513 wraps: check both sides of the seam.")
+def the_seam_exactly(fn, rng):
+    calls = [(512, 0), (0, 512), (513, 0), (0, 513), (1023, 511), (511, 1023), (1023, 510), (510, 1023)]
+    wanted = [512, -512, -511, 511, 512, -512, -511, 511]
+    for (new, old), want, outcome in zip(calls, wanted, outcomes(fn, calls)):
+        expect(outcome.error is None and outcome.value == want,
+               f"wrap_delta({new}, {old}) should be {want}, got {outcome.error or outcome.value!r}")

@@ -28,3 +28,26 @@ def composes_to_the_firmware_estimate(fn, rng):
     raw = np.concatenate([[0.0], encoder.finite_difference_rev_s(positions, times)])
     got = np.asarray(fn(raw.tolist(), 4), dtype=float)
     expect(np.allclose(got, reference, atol=1e-9), "firmware_mean of raw velocities differs from the firmware")
+
+
+smooth = task("02.low_pass", function="low_pass", title="A first-order low-pass")
+limits = task("02.period_limits", function="period_limits", title="What a reading period can resolve")
+
+
+@smooth.test(points=1, hidden=True, hint="Any alpha in (0, 1] and any input length.")
+def random_signals(fn, rng):
+    for alpha in rng.uniform(0.05, 1.0, 4):
+        values = rng.normal(size=int(rng.integers(3, 40)))
+        expected = encoder.low_pass(values, float(alpha))
+        got = np.asarray(fn(values.tolist(), float(alpha)), dtype=float)
+        expect(got.shape == expected.shape and np.allclose(got, expected),
+               f"low_pass(..., {alpha:.3f}) differs from y_k = y_(k-1) + alpha (x_k - y_(k-1))")
+
+
+@limits.test(points=1, hidden=True, hint="Both limits scale with 1 / period.")
+def random_periods(fn, rng):
+    for period_ms in rng.uniform(1.0, 500.0, 5):
+        got = fn(float(period_ms))
+        period_s = period_ms / 1000
+        expect(len(got) == 2 and abs(float(got[0]) - 1 / 1024 / period_s) < 1e-9
+               and abs(float(got[1]) - 0.5 / period_s) < 1e-9, f"period_limits({period_ms:.2f}) is wrong")

@@ -29,3 +29,21 @@ def complex_poles_kept(fn, rng):
     k = np.zeros((1, 4))
     got = np.sort_complex(np.asarray(fn(a, b, k), dtype=complex).reshape(-1))
     expect(np.allclose(got, np.sort_complex(np.linalg.eigvals(a))), "with K = 0 the poles are A's eigenvalues")
+
+
+matrices = task("04.upright_matrices", function="upright_matrices", title="The linearisation about upright")
+
+
+@matrices.test(points=1, hidden=True, hint="The matrices follow the model's fields for any rig.")
+def random_rigs(fn, rng):
+    for _ in range(3):
+        params = RigParams(tip_mass_kg=float(rng.uniform(0.005, 0.03)), dowel_length_m=float(rng.uniform(0.25, 0.5)),
+                           arm_mass_kg=float(rng.uniform(0.08, 0.2)))
+        model = FurutaModel.from_rig(params)
+        reference = model.linearise("upright")
+        got = fn(model)
+        a, b = (np.asarray(x, dtype=float) for x in got)
+        expect(np.allclose(a, np.asarray(reference.A), rtol=1e-6, atol=1e-9)
+               and np.allclose(b.reshape(4, 1), np.asarray(reference.B), rtol=1e-6, atol=1e-9),
+               f"upright_matrices is wrong for a rig with a {1000 * params.tip_mass_kg:.1f} g tip and a "
+               f"{1000 * params.dowel_length_m:.0f} mm dowel")

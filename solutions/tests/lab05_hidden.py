@@ -22,3 +22,20 @@ def all_quadrants(fn, rng):
     for (alpha, omega), outcome in zip(calls, outcomes(fn, calls)):
         expected = -1 if omega * math.cos(alpha) > 0 else 1
         expect(outcome.error is None and outcome.value == expected, f"pumping_direction({alpha:.3f}, {omega}) is wrong")
+
+
+switch = task("05.next_mode", function="next_mode", title="Hand-over between swing-up and LQR")
+CATCH_ANGLE_RAD, CATCH_VELOCITY_RAD_S, FALL_ANGLE_RAD = 0.8, 5.0, 1.1  # the lab's constants
+
+
+@switch.test(points=1, hidden=True, hint="Both modes, both signs, inside and outside every threshold.")
+def random_states(fn, rng):
+    calls = [(mode, float(theta), float(omega)) for mode in ("swing", "balance")
+             for theta, omega in rng.uniform([-1.6, -8.0], [1.6, 8.0], (40, 2))]
+    for (mode, theta, omega), outcome in zip(calls, outcomes(fn, calls)):
+        if mode == "swing":
+            want = "balance" if abs(theta) < CATCH_ANGLE_RAD and abs(omega) < CATCH_VELOCITY_RAD_S else "swing"
+        else:
+            want = "swing" if abs(theta) > FALL_ANGLE_RAD else "balance"
+        expect(outcome.error is None and outcome.value == want,
+               f"next_mode({mode!r}, {theta:.3f}, {omega:.3f}) should be {want!r}, got {outcome.error or outcome.value!r}")

@@ -26,3 +26,19 @@ def matches_torch(fn, rng):
         expected = torch.nn.functional.huber_loss(torch.tensor(errors), torch.zeros(50), reduction="none",
                                                   delta=delta).numpy()
         expect(np.allclose(np.asarray(fn(errors, delta), dtype=float), expected), f"wrong for delta={delta}")
+
+
+target = task("07.td_target", function="td_target", title="The (double) DQN target")
+
+
+@target.test(points=1, hidden=True, hint="Any batch size, any number of actions, terminal steps included.")
+def random_batches(fn, rng):
+    for batch, actions in ((1, 2), (7, 5), (32, 3)):
+        rewards, dones = rng.normal(size=batch), (rng.random(batch) < 0.3).astype(float)
+        online, target_q, gamma = rng.normal(size=(batch, actions)), rng.normal(size=(batch, actions)), 0.97
+        for double in (True, False):
+            next_value = (target_q[np.arange(batch), online.argmax(axis=1)] if double else target_q.max(axis=1))
+            expected = rewards + gamma * (1 - dones) * next_value
+            got = np.asarray(fn(rewards, dones, online, target_q, gamma, double), dtype=float).reshape(-1)
+            expect(got.shape == expected.shape and np.allclose(got, expected),
+                   f"td_target on a batch of {batch} with {actions} actions (double={double}) is wrong")

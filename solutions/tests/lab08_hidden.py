@@ -44,3 +44,18 @@ def matches_the_kit(fn, rng):
             x = inputs.step(observation, action)
         got = np.asarray(fn(observation.astype(np.float32), list(recent), 5), dtype=float)
         expect(got.shape == x.shape and np.allclose(got, x, atol=1e-6), f"differs from the kit with {seen} actions")
+
+
+contrast = task("08.breaking_delay", function="breaking_delay", title="Where plain DQN breaks")
+
+
+@contrast.test(points=1, hidden=True, hint="Any sweep: the first delay where plain < threshold <= the other.")
+def random_sweeps(fn, rng):
+    for _ in range(20):
+        n = int(rng.integers(2, 8))
+        delays = sorted(rng.choice(np.arange(0, 400, 20), n, replace=False).tolist())
+        plain, other = rng.random(n).round(2).tolist(), rng.random(n).round(2).tolist()
+        threshold = float(rng.choice([0.5, 0.8]))
+        want = next((d for d, p, o in zip(delays, plain, other) if p < threshold <= o), None)
+        got = fn(delays, plain, other, threshold)
+        expect(got == want, f"breaking_delay({delays}, {plain}, {other}, {threshold}) should be {want}, got {got!r}")

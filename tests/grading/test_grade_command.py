@@ -15,7 +15,7 @@ from pendkit.grading.runner import grade_notebook
 ROOT = Path(__file__).resolve().parents[2]
 SOLUTION = ROOT / "solutions" / "01_encoder.ipynb"
 HIDDEN = ROOT / "solutions" / "tests"
-FULL = 24  # lab 01: public + hidden points
+FULL = 26  # lab 01: public + hidden points
 
 
 def solution():
@@ -114,7 +114,7 @@ def test_a_function_that_kills_the_kernel_scores_zero_for_its_task_only(graded):
 
 def test_a_deleted_function_scores_zero_with_a_message(graded):
     rows, results = graded
-    assert rows["grace"]["01.wrap_delta"] == "0" and results["grace"]["score"] == FULL - 6
+    assert rows["grace"]["01.wrap_delta"] == "0" and results["grace"]["score"] == FULL - 7
     assert "function `wrap_delta` not found" in messages(results, "grace")
 
 

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from pendkit.grading.core import expect, task
+from pendkit.grading.core import expect, is_real, task
 
 reward_task = task("00.reward", function="reward", title="The paper's reward")
 fraction_task = task("00.upright_fraction", function="upright_fraction", title="Fraction of time upright")
@@ -18,11 +18,11 @@ def reward_values(fn, rng):
         expected = -theta**2 - 0.5 * (omega_rad_s / (2 * math.pi)) ** 2
         got = fn(theta, omega_rad_s)
         message = f"reward({theta:.3f}, {omega_rad_s:.3f}) should be {expected:.4f}, got {got!r}"
-        if isinstance(got, (int, float)) and omega_rad_s and abs(got - (-theta**2 - 0.5 * omega_rad_s**2)) < 1e-9:
+        if is_real(got) and omega_rad_s and abs(got - (-theta**2 - 0.5 * omega_rad_s**2)) < 1e-9:
             message += ": convert the velocity from rad/s to rev/s first"
-        elif isinstance(got, (int, float)) and got > 0:
+        elif is_real(got) and got > 0:
             message += ": the reward is a penalty, never positive"
-        expect(isinstance(got, (int, float)) and abs(got - expected) < 1e-9, message)
+        expect(is_real(got) and abs(got - expected) < 1e-9, message)
 
 
 @fraction_task.test(points=2, hint="Count steps with |angle| < 0.3 rad and divide by the number of steps.")
@@ -31,11 +31,11 @@ def fraction_of_steps(fn, rng):
     expected = 4 / 8
     got = fn(angles)
     message = f"upright_fraction({angles.tolist()}) should be {expected}, got {got!r}"
-    if isinstance(got, (int, float)) and abs(got - float(np.mean(angles < 0.3))) < 1e-9:
+    if is_real(got) and abs(got - float(np.mean(angles < 0.3))) < 1e-9:
         message += ": use the absolute value: -3.0 rad is far from upright"
-    if isinstance(got, (int, float)) and abs(got - 4) < 1e-9:
+    if is_real(got) and abs(got - 4) < 1e-9:
         message += ": that is a count; divide by the number of steps"
-    expect(isinstance(got, (int, float, np.floating)) and abs(float(got) - expected) < 1e-9, message)
+    expect(is_real(got) and abs(float(got) - expected) < 1e-9, message)
 
 
 @fraction_task.test(points=1, hint="It must work for any length of trace.")

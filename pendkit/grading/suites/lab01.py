@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 from pendkit.encoder import encode_ssi_frame
-from pendkit.grading.core import Failed, expect, task
+from pendkit.grading.core import Failed, expect, is_real, task
 
 decode = task("01.decode_frame", function="decode_frame", title="Decode an EMS-22A SSI frame")
 to_angle = task("01.counts_to_angle", function="counts_to_angle", title="Counts to angle from the bottom")
@@ -101,7 +101,7 @@ def one_magnet_bit_alone_is_valid(fn, rng):
 
 def _angle_message(call: str, expected: float, got) -> str:
     message = f"{call} should be {expected:.4f} rad, got {got!r}"
-    if isinstance(got, (int, float)) and math.isfinite(got):
+    if is_real(got) and math.isfinite(got):
         if abs(got - math.degrees(expected)) < 1e-3:
             return message + ": that is degrees; the lab uses radians"
         if abs(got - expected) < 2 * math.pi / 1024 * 2 and got != expected:
@@ -116,7 +116,7 @@ def calibrated_counts_scale_to_radians(fn, rng):
     for raw, offset, expected in [(0, 0, 0.0), (512, 0, math.pi), (256, 0, math.pi / 2), (317, 317, 0.0),
                                   (829, 317, math.pi), (600, 100, 500 * 2 * math.pi / 1024)]:
         got = fn(raw, offset)
-        expect(isinstance(got, (int, float)) and abs(got - expected) < 1e-9,
+        expect(is_real(got) and abs(got - expected) < 1e-9,
                _angle_message(f"counts_to_angle({raw}, offset={offset})", expected, got))
 
 
@@ -125,8 +125,8 @@ def readings_below_the_offset_wrap(fn, rng):
     for raw, offset in [(316, 317), (0, 317), (100, 900)]:
         expected = ((raw - offset) % 1024) * 2 * math.pi / 1024
         got = fn(raw, offset)
-        ok = isinstance(got, (int, float)) and abs(got - expected) < 1e-9
-        if not ok and isinstance(got, (int, float)) and abs(got - (raw + offset) % 1024 * 2 * math.pi / 1024) < 1e-9:
+        ok = is_real(got) and abs(got - expected) < 1e-9
+        if not ok and is_real(got) and abs(got - (raw + offset) % 1024 * 2 * math.pi / 1024) < 1e-9:
             raise Failed(f"counts_to_angle({raw}, offset={offset}) should be {expected:.4f}, got {got!r}: "
                          "you added the offset; subtract it")
         expect(ok, _angle_message(f"counts_to_angle({raw}, offset={offset})", expected, got))
@@ -138,9 +138,9 @@ def upright_is_zero_and_sides_have_signs(fn, rng):
                             (0.05, -math.pi + 0.05), (2 * math.pi - 0.05, math.pi - 0.05),
                             (3 * math.pi + 0.1, 0.1), (-math.pi / 2, math.pi / 2), (-5 * math.pi, 0.0)]:
         got = fn(angle)
-        ok = isinstance(got, (int, float)) and abs(got - expected) < 1e-9
+        ok = is_real(got) and abs(got - expected) < 1e-9
         message = f"angle_from_upright({angle:.3f}) should be {expected:.4f} rad, got {got!r}"
-        if not ok and isinstance(got, (int, float)):
+        if not ok and is_real(got):
             if abs(got - (angle - math.pi)) < 1e-9:
                 message += ": close, but the angle may have wound several turns: wrap into [-pi, pi)"
             elif abs(got - angle) < 1e-9:
@@ -162,7 +162,7 @@ def differences_across_the_seam(fn, rng):
         message = f"wrap_delta({new}, {old}) should be {expected}, got {got!r}"
         if got == new - old:
             message += ": that is the long way round; take the shorter way across the 1023 -> 0 seam"
-        elif isinstance(got, int) and got == -expected:
+        elif is_real(got) and got == -expected:
             message += ": right size, wrong sign"
         expect(got == expected, message)
 

@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from pendkit import encoder
-from pendkit.grading.core import Failed, expect, task
+from pendkit.grading.core import Failed, expect, is_sequence_of, task
 
 velocity = task("02.velocity_rev_s", function="velocity_rev_s", title="Wrap-aware velocity in rev/s")
 mean = task("02.firmware_mean", function="firmware_mean", title="The firmware's mean of the last N")
@@ -115,7 +115,7 @@ def alpha_one_is_identity(fn, rng):
 def quantisation_and_aliasing(fn, rng):
     for period_ms in (5.0, 25.0, 100.0):
         got = fn(period_ms)
-        expect(isinstance(got, tuple) and len(got) == 2, f"period_limits({period_ms}) should return a pair "
+        expect(is_sequence_of(got, 2), f"period_limits({period_ms}) should return a pair "
                f"(quantisation step, aliasing limit), got {got!r}")
         step, limit = float(got[0]), float(got[1])
         want_step, want_limit = 1 / 1024 / (period_ms / 1000), 0.5 / (period_ms / 1000)

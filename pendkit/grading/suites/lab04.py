@@ -6,7 +6,7 @@ import control
 import numpy as np
 
 from pendkit.control.model import FurutaModel, discretise
-from pendkit.grading.core import Failed, expect, task
+from pendkit.grading.core import Failed, expect, is_sequence_of, task
 
 matrices = task("04.upright_matrices", function="upright_matrices", title="A and B about upright")
 gain = task("04.lqr_gain", function="lqr_gain", title="A discrete LQR gain")
@@ -19,7 +19,7 @@ def _reference(model: FurutaModel):
 
 
 def _pair(got, name: str):
-    if not (isinstance(got, tuple) and len(got) == 2):
+    if not is_sequence_of(got, 2):
         raise Failed(f"{name} should return a pair (A, B), got {type(got).__name__}")
     a, b = (np.asarray(x, dtype=float) for x in got)
     expect(a.shape == (4, 4) and b.reshape(-1).shape == (4,), f"A should be 4x4 and B 4x1, got {a.shape} and "

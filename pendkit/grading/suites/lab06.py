@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from pendkit.grading.core import Failed, as_number, expect, task
+from pendkit.grading.core import Failed, as_number, expect, is_sequence_of, task
 
 jitter = task("06.period_error_p99_ms", function="period_error_p99_ms", title="Step-period jitter")
 fit = task("06.fit_latency", function="fit_latency", title="A latency distribution from samples")
@@ -29,7 +29,7 @@ def percentile_of_absolute_error(fn, rng):
 
 
 def _fit_result(got):
-    if not (isinstance(got, tuple) and len(got) == 3):
+    if not is_sequence_of(got, 3):
         raise Failed(f"fit_latency should return (floor_ms, median_ms, spread), got {got!r}")
     return tuple(float(x) for x in got)
 
