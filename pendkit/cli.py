@@ -134,8 +134,10 @@ def labs_check(solutions_dir: Path, labs_dir: Path) -> None:
 
 
 @main.command()
-@click.argument("submissions", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.argument("submissions", type=click.Path(exists=True, file_okay=False, path_type=Path), required=False)
 @click.option("--lab", default=None, help="Grade only this lab (NN); default: from each notebook.")
+@click.option("--gradescope-autograder", "autograder_zip", type=click.Path(dir_okay=False, path_type=Path),
+              default=None, help="Instead of grading: write Gradescope's autograder zip for --lab NN.")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("grades"),
               show_default=True, help="Where results.json files and grades.csv go.")
 @click.option("--hidden", "hidden_dir", type=click.Path(file_okay=False, path_type=Path),
@@ -147,16 +149,31 @@ def labs_check(solutions_dir: Path, labs_dir: Path) -> None:
 @click.option("--jobs", type=click.IntRange(1, 64), default=1, show_default=True,
               help="Notebooks graded at once (each runs its own kernel: about one core each).")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
-def grade(submissions: Path, lab: str | None, out_dir: Path, hidden_dir: Path, cell_timeout: float,
-          notebook_timeout: float, check_timeout: float | None, jobs: int, quiet: bool) -> None:
+def grade(submissions: Path | None, lab: str | None, autograder_zip: Path | None, out_dir: Path, hidden_dir: Path,
+          cell_timeout: float, notebook_timeout: float, check_timeout: float | None, jobs: int, quiet: bool) -> None:
     """Run and grade every submitted notebook; write Gradescope results.json files and a CSV."""
     from pendkit.grading.report import grade_folder
+    from pendkit.grading.sandbox import isolation_problem
 
     if lab is not None and not (len(lab) == 2 and lab.isdigit()):
         raise click.BadParameter(f"expected two digits such as 01, got {lab!r}", param_hint="--lab")
     hidden = hidden_dir if hidden_dir.exists() else None
     if hidden is None:
         click.echo(f"no hidden tests at {hidden_dir}: grading with public tests only", err=True)
+    if autograder_zip is not None:
+        from pendkit.grading.gradescope import build_autograder
+
+        if lab is None:
+            raise click.BadParameter("say which lab the autograder is for", param_hint="--lab")
+        click.echo(f"wrote {build_autograder(autograder_zip, lab, hidden)}: upload it as the assignment's "
+                   "autograder (docs/labs-and-grading.md)")
+        return
+    if submissions is None:
+        raise click.BadParameter("give the folder of submitted notebooks", param_hint="SUBMISSIONS")
+    problem = isolation_problem()
+    if problem is not None:
+        click.echo(f"WARNING: isolation is off ({problem}): student code runs as you, with your files and "
+                   "network. Grade on Linux with bubblewrap for a class.", err=True)
     grades = grade_folder(submissions, out_dir, lab, hidden, cell_timeout, notebook_timeout, check_timeout,
                           progress=not quiet, jobs=jobs)
     if not grades:
