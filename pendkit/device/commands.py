@@ -19,6 +19,7 @@ Every error is a `ProtocolError` whose `reason` is one of REASONS.
 
 from __future__ import annotations
 
+import functools
 import re
 from dataclasses import dataclass
 
@@ -59,6 +60,7 @@ def _error(reason: str, detail: str) -> ProtocolError:
     return error
 
 
+@functools.lru_cache(maxsize=4096)  # a pure function of the text: a rig's stream of the same few commands
 def parse_command(payload: str | bytes) -> DeviceCommand:
     """Parse one command; `ProtocolError` (with `.reason`) if it breaks the grammar."""
     if isinstance(payload, bytes):

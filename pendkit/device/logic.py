@@ -19,7 +19,7 @@ from pendkit.encoder import FirmwareVelocityEstimator, frame_status
 from pendkit.rig import RigParams
 from pendkit.state import FLAG_BITS, STOP, RigState, ServoCommand
 
-HOLDING_FLAGS = ("watchdog", "overspin", "stuck_encoder")
+HOLDING_FLAGS = frozenset(("watchdog", "overspin", "stuck_encoder"))
 STUCK_BAD_FRAMES = 8
 STUCK_TRAVEL_COUNTS = 60
 
@@ -144,7 +144,7 @@ class McuLogic:
             wanted = round_half_up(p.servo_centre_counts + self._filtered_unit * p.servo_span_counts / 2)
         else:
             wanted = self.servo_counts + self.command.increment_counts
-        if any(flag in self.flags for flag in HOLDING_FLAGS):  # safety last: hold the servo where it is
+        if not self.flags.isdisjoint(HOLDING_FLAGS):  # safety last: hold the servo where it is
             wanted = self.servo_counts
         clipped = min(max(wanted, p.servo_min_counts), p.servo_max_counts)
         if clipped != wanted or clipped in (p.servo_min_counts, p.servo_max_counts):

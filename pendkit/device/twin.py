@@ -59,26 +59,31 @@ class TwinDevice:
 
     def run(self, ticks: int, emit: Callable[[float, McuObservation], None]) -> None:
         """Advance `ticks` physics ticks, stopping only where the device meets the physics."""
-        data, model, mcu, scheduler = self.data, self.model, self.mcu, self.scheduler
         end = self.tick + ticks
         while self.tick < end:
             tick = self.tick
-            now_ms = tick * self._tick_ms
-            at_pwm = tick % self._pwm_ticks == 0
-            arrived = bool(self._pending) and self._pending[0][0] <= now_ms
-            if at_pwm or arrived or self._stream_due(now_ms):
-                self._catch_up(now_ms)
-            if at_pwm:
-                data.act[0] = self.params.servo_counts_to_rad(mcu.servo_counts)
-            if scheduler.streaming_due(now_ms):
-                emit(now_ms, self._read_and_stream())
+            self.handle_events_now(emit)
             next_event = min(end, (tick // self._pwm_ticks + 1) * self._pwm_ticks)
             if self.streaming_on:
-                next_event = min(next_event, max(tick + 1, math.ceil(scheduler.streaming.next_ms / self._tick_ms)))
+                next_event = min(next_event, max(tick + 1, math.ceil(self.scheduler.streaming.next_ms / self._tick_ms)))
             if self._pending:  # a command may change streaming or ask for an observation
                 next_event = min(next_event, max(tick + 1, math.ceil(self._pending[0][0] / self._tick_ms)))
-            mujoco.mj_step(model, data, next_event - tick)
+            mujoco.mj_step(self.model, self.data, next_event - tick)
             self.tick = next_event
+
+    def handle_events_now(self, emit: Callable[[float, McuObservation], None]) -> None:
+        """What the device does at the current tick without stepping the physics: commands that have arrived,
+        acting ticks, the PWM frame, a due reading. Safe to call again at the same tick (nothing repeats);
+        a real-time rig calls it after `run` so a reading due now leaves now, not a tick later."""
+        now_ms = self.tick * self._tick_ms
+        at_pwm = self.tick % self._pwm_ticks == 0
+        arrived = bool(self._pending) and self._pending[0][0] <= now_ms
+        if at_pwm or arrived or self._stream_due(now_ms):
+            self._catch_up(now_ms)
+        if at_pwm:
+            self.data.act[0] = self.params.servo_counts_to_rad(self.mcu.servo_counts)
+        if self.scheduler.streaming_due(now_ms):
+            emit(now_ms, self._read_and_stream())
 
     def _stream_due(self, now_ms: float) -> bool:
         scheduler = self.scheduler

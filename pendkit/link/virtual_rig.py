@@ -132,6 +132,7 @@ class VirtualRig:
         ticks = math.floor(self._sim_ms(now_s) / self.params.physics_step_ms) - self.device.tick
         if ticks > 0:
             self.device.run(ticks, self._emit)
+            self.device.handle_events_now(self._emit)  # a reading due at this very tick leaves now
         if self.device.scheduler.status_requested:
             self.device.scheduler.status_requested = False
             self.publish_status()

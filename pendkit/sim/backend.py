@@ -62,7 +62,6 @@ class SimBackend:
                                    self.fidelity.encoder_mount_offset_counts)
                         if self.fidelity.mcu_pipeline else None)
         self._tick = 0
-        self._sent = 0
 
     @property
     def ticks(self) -> int:
@@ -180,8 +179,9 @@ class SimBackend:
     # --- the MCU pipeline (realistic) ---
     def _step_mcu(self, command: ServoCommand) -> RigState:
         now_ms, network = self._device.now_ms, self.fidelity.network
-        self._sent += 1  # the host's own command path: the device parses what a rig would receive
-        text = frame_command(command_body(command, self.params), 2, self._sent, int(now_ms))
+        # The host's own command path: the device parses what a rig receives. Bare v1 bodies: nothing in the
+        # twin reads the v2 echo, and the parser's cache then serves the few distinct commands.
+        text = frame_command(command_body(command, self.params), 1)
         lost = network.command_loss_pct > 0 and self._rng.random() * 100 < network.command_loss_pct
         if not lost:
             arrival = max(now_ms + network.latency.sample_ms(self._rng), self._last_command_arrival_ms)
