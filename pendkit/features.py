@@ -95,10 +95,6 @@ def resolve_features(names: tuple[str, ...] | list[str] | str) -> tuple[Feature,
     return tuple(FEATURES[n] for n in names)
 
 
-def feature_vector(state: RigState, features: tuple[Feature, ...]) -> np.ndarray:
-    return np.fromiter((f.read(state) for f in features), dtype=np.float32, count=len(features))
-
-
 def reward(state: RigState) -> float:
     """-theta^2 - 0.5 * omega^2, theta from upright in rad, omega in rev/s (0 is the best)."""
     theta = angle_from_upright_rad(state)
