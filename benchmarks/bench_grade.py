@@ -11,8 +11,7 @@ import tempfile
 import time
 from pathlib import Path
 
-import nbformat
-
+from pendkit.grading.notebook_files import nbformat
 from pendkit.grading.report import grade_folder
 from pendkit.grading.sandbox import isolation_problem
 

@@ -1,19 +1,21 @@
-"""pendkit: a teaching kit for a low-cost swing-up pendulum, its MuJoCo twin and the labs around it."""
+"""pendkit: a teaching kit for a low-cost swing-up pendulum, its MuJoCo twin and the labs around it.
+
+The env and the twin load on first use (`pendkit.make`, `pendkit.SwingUpEnv`): a lab that only decodes
+encoder frames starts without MuJoCo, and so does each notebook the grader runs.
+"""
 
 from __future__ import annotations
 
+import importlib
 from importlib.metadata import PackageNotFoundError, version
 
+import gymnasium
+
+from pendkit.env_name import ENV_ID, EPISODE_STEPS
+from pendkit.errors import ActionError, ConfigError, PendkitError
 from pendkit.sim.render import choose_gl_backend
 
 choose_gl_backend()  # must run before mujoco is first imported: it reads MUJOCO_GL at import time
-
-import gymnasium  # noqa: E402
-
-from pendkit.env import ENV_ID, EPISODE_STEPS, SwingUpEnv  # noqa: E402
-from pendkit.errors import ActionError, ConfigError, PendkitError  # noqa: E402
-from pendkit.rig import RigParams  # noqa: E402
-from pendkit.sim.fidelity import FIDELITY_PRESETS, Fidelity  # noqa: E402
 
 try:
     __version__ = version("pendkit")
@@ -24,6 +26,15 @@ if ENV_ID not in gymnasium.registry:
     # The TimeLimit wrapper is the one episode limit for made envs (so make(max_episode_steps=1000) holds).
     gymnasium.register(id=ENV_ID, entry_point="pendkit.env:SwingUpEnv", max_episode_steps=EPISODE_STEPS,
                        kwargs={"max_episode_steps": None})
+
+_LAZY = {"SwingUpEnv": "pendkit.env", "RigParams": "pendkit.rig", "Fidelity": "pendkit.sim.fidelity",
+         "FIDELITY_PRESETS": "pendkit.sim.fidelity"}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'pendkit' has no attribute {name!r}")
 
 
 def make(**kwargs) -> gymnasium.Env:

@@ -11,6 +11,7 @@ import gymnasium as gym
 import numpy as np
 
 from pendkit.device.logic import action_increments_counts, discrete_command
+from pendkit.env_name import ENV_ID, EPISODE_STEPS  # noqa: F401 - re-exported
 from pendkit.errors import ActionError, ConfigError
 from pendkit.features import PAPER_FEATURES, angle_from_upright_rad, resolve_features, reward
 from pendkit.rig import RigParams
@@ -18,7 +19,6 @@ from pendkit.sim.backend import STARTS, SimBackend
 from pendkit.sim.fidelity import Fidelity
 from pendkit.state import RigState, ServoCommand
 
-ENV_ID = "pendkit/SwingUp-v0"
 ACTION_MODES = ("discrete", "continuous")
 FEATURE_SOURCES = ("measured", "estimated")
 RIG_PROTOCOLS = {"v1": 1, "v2": 2}  # v1: the authors' firmware; v2: the kit's (docs/protocol.md)
@@ -26,7 +26,6 @@ RIG_OPTIONS = ("username", "password", "tls_ca", "observation_timeout_s", "reset
                "connect_timeout_s", "network_latency_ms")
 RIG_ID = re.compile(r"[A-Za-z0-9_-]{1,32}")  # it becomes part of MQTT topics: no '/', '+', '#' or spaces
 DISCRETE_ACTION_NAMES = ("stop", "left slow", "left fast", "right slow", "right fast")
-EPISODE_STEPS = 500
 _RANGE_TOLERANCE = 1e-6  # float32 policies may land a hair outside [-1, 1]
 
 

@@ -2,7 +2,7 @@
 grader sent, and send back what came out, as data.
 
 `pendkit grade` runs every test in its own process and calls the student's function through `serve_call`
-(see `pendkit.grading.remote`). Expected values and hidden tests never enter the kernel, and nothing the
+(`serve_socket`, see `pendkit.grading.remote`). Expected values and hidden tests never enter the kernel, and nothing the
 kernel sends back is code or a score: a student who replaces this module only changes what their own
 function appears to return, which is no better than writing that function.
 """
@@ -10,10 +10,19 @@ function appears to return, which is no better than writing that function.
 from __future__ import annotations
 
 import difflib
+import socket
 import sys
 from typing import Any
 
-from pendkit.grading import wire
+from pendkit.grading import channel, wire
+
+
+def serve_socket(path: str) -> None:
+    """Answer the grader's calls over the Unix socket at `path` until it sends the end-of-calls message."""
+    with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as sock:
+        sock.connect(path)
+        while request := channel.receive(sock):
+            channel.send(sock, serve_call(request))
 
 
 def serve_call(request: str) -> str:

@@ -10,10 +10,16 @@ from __future__ import annotations
 
 import ast
 import builtins
+import os
+import select
+import socket
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from pathlib import Path
 
-from pendkit.grading import wire
+from jupyter_core.utils import run_sync
+
+from pendkit.grading import channel, wire
 from pendkit.grading.core import Failed, NotGradable, Outcome
 from pendkit.grading.timeouts import CheckTimeout
 
@@ -42,66 +48,153 @@ class MissingFunction(NotGradable):
 
 @dataclass
 class KernelSession:
-    """A running kernel (nbclient's `client`, inside `client.setup_kernel()`) to call functions in."""
+    """A running kernel (nbclient's `client`, inside `client.setup_kernel()`) to call functions in.
+
+    With `channel_dir` (a folder both sides can reach) the calls go over a Unix socket there, answered by
+    one long execute request in the kernel (`kernel.serve_socket`); without it each batch of calls is an
+    execute request of its own (Windows, which has no Unix sockets in Python)."""
 
     client: object
+    channel_dir: Path | None = None
     deadline: float = float("inf")  # monotonic time by which the current test must be done
     limit_s: float = float("inf")  # the current test's time limit, for the message
+    _connection: socket.socket | None = field(default=None, repr=False)
+    _serve_id: str | None = field(default=None, repr=False)
 
     def start_test(self, limit_s: float) -> None:
         self.limit_s, self.deadline = limit_s, time.monotonic() + limit_s
 
     def call(self, name: str, calls: list[tuple]) -> dict:
-        from jupyter_core.utils import run_sync
-
-        kc = self.client.kc
         request = wire.dumps({"function": name, "calls": [list(args) for args in calls]}, allow_kit=True)
+        text = self._over_socket(request) if self.channel_dir is not None else self._over_execute(request)
+        try:
+            return wire.loads(text)
+        except (ValueError, TypeError, MemoryError, RecursionError, wire.WireError):
+            raise StudentError("an unreadable answer", "the kernel's answer was not data the grader understands") \
+                from None
+
+    def close(self) -> None:
+        """End the kernel's serving request (it is then free for a new cell or a shutdown)."""
+        if self._connection is None:
+            return
+        try:
+            channel.send(self._connection, "")
+            self.deadline = time.monotonic() + INTERRUPT_GRACE_S
+            self._wait(self.client.kc, self._serve_id)
+        except (OSError, CheckTimeout, KernelLost):
+            pass  # the kernel is shut down next anyway
+        finally:
+            self._drop()
+
+    def _over_socket(self, request: str) -> str:
+        if self._connection is None:
+            self._open()
+        try:
+            self._connection.settimeout(max(0.001, self.deadline - time.monotonic()))
+            channel.send(self._connection, request)
+            text = channel.receive(self._connection)
+        except TimeoutError:
+            self._interrupt(self.client.kc, self._serve_id)
+            self._drop()
+            raise CheckTimeout(f"took longer than {self.limit_s:g} s") from None
+        except OSError as error:
+            text, problem = None, error
+        else:
+            problem = None
+        if text is None:  # the serving request ended: the kernel died, or the student's code broke the loop
+            serve_id = self._serve_id
+            self._drop()
+            grace = time.monotonic() + INTERRUPT_GRACE_S
+            while time.monotonic() < grace:  # a dying kernel may still look alive for a moment
+                if not run_sync(self.client.km.is_alive)():
+                    raise KernelLost("the function killed the kernel") from None
+                if _shell_reply(self.client.kc, serve_id, timeout_s=0.1) is not None:
+                    break
+            raise StudentError("a broken connection", f"the kernel stopped answering ({problem or 'it hung up'})")
+        return text
+
+    def _open(self) -> None:
+        kc = self.client.kc
+        path = Path(self.channel_dir) / "calls.sock"
+        path.unlink(missing_ok=True)
+        with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as listener:
+            listener.bind(str(path))
+            os.chmod(path, 0o777)  # a sandboxed kernel runs as another user
+            listener.listen(1)
+            code = f"__import__('pendkit.grading.kernel', fromlist=['serve_socket']).serve_socket({str(path)!r})"
+            self._serve_id = kc.execute(code, silent=True, store_history=False, stop_on_error=False)
+            while True:
+                if select.select([listener], [], [], 0.2)[0]:
+                    self._connection = listener.accept()[0]
+                    break
+                reply = _shell_reply(kc, self._serve_id, timeout_s=0.0)
+                if reply is not None:
+                    content = reply["content"]
+                    raise StudentError(str(content.get("ename", "an error")), f"{str(content.get('evalue', ''))[:200]}"
+                                       " (the grader could not reach the function in the kernel)")
+                if time.monotonic() > self.deadline:
+                    self._interrupt(kc, self._serve_id)
+                    raise CheckTimeout(f"took longer than {self.limit_s:g} s")
+                if not run_sync(self.client.km.is_alive)():
+                    raise KernelLost("the kernel died") from None
+        path.unlink(missing_ok=True)
+
+    def _drop(self) -> None:
+        if self._connection is not None:
+            self._connection.close()
+        self._connection, self._serve_id = None, None
+
+    def _over_execute(self, request: str) -> str:
+        kc = self.client.kc
         code = ("_pendkit_reply = __import__('pendkit.grading.kernel', fromlist=['serve_call'])"
                 f".serve_call({request!r})")
         msg_id = kc.execute(code, silent=True, store_history=False, user_expressions={"reply": "_pendkit_reply"},
                             stop_on_error=False)
-        reply = self._wait(run_sync, kc, msg_id)
-        content = reply["content"]
+        content = self._wait(kc, msg_id)["content"]
         if content.get("status") != "ok":
             raise StudentError(str(content.get("ename", "an error")),
                                f"{str(content.get('evalue', ''))[:200]} (the call failed in the kernel)")
         expression = content.get("user_expressions", {}).get("reply", {})
         try:
-            text = ast.literal_eval(expression["data"]["text/plain"])
-            return wire.loads(text)
-        except (KeyError, ValueError, SyntaxError, TypeError, MemoryError, RecursionError, wire.WireError):
+            return ast.literal_eval(expression["data"]["text/plain"])
+        except (KeyError, ValueError, SyntaxError, TypeError, MemoryError, RecursionError):
             raise StudentError("an unreadable answer", "the kernel's answer was not data the grader understands") \
                 from None
 
-    def _wait(self, run_sync, kc, msg_id: str) -> dict:
+    def _wait(self, kc, msg_id: str) -> dict:
         while True:
             remaining = self.deadline - time.monotonic()
             if remaining <= 0:
-                self._interrupt(run_sync, kc, msg_id)
+                self._interrupt(kc, msg_id)
                 raise CheckTimeout(f"took longer than {self.limit_s:g} s")
-            try:
-                reply = run_sync(kc.get_shell_msg)(timeout=min(remaining, 1.0))
-            except Exception as error:  # queue.Empty on a timeout; anything else: check the kernel
-                if type(error).__name__ != "Empty":
-                    raise
-                if not run_sync(self.client.km.is_alive)():
-                    raise KernelLost("the function killed the kernel") from None
-                continue
-            if reply.get("parent_header", {}).get("msg_id") == msg_id:
+            reply = _shell_reply(kc, msg_id, timeout_s=min(remaining, 1.0))
+            if reply is not None:
                 return reply
+            if not run_sync(self.client.km.is_alive)():
+                raise KernelLost("the function killed the kernel") from None
 
-    def _interrupt(self, run_sync, kc, msg_id: str) -> None:
+    def _interrupt(self, kc, msg_id: str) -> None:
         """Stop the running call and wait for its reply, so the next call starts clean."""
         run_sync(self.client.km.interrupt_kernel)()
         grace = time.monotonic() + INTERRUPT_GRACE_S
         while time.monotonic() < grace:
-            try:
-                reply = run_sync(kc.get_shell_msg)(timeout=0.5)
-            except Exception:  # noqa: BLE001 - nothing yet
-                continue
-            if reply.get("parent_header", {}).get("msg_id") == msg_id:
+            if _shell_reply(kc, msg_id, timeout_s=0.5) is not None:
                 return
         raise KernelLost("the kernel did not stop after an interrupt")
+
+
+def _shell_reply(kc, msg_id: str, timeout_s: float) -> dict | None:
+    """The reply to `msg_id` if it comes within `timeout_s` (others are dropped: nothing else is pending)."""
+    end = time.monotonic() + timeout_s
+    while True:
+        try:
+            reply = run_sync(kc.get_shell_msg)(timeout=max(0.0, end - time.monotonic()))
+        except Exception as error:  # queue.Empty on a timeout; anything else is a real problem
+            if type(error).__name__ != "Empty":
+                raise
+            return None
+        if reply.get("parent_header", {}).get("msg_id") == msg_id:
+            return reply
 
 
 class RemoteFunction:

@@ -14,10 +14,9 @@ from dataclasses import dataclass
 from multiprocessing import get_context
 from pathlib import Path
 
-import nbformat
-
 from pendkit.errors import ConfigError
 from pendkit.grading.core import load_hidden_source, load_lab
+from pendkit.grading.notebook_files import nbformat
 from pendkit.grading.runner import SubmissionGrade, grade_notebook
 
 LAB_PREFIX = re.compile(r"^(\d\d)_")

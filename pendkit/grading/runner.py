@@ -10,16 +10,16 @@ from __future__ import annotations
 import logging
 import os
 import shutil
+import socket
 import tempfile
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import nbformat
-
 from pendkit.errors import ConfigError
 from pendkit.grading.core import TASKS, TIMEOUT_CAP_VARIABLE, TestResult, load_hidden, load_lab, run_test
+from pendkit.grading.notebook_files import nbformat
 from pendkit.grading.remote import KernelLost, KernelSession, RemoteFunction
 from pendkit.grading.sandbox import Sandbox, isolation_problem
 
@@ -152,6 +152,7 @@ class _Run:
         km = self.sandbox.kernel_manager() if self.sandbox is not None else None
         client = NotebookClient(notebook, km=km, timeout=self.cell_timeout_s, kernel_name="python3",
                                 allow_errors=True, interrupt_on_timeout=False, record_timing=False,
+                                shutdown_kernel="immediate",  # nothing of the kernel's is kept
                                 resources={"metadata": {"path": str(self.workdir)}})
         with client.setup_kernel():
             for index, cell in enumerate(notebook.cells):
@@ -172,15 +173,18 @@ class _Run:
                     self.excluded.add(index)
                     raise _Restart from error
                 self._note_error(index, cell)
-            for task_id in self.task_ids:
-                if task_id in self.graded or task_id in self.skipped:
-                    continue
-                self._grade_task(client, notebook, task_id, CellTimeoutError, DeadKernelError)
+            with _call_channel(self.sandbox) as channel_dir:
+                session = KernelSession(client, channel_dir)
+                try:
+                    for task_id in self.task_ids:
+                        if task_id not in self.graded and task_id not in self.skipped:
+                            self._grade_task(session, task_id)
+                finally:
+                    session.close()
 
-    def _grade_task(self, client, notebook, task_id: str, timeout_error, dead_error) -> None:
+    def _grade_task(self, session: KernelSession, task_id: str) -> None:
         """Every test runs here, in the grader; only the student's function runs in their kernel."""
         task = TASKS[task_id]
-        session = KernelSession(client)
         fn = RemoteFunction(session, task.function)
         results: list[TestResult] = []
         for test in task.tests:
@@ -201,6 +205,18 @@ class _Run:
                 self.noted_errors.add(index)
                 value = str(output.get("evalue", "")).splitlines()[0][:160] if output.get("evalue") else ""
                 self.grade.notes.append(f"{_where(index, cell)} raised {output.get('ename')}: {value}")
+
+
+@contextmanager
+def _call_channel(sandbox: Sandbox | None):
+    """A folder for the call socket that the kernel can reach (None where Python has no Unix sockets)."""
+    if not hasattr(socket, "AF_UNIX"):
+        yield None
+    elif sandbox is not None:
+        yield sandbox.root / "run"
+    else:
+        with tempfile.TemporaryDirectory(prefix="pendkit-calls-") as folder:
+            yield Path(folder)
 
 
 def _where(index: int, cell) -> str:

@@ -5,7 +5,8 @@ builds Linux namespaces without a daemon or root. Inside, the kernel sees a read
 only the kit's own package of this checkout, and a scratch folder with a copy of the submission: no
 hidden tests, solutions, other submissions or grades folder exist there. It has no network, its own
 process tree (everything it started, detached or not, dies with it) and limits on CPU time, memory,
-file size and (for a normal user) processes. The kernel talks to the grader over Unix sockets in the
+file size and processes. Where the grader runs as root (a container, Gradescope) the kernel drops to an
+unprivileged user of its own before it starts, so the process cap holds there too. The kernel talks to the grader over Unix sockets in the
 scratch folder. Where bubblewrap is missing (macOS, Windows, WSL without it) `pendkit grade` says that
 isolation is off and grades anyway: docs/labs-and-grading.md.
 """
@@ -25,6 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 KERNEL_NAME = "pendkit-sandbox"
+SANDBOX_UID_BASE = 61000
 SYSTEM_DIRS = ("/usr", "/etc", "/lib", "/lib64", "/lib32", "/bin", "/sbin", "/opt/conda")
 
 
@@ -33,7 +35,7 @@ class Limits:
     cpu_s: int = 1200
     memory_mb: int = 8192  # address space: torch and MuJoCo reserve far more than they use
     file_mb: int = 512
-    processes: int = 256  # beyond the user's own (only where the grader is not root)
+    processes: int = 256  # threads count too; beyond the user's own where the grader is not root
 
 
 @functools.cache
@@ -51,9 +53,18 @@ def isolation_problem() -> str | None:
 
 
 def _namespace_args() -> list[str]:
-    user = [] if os.geteuid() == 0 else ["--unshare-user"]
-    return [*user, "--unshare-pid", "--unshare-net", "--unshare-ipc", "--unshare-uts", "--die-with-parent",
-            "--new-session", "--cap-drop", "ALL"]
+    # As root: no user namespace, and only what the launcher needs to hand the scratch folder to the kernel's
+    # own user and become it (every capability is gone once it has).
+    kept = ("CAP_SETUID", "CAP_SETGID", "CAP_CHOWN", "CAP_DAC_OVERRIDE")
+    user = [arg for cap in kept for arg in ("--cap-add", cap)] if os.geteuid() == 0 else ["--unshare-user"]
+    return ["--unshare-pid", "--unshare-net", "--unshare-ipc", "--unshare-uts", "--die-with-parent",
+            "--new-session", "--cap-drop", "ALL", *user]
+
+
+def _kernel_uid() -> int:
+    """The user a root grader's kernels run as: one per grading process (a worker grades one notebook at
+    a time), outside the range distributions give to people and services."""
+    return SANDBOX_UID_BASE + os.getpid() % 4000
 
 
 def _python_dirs() -> list[str]:
@@ -65,9 +76,10 @@ def _python_dirs() -> list[str]:
 
 
 def _process_cap(extra: int) -> int:
-    """RLIMIT_NPROC counts all of a user's processes: theirs now plus `extra`. Root ignores it (0: none)."""
+    """RLIMIT_NPROC counts all of a user's processes: theirs now plus `extra` (a root grader's kernel has a
+    user of its own, so `extra` alone)."""
     if os.geteuid() == 0:
-        return 0
+        return extra
     uid = os.geteuid()
     mine = 0
     for entry in Path("/proc").iterdir():
@@ -76,6 +88,26 @@ def _process_cap(extra: int) -> int:
         except OSError:
             continue
     return mine + extra
+
+
+@functools.cache
+def _font_cache_files() -> tuple[Path, ...]:
+    """matplotlib's font list as the grader's own matplotlib built it (the same font paths exist in the
+    sandbox); none where matplotlib is missing."""
+    try:
+        import matplotlib
+        import matplotlib.font_manager  # noqa: F401 - builds the list if this user has none yet
+    except ImportError:
+        return ()
+    return tuple(Path(matplotlib.get_cachedir()).glob("fontlist-*.json"))
+
+
+def _readable_parents(paths: list[str]) -> list[str]:
+    """bwrap arguments that create the folders above `paths` world-readable (as root it would make them
+    private to root, and the kernel's own user could not reach its Python or its scratch folder)."""
+    parents = sorted({str(parent) for path in paths for parent in Path(path).parents if str(parent) != "/"},
+                     key=lambda p: p.count("/"))
+    return [arg for parent in parents for arg in ("--perms", "0755", "--dir", parent)]
 
 
 class Sandbox:
@@ -89,22 +121,30 @@ class Sandbox:
         shutil.copytree(submission_dir, self.work, ignore=shutil.ignore_patterns(".ipynb_checkpoints"))
         for name in ("home", "specs", "run"):
             (self.root / name).mkdir()
+        for font_list in _font_cache_files():  # else matplotlib rebuilds it in every sandbox (~0.4 s)
+            shutil.copy2(font_list, self.root / "home")
+        self.uid = _kernel_uid() if os.geteuid() == 0 else None
+        if self.uid is not None:
+            for path in [self.root, *self.root.rglob("*")]:
+                os.chown(path, self.uid, self.uid, follow_symlinks=False)
         self._write_spec()
 
     def _write_spec(self) -> None:
-        binds: list[str] = []
+        binds = _readable_parents([*_python_dirs(), str(self.root)])
         for path in SYSTEM_DIRS:
             binds += ["--ro-bind-try", path, path]
         for path in _python_dirs():
             binds += ["--ro-bind", path, path]
         home = str(self.root / "home")
-        argv = ["bwrap", *_namespace_args(), "--dev", "/dev", "--proc", "/proc", "--tmpfs", "/tmp", *binds,
+        argv = ["bwrap", *_namespace_args(), "--dev", "/dev", "--proc", "/proc", "--perms", "1777", "--tmpfs", "/tmp",
+                *binds,
                 "--bind", str(self.root), str(self.root), "--chdir", str(self.work),
                 "--setenv", "HOME", home, "--setenv", "MPLCONFIGDIR", home, "--setenv", "IPYTHONDIR", home,
                 "--unsetenv", "JPY_PARENT_PID",  # its parent is the sandbox's init (pid 1): no parent polling
                 sys.executable, "-m", "pendkit.grading.sandbox_launch", "--cpu-s", str(self.limits.cpu_s),
                 "--memory-mb", str(self.limits.memory_mb), "--file-mb", str(self.limits.file_mb),
-                "--nproc", str(_process_cap(self.limits.processes)), "--", "-f", "{connection_file}"]
+                "--nproc", str(_process_cap(self.limits.processes)), "--uid", str(self.uid or -1),
+                "--", "-f", "{connection_file}"]
         spec = {"argv": argv, "display_name": "pendkit sandbox", "language": "python",
                 "interrupt_mode": "message",  # a signal would reach bwrap, not the kernel inside it
                 "env": {"PYTHONNOUSERSITE": "1"}}

@@ -11,7 +11,7 @@ import nbformat
 import pytest
 
 from pendkit.grading.report import grade_folder
-from pendkit.grading.sandbox import isolation_problem
+from pendkit.grading.sandbox import Limits, isolation_problem
 
 ROOT = Path(__file__).resolve().parents[2]
 TEMPLATE = ROOT / "labs" / "01_encoder.ipynb"
@@ -62,16 +62,18 @@ DETACHED = f"""
 import subprocess, sys
 subprocess.Popen([sys.executable, "-c", "import time; time.sleep(600)  # {MARKER}"], start_new_session=True)
 """
-FORK_MANY = f"""
-import os, time
+FORK_BOMB = f"""
+import os
 children = 0
-for _ in range(120):
+for _ in range(2000):
     try:
         if os.fork() == 0:
-            os.execvp("sleep", ["sleep", "600", "{MARKER}"])
+            os.execvp("sleep", ["sleep {MARKER}", "600"])  # the marker shows in ps
         children += 1
     except OSError:
         break
+def decode_frame(frame):
+    raise ValueError("{MARKER} children=" + str(children))
 """
 HUGE_OUTPUT = "print('x' * 20_000_000)"
 RECURSION = "def decode_frame(frame):\n    return decode_frame(frame)"
@@ -95,7 +97,7 @@ def attacked(tmp_path_factory):
                "z-honest": nbformat.read(SOLUTION, as_version=4)}
     if ISOLATED:  # outside the sandbox these would really edit this checkout and leave processes behind
         attacks |= {"e-edits-hidden": with_cell(EDIT_HIDDEN), "f-detached": with_cell(DETACHED),
-                    "g-forks": with_cell(FORK_MANY)}
+                    "g-forks": with_cell(FORK_BOMB, at_end=True)}
     for student, notebook in attacks.items():
         (submissions / student).mkdir(parents=True)
         nbformat.write(notebook, submissions / student / "01_encoder.ipynb")
@@ -128,6 +130,14 @@ def test_the_kernel_cannot_see_hidden_tests_or_solutions(attacked):
     grades, *_ = attacked
     messages = " ".join(r.message for t in grades["d-reads-hidden"].tasks for r in t.results)
     assert MARKER in messages and "found []" in messages  # the function ran, and found nothing
+
+
+@needs_sandbox
+def test_a_fork_bomb_stops_at_the_process_cap(attacked):
+    grades, *_ = attacked
+    messages = " ".join(r.message for t in grades["g-forks"].tasks for r in t.results)
+    children = int(messages.split(f"{MARKER} children=")[1].split()[0].rstrip(".:"))
+    assert 0 < children < Limits().processes  # the kernel's own threads count against the cap too
 
 
 @needs_sandbox
