@@ -2,13 +2,13 @@
 
 Why bubblewrap: it is a small, well-kept Debian/Ubuntu/Fedora package (the sandbox behind Flatpak) that
 builds Linux namespaces without a daemon or root. Inside, the kernel sees a read-only system and Python,
-only the kit's own package of this checkout, and a scratch folder with a copy of the submission: no
-hidden tests, solutions, other submissions or grades folder exist there. It has no network, its own
-process tree (everything it started, detached or not, dies with it) and limits on CPU time, memory,
-file size and processes. Where the grader runs as root (a container, Gradescope) the kernel drops to an
-unprivileged user of its own before it starts, so the process cap holds there too. The kernel talks to the grader over Unix sockets in the
-scratch folder. Where bubblewrap is missing (macOS, Windows, WSL without it) `pendkit grade` says that
-isolation is off and grades anyway: docs/labs-and-grading.md.
+only the kit's own package of this checkout, and a scratch folder with a copy of the submission: no hidden
+tests, solutions, other submissions or grades folder exist there. It has no network, its own process tree
+(everything it started, detached or not, dies with it) and limits on CPU time, memory, file size and
+processes. Where the grader runs as root (a container, Gradescope) the kernel drops to an unprivileged user
+of its own before it starts, so the process cap holds there too. The kernel talks to the grader over Unix
+sockets in the scratch folder. Where bubblewrap is missing (macOS, Windows, WSL without it) `pendkit grade`
+says that isolation is off and grades anyway: docs/labs-and-grading.md.
 """
 
 from __future__ import annotations
