@@ -161,6 +161,36 @@ class LqrBalancer:
         return self.action(state)
 
 
+class StateFeedback:
+    """u = -K x on the measured state [arm, pendulum from upright, arm rate, pendulum rate]: a gain designed
+    by hand (lab 04's own `lqr_gain`) driving the env's continuous action, clipped to the servo's range.
+
+    Nothing else is added (no filter state, no delay, no observer), so make the env with its action filter
+    off (`filter_coefficient=0`): what balances, or falls, is the gain itself.
+    """
+
+    def __init__(self, gain, params: RigParams | None = None) -> None:
+        try:
+            given = np.asarray(gain, dtype=float)
+        except (TypeError, ValueError):
+            raise ConfigError(f"the gain must be 4 numbers (K is 1x4), got {type(gain).__name__}") from None
+        k = given.reshape(-1)
+        if given.shape not in ((4,), (1, 4), (4, 1)) or not np.all(np.isfinite(k)):
+            raise ConfigError(f"the gain must be 4 finite numbers (K is 1x4), got {np.asarray(gain).shape} "
+                              f"{np.asarray(gain).tolist()}")
+        self.gain = k
+        self.params = params or RigParams()
+
+    def action(self, state: RigState) -> np.ndarray:
+        x = np.array([state.arm_angle_rad, angle_from_upright_rad(state), state.arm_velocity_rad_s,
+                      state.pendulum_velocity_rad_s])
+        target_rad = -float(self.gain @ x)
+        return np.array([np.clip(target_rad / self.params.servo_range_rad, -1.0, 1.0)], dtype=np.float32)
+
+    def __call__(self, observation, state: RigState) -> np.ndarray:
+        return self.action(state)
+
+
 def expected_delays_s(env) -> tuple[float, float]:
     """(command, reading) delays in seconds that the env's backend reports (`backend.timing`): mean time
     from sending a command to the servo acting on it, and from an encoder reading to the host having it."""

@@ -13,6 +13,7 @@ the arm stays inside its range.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -64,6 +65,34 @@ class SwingUpConfig:
             raise ConfigError(f"arm_limit_rad must be within the servo's range (pi/2), got {self.arm_limit_rad}")
 
 
+def pumping_acceleration_sign(angle_from_bottom_rad: float, velocity_rad_s: float) -> int:
+    """+1 or -1: the sign of arm acceleration that adds energy, that of -alpha' cos(alpha)."""
+    return -1 if velocity_rad_s * math.cos(angle_from_bottom_rad) > 0 else 1
+
+
+@dataclass(frozen=True)
+class SwingUpParts:
+    """The swing-up's three decisions, each replaceable by a student's own function (lab 05).
+
+    energy(angle_from_bottom_rad, velocity_rad_s, natural_frequency_rad_s) -> normalised energy.
+    direction(angle_from_bottom_rad, velocity_rad_s) -> +1 or -1, the arm acceleration that pumps.
+    next_mode(mode, angle_from_upright_rad, velocity_rad_s) -> "swing" or "balance" (None: the
+        config's catch and fall thresholds).
+    """
+
+    energy: Callable = pendulum_energy
+    direction: Callable = pumping_acceleration_sign
+    next_mode: Callable | None = None
+
+
+# The servo follows a position, so the controller moves its target at a rate: the integral of the
+# acceleration the pumping rule asks for. For a swing, the integral of that square wave is a triangle a
+# quarter period behind it, so the rate's sign now is the rule's answer for the same swing a quarter period
+# earlier: the phase point (alpha, alpha'/w0) turned back by 90 degrees, (-alpha'/w0, alpha). It is asked
+# about a swing of at most this amplitude (the phase is what matters, and the small-swing picture holds).
+_EARLIER_SWING_RAD = 1.2
+
+
 def loop_phase_lag_rad(balancer: LqrBalancer, loop_delay_s: float = 0.0,
                        filter_coefficient: float | None = None) -> float:
     """Phase lag, at the pendulum's natural frequency, from choosing a target to the arm following it.
@@ -90,9 +119,10 @@ class SwingUpController:
     """Swing up, catch with LQR, and swing up again after a fall. `mode` is "swing" or "balance"."""
 
     def __init__(self, balancer: LqrBalancer, config: SwingUpConfig | None = None,
-                 params: RigParams | None = None, loop_delay_s: float = 0.0) -> None:
+                 params: RigParams | None = None, loop_delay_s: float = 0.0, parts: SwingUpParts | None = None) -> None:
         self.balancer = balancer
         self.config = config or SwingUpConfig()
+        self.parts = parts or SwingUpParts()
         self.params = params or balancer.params
         self.natural_frequency_rad_s = balancer.model.natural_frequency_rad_s
         # The env's own filter: none when the balancer filters internally.
@@ -104,9 +134,10 @@ class SwingUpController:
         self._filtered_rad = self._swing_target_rad = 0.0
 
     @classmethod
-    def for_env(cls, env, config: SwingUpConfig | None = None, **lqr_kwargs) -> SwingUpController:
+    def for_env(cls, env, config: SwingUpConfig | None = None, parts: SwingUpParts | None = None,
+                **lqr_kwargs) -> SwingUpController:
         balancer = LqrBalancer.for_env(env, **lqr_kwargs)
-        return cls(balancer, config, env.unwrapped.params, loop_delay_s=sum(expected_delays_s(env)))
+        return cls(balancer, config, env.unwrapped.params, loop_delay_s=sum(expected_delays_s(env)), parts=parts)
 
     def reset(self, state: RigState) -> None:
         self.mode, self.switches = "swing", 0
@@ -116,29 +147,46 @@ class SwingUpController:
     def swing_rate_rad_s(self, state: RigState) -> float:
         """The target's rate that pumps energy towards `target_energy` (or bleeds off any excess)."""
         cfg = self.config
-        missing = cfg.target_energy - float(pendulum_energy(state.pendulum_angle_rad, state.pendulum_velocity_rad_s,
-                                                                    self.natural_frequency_rad_s))
-        # Rotate the swing's phase-space point (alpha, alpha'/w0) forward by the lead: exact for small swings.
         w0, lead = self.natural_frequency_rad_s, self.phase_lead_rad
+        energy = _number(self.parts.energy(state.pendulum_angle_rad, state.pendulum_velocity_rad_s, w0), "energy")
+        missing = cfg.target_energy - energy
+        # Rotate the swing's phase-space point (alpha, alpha'/w0) forward by the lead: exact for small swings.
         angle = (state.pendulum_angle_rad + math.pi) % (2 * math.pi) - math.pi  # from the bottom, wrapped
         rate = state.pendulum_velocity_rad_s / w0
-        alpha = angle * math.cos(lead) + rate * math.sin(lead)
-        direction = -math.copysign(1.0, math.sin(alpha)) if alpha else 1.0
+        alpha, rate = angle * math.cos(lead) + rate * math.sin(lead), rate * math.cos(lead) - angle * math.sin(lead)
+        earlier_angle, earlier_rate = -rate, alpha  # a quarter period back (see _EARLIER_SWING_RAD)
+        scale = min(1.0, _EARLIER_SWING_RAD / max(math.hypot(earlier_angle, earlier_rate), 1e-12))
+        direction = _number(self.parts.direction(earlier_angle * scale, earlier_rate * scale * w0), "direction")
+        if direction not in (-1.0, 1.0):
+            raise ConfigError(f"the pumping direction must be +1 or -1, got {direction!r}")
         pumping = direction * cfg.swing_rate_rad_s * max(-1.0, min(1.0, cfg.energy_gain * missing))
         return pumping - cfg.centring_per_s * self._swing_target_rad
+
+    def _next_mode(self, theta: float, velocity_rad_s: float) -> str:
+        if self.parts.next_mode is not None:
+            mode = self.parts.next_mode(self.mode, theta, velocity_rad_s)
+            if mode not in ("swing", "balance"):
+                raise ConfigError(f"next_mode must return 'swing' or 'balance', got {mode!r}")
+            return mode
+        cfg = self.config
+        if self.mode == "swing" and abs(theta) < cfg.catch_angle_rad and abs(velocity_rad_s) < cfg.catch_velocity_rad_s:
+            return "balance"
+        if self.mode == "balance" and abs(theta) > cfg.fall_angle_rad:
+            return "swing"
+        return self.mode
 
     def action(self, state: RigState) -> np.ndarray:
         estimate = self.balancer.estimate(state)
         theta = angle_from_upright_rad(estimate)
         cfg = self.config
-        if self.mode == "swing" and abs(theta) < cfg.catch_angle_rad \
-                and abs(estimate.pendulum_velocity_rad_s) < cfg.catch_velocity_rad_s:
+        mode = self._next_mode(theta, estimate.pendulum_velocity_rad_s)
+        if mode == "balance" and self.mode == "swing":
             self.mode, self.switches = "balance", self.switches + 1
             # With the filter inside the balancer it may start where the arm is, not at the last swing
             # target (which can be a full swing away); with the env's filter it must match the env's.
             start = estimate.arm_angle_rad if self.balancer.internal_filter else self._filtered_rad
             self.balancer.reset(estimate._replace(servo_target_rad=start), keep_estimate=True)
-        elif self.mode == "balance" and abs(theta) > cfg.fall_angle_rad:
+        elif mode == "swing" and self.mode == "balance":
             self.mode, self.switches = "swing", self.switches + 1
             self._swing_target_rad = self._filtered_rad
         if self.mode == "balance":
@@ -161,3 +209,13 @@ class SwingUpController:
 
     def __call__(self, observation, state: RigState) -> np.ndarray:
         return self.action(state)
+
+
+def _number(value, what: str) -> float:
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ConfigError(f"the swing-up's {what} must be a number, got {type(value).__name__}") from None
+    if not math.isfinite(number):
+        raise ConfigError(f"the swing-up's {what} must be finite, got {number}")
+    return number

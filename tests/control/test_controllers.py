@@ -87,3 +87,65 @@ def test_energy_is_minus_one_hanging_and_one_upright():
 def test_bad_swing_up_settings(kwargs, words):
     with pytest.raises(ConfigError, match=words):
         SwingUpConfig(**kwargs)
+
+
+def lab05_functions():
+    """Lab 05's three answers, written as a student would (plain floats and strings)."""
+    def energy(angle_from_bottom_rad, velocity_rad_s, natural_frequency_rad_s):
+        return 0.5 * (velocity_rad_s / natural_frequency_rad_s) ** 2 - math.cos(angle_from_bottom_rad)
+
+    def direction(angle_from_bottom_rad, velocity_rad_s):
+        return -1 if velocity_rad_s * math.cos(angle_from_bottom_rad) > 0 else 1
+
+    def next_mode(mode, angle_from_upright_rad, velocity_rad_s):
+        if mode == "swing" and abs(angle_from_upright_rad) < 0.8 and abs(velocity_rad_s) < 5.0:
+            return "balance"
+        if mode == "balance" and abs(angle_from_upright_rad) > 1.1:
+            return "swing"
+        return mode
+
+    return energy, direction, next_mode
+
+
+def swing_up_trace(parts, seed=0, steps=200):
+    env = pendkit.make(action_mode="continuous", fidelity="realistic", filter_coefficient=0.0)
+    trace = run_episode(env, SwingUpController.for_env(env, parts=parts), seed=seed, steps=steps)
+    return trace, env.unwrapped.dt
+
+
+def test_a_students_swing_up_parts_drive_the_same_swing_as_the_kits():
+    from pendkit.control.swingup import SwingUpParts
+
+    energy, direction, next_mode = lab05_functions()
+    theirs, dt = swing_up_trace(SwingUpParts(energy, direction, next_mode))
+    ours, _ = swing_up_trace(None)
+    np.testing.assert_allclose(theirs.pendulum_from_upright_rad, ours.pendulum_from_upright_rad)
+    assert time_to_upright_s(theirs.pendulum_from_upright_rad, dt) is not None
+
+
+@pytest.mark.parametrize("mistake", ["direction brakes", "never hands over"])
+def test_a_wrong_swing_up_part_changes_what_the_student_sees(mistake):
+    from pendkit.control.swingup import SwingUpParts
+
+    energy, direction, next_mode = lab05_functions()
+    if mistake == "direction brakes":
+        parts = SwingUpParts(energy, lambda a, w: -direction(a, w), next_mode)
+    else:
+        parts = SwingUpParts(energy, direction, lambda mode, theta, w: "swing")
+    trace, dt = swing_up_trace(parts, steps=300)
+    right, _ = swing_up_trace(SwingUpParts(energy, direction, next_mode), steps=300)
+    late_error = np.abs(trace.pendulum_from_upright_rad[-60:])
+    assert late_error.max() > 0.3 or time_to_upright_s(trace.pendulum_from_upright_rad, dt) is None
+    assert np.abs(right.pendulum_from_upright_rad[-60:]).max() < 0.1
+
+
+@pytest.mark.parametrize("part, value, words", [
+    ("direction", 0, "must be \\+1 or -1"), ("direction", "left", "must be a number"),
+    ("energy", float("nan"), "finite"), ("next_mode", "catch", "'swing' or 'balance'"),
+])
+def test_a_malformed_swing_up_answer_is_refused(part, value, words):
+    from pendkit.control.swingup import SwingUpParts
+
+    parts = SwingUpParts(**{part: lambda *args: value})
+    with pytest.raises(ConfigError, match=words):
+        swing_up_trace(parts, steps=5)

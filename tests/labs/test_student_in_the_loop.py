@@ -1,0 +1,71 @@
+"""The invert check for labs whose student code drives the twin: run the solution notebook up to the cell
+the student watches, once as solved and once with one function answered wrongly, and read what the cell
+printed. A wrong answer must change what the student sees."""
+
+import os
+import re
+from pathlib import Path
+
+import nbformat
+import pytest
+from nbclient import NotebookClient
+
+ROOT = Path(__file__).resolve().parents[2]
+
+WRONG_LQR_GAIN = '''
+def lqr_gain(A, B, q_diagonal, r):
+    gain, _, _ = control.dlqr(A, B, np.diag(q_diagonal), [[r]])
+    return -np.asarray(gain)  # the sign of u = -Kx lost
+'''
+WRONG_DIRECTION = '''
+def pumping_direction(angle_from_bottom_rad, velocity_rad_s):
+    return 1 if velocity_rad_s * math.cos(angle_from_bottom_rad) > 0 else -1  # brakes
+'''
+
+
+def printed_by_lab(notebook_name: str, stop_at: str, replace: dict[str, str] | None = None) -> str:
+    """Run the solution's code cells up to the one containing `stop_at`, with the cells defining the named
+    functions replaced; return what that last cell printed."""
+    notebook = nbformat.read(ROOT / "solutions" / notebook_name, as_version=4)
+    kept = []
+    for cell in notebook.cells:
+        if cell.cell_type != "code":
+            continue
+        for name, source in (replace or {}).items():
+            if f"def {name}(" in cell.source:
+                cell.source = source
+        kept.append(cell)
+        if stop_at in cell.source:
+            break
+    notebook.cells = kept
+    os.environ["PENDKIT_MODE"] = "ci"
+    NotebookClient(notebook, timeout=300, kernel_name="python3",
+                   resources={"metadata": {"path": str(ROOT / "solutions")}}).execute()
+    return "".join(o.get("text", "") for o in kept[-1].outputs if o.get("output_type") == "stream")
+
+
+@pytest.fixture(autouse=True)
+def _restore_mode():
+    saved = os.environ.get("PENDKIT_MODE")
+    yield
+    if saved is None:
+        os.environ.pop("PENDKIT_MODE", None)
+    else:
+        os.environ["PENDKIT_MODE"] = saved
+
+
+def worst_error_deg(text: str) -> float:
+    return float(re.search(r"worst error in the last 2 s ([\d.]+) deg", text).group(1))
+
+
+def test_lab04_the_students_k_balances_the_twin_and_a_wrong_k_drops_it():
+    right = worst_error_deg(printed_by_lab("04_lqr.ipynb", "StateFeedback(K"))
+    wrong = worst_error_deg(printed_by_lab("04_lqr.ipynb", "StateFeedback(K", {"lqr_gain": WRONG_LQR_GAIN}))
+    assert right < 1.0 and wrong > 45.0, (right, wrong)
+
+
+def test_lab05_the_students_functions_swing_the_twin_up_and_a_braking_rule_does_not():
+    right = printed_by_lab("05_swingup.ipynb", "parts=yours), seed=0")
+    wrong = printed_by_lab("05_swingup.ipynb", "parts=yours), seed=0", {"pumping_direction": WRONG_DIRECTION})
+    assert re.search(r"time to upright: [\d.]+ s", right), right
+    assert "time to upright: None s" in wrong, wrong
