@@ -22,6 +22,16 @@ from pendkit.grading.core import (
 from pendkit.grading.modes import budget, mode, strict
 
 
+class Score(float):
+    """A check's score: a number to code, and nothing extra under the table in a notebook (no `Out: 0.0`)."""
+
+    def _ipython_display_(self) -> None:
+        pass
+
+
+_NOTED_MISSING: set[int] = set()  # functions (by their code) already said to be missing
+
+
 def check(task_id: str, fn: Any) -> float | None:
     """Run the public tests of `task_id` on `fn`, print a table, and return the score.
 
@@ -39,18 +49,22 @@ def check(task_id: str, fn: Any) -> float | None:
     if strict() and score < total:
         failed = "; ".join(f"{r.name}: {r.message}" for r in results if not r.passed)
         raise GradingError(f"{task_id} scored {score:g}/{total:g} in strict mode ({failed})")
-    return score
+    return Score(score)
 
 
 def attempt(fn: Callable, *args, **kwargs) -> Any:
-    """Call a student's function for a demo cell; None (with a note) while it is not implemented yet."""
+    """Call a student's function for a demo cell; None while it is not implemented yet (said once per
+    function, however many times a cell calls it)."""
     try:
         return fn(*args, **kwargs)
     except NotImplementedError:
-        print(f"{getattr(fn, '__name__', 'this function')} is not implemented yet: the plot below uses "
-              "nothing from it")
+        key = id(getattr(fn, "__code__", fn))  # a redefined function is said again
+        if key not in _NOTED_MISSING:
+            _NOTED_MISSING.add(key)
+            print(f"{getattr(fn, '__name__', 'this function')} is not implemented yet: what follows uses nothing "
+                  "from it")
         return None
 
 
-__all__ = ["TASKS", "Failed", "GradingError", "Task", "TestResult", "attempt", "budget", "check", "expect",
+__all__ = ["TASKS", "Failed", "GradingError", "Score", "Task", "TestResult", "attempt", "budget", "check", "expect",
            "format_report", "load_hidden", "load_lab", "mode", "outcomes", "run_task", "strict", "task"]
