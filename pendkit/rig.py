@@ -249,6 +249,29 @@ class RigParams:
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
 
+    def save(self, path) -> None:
+        """Write these parameters as JSON (e.g. a rig's identified values, for the twin and later labs)."""
+        import json
+        from pathlib import Path
+
+        Path(path).write_text(json.dumps(self.to_dict(), indent=1) + "\n")
+
+    @classmethod
+    def load(cls, path) -> RigParams:
+        """Parameters saved by `save`; fields it lacks keep their defaults, unknown ones are refused."""
+        import json
+        from pathlib import Path
+
+        try:
+            values = json.loads(Path(path).read_text())
+        except (OSError, ValueError) as error:
+            raise ConfigError(f"cannot read rig parameters from {path}: {error}") from None
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(values) - known) if isinstance(values, dict) else ["(not a JSON object)"]
+        if unknown:
+            raise ConfigError(f"{path}: unknown rig parameters {unknown}")
+        return cls(**values)
+
 
 # Counts and increments for the Turnigy and the HSB-9380TH are the authors' settings (rig-facts.md).
 # Speed and torque for the alternatives are approximate datasheet figures: measure your own servo.

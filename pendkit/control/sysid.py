@@ -85,9 +85,9 @@ class ServoStepFit:
 
 
 def identify_servo_steps(times_s, commanded_rad, arm_rad, min_step_rad: float = 0.2) -> ServoStepFit:
-    """Lag (command change to 10 % of the way) and slew rate (slope from 10 % to 90 %) of every command
-    step larger than `min_step_rad`, averaged, with standard errors (the sampling period bounds them
-    when there is only one step).
+    """Lag (command change to 10 % of the way) and slew rate (slope from 10 % to 90 %, each crossing
+    interpolated between samples) of every command step larger than `min_step_rad`, averaged, with
+    standard errors (the sampling period bounds them when there is only one step).
 
     The arm angle must be measured: on the twin it is the true joint angle; a hobby servo reports
     none, so on a rig it needs an outside measurement (a camera, or a servo with a feedback wire).
@@ -106,8 +106,9 @@ def identify_servo_steps(times_s, commanded_rad, arm_rad, min_step_rad: float = 
         hit10, hit90 = np.argmax(progress >= 0.1), np.argmax(progress >= 0.9)
         if progress.max() < 0.9 or hit90 <= hit10:
             continue  # the next step came before this one finished
-        lags.append(t_seg[hit10] - t[start])
-        slews.append(abs(0.8 * span) / max(t_seg[hit90] - t_seg[hit10], 1e-9))
+        t10, t90 = (_crossing_time(t_seg, progress, hit, level) for hit, level in ((hit10, 0.1), (hit90, 0.9)))
+        lags.append(t10 - t[start])
+        slews.append(abs(0.8 * span) / max(t90 - t10, 1e-9))
     if not slews:
         raise ConfigError(f"no complete command steps of at least {min_step_rad} rad in the data")
     sample = float(np.median(np.diff(t)))
@@ -115,3 +116,39 @@ def identify_servo_steps(times_s, commanded_rad, arm_rad, min_step_rad: float = 
     slew_se = float(np.std(slews, ddof=1) / math.sqrt(len(slews))) if len(slews) > 1 else float(np.mean(slews)) * sample
     return ServoStepFit(float(np.mean(lags)), float(np.mean(slews)), max(lag_se, sample / math.sqrt(12)),
                         slew_se, len(slews))
+
+
+def _crossing_time(t: np.ndarray, progress: np.ndarray, hit: int, level: float) -> float:
+    """When `progress` reached `level`, interpolated between the sample before `hit` and `hit`."""
+    if hit == 0:
+        return float(t[0])
+    fraction = (level - progress[hit - 1]) / (progress[hit] - progress[hit - 1])
+    return float(t[hit - 1] + fraction * (t[hit] - t[hit - 1]))
+
+
+def match_servo_speed(measured_slew_rad_s: float, params=None, steps_rad=(0.6, -0.6, 0.2)):
+    """`params` with the servo's rated speed (`servo_speed_s_per_60deg`) set so that the twin's 10-90 %
+    slew on the same command steps matches `measured_slew_rad_s`: the twin fitted to a step log.
+
+    The 10-90 % slope is below the rated speed (the arm accelerates and settles inside it), so the
+    rated speed is found by simulating, not by converting: bisection on the twin's own step response.
+    """
+    from pendkit.rig import RigParams
+    from pendkit.sim.sampling import servo_step_readings
+
+    params = params or RigParams()
+    if not (math.isfinite(measured_slew_rad_s) and measured_slew_rad_s > 0):
+        raise ConfigError(f"the measured slew rate must be a positive number of rad/s, got {measured_slew_rad_s}")
+
+    def slew(s_per_60deg: float) -> float:
+        readings = servo_step_readings(steps_rad, params=params.replace(servo_speed_s_per_60deg=s_per_60deg))
+        return identify_servo_steps(readings.times_s, readings.commanded_rad, readings.arm_rad).slew_rate_rad_s
+
+    fast, slow = 0.05, 1.0  # s per 60 degrees: faster than any hobby servo, and far slower
+    if not slew(slow) <= measured_slew_rad_s <= slew(fast):
+        raise ConfigError(f"a slew of {measured_slew_rad_s:.2f} rad/s is outside what a hobby servo on this rig "
+                          f"can show ({slew(slow):.2f}-{slew(fast):.2f} rad/s)")
+    for _ in range(30):
+        middle = (fast + slow) / 2
+        fast, slow = (middle, slow) if slew(middle) > measured_slew_rad_s else (fast, middle)
+    return params.replace(servo_speed_s_per_60deg=round((fast + slow) / 2, 4))

@@ -37,3 +37,42 @@ def noisy_peaks(fn, rng):
     peaks = 0.6 * np.exp(-delta * np.arange(8)) * (1 + 0.002 * rng.standard_normal(8))
     got = fn(peaks)
     expect(abs(got - zeta) < 0.003, f"slightly noisy peaks with zeta = 0.07 gave {got!r}")
+
+
+slew = task("03.slew_rate", function="slew_rate", title="Servo slew rate from a step log")
+
+
+@slew.test(points=1, hidden=True, hint="It must work for any step, lag, speed and sampling.")
+def random_ramps(fn, rng):
+    from pendkit.grading.suites.lab03 import servo_ramp
+
+    for _ in range(5):
+        dt, lag, span = rng.choice([0.005, 0.01]), rng.uniform(0.0, 0.05), rng.uniform(0.4, 0.9)
+        speed = rng.uniform(1.5, min(6.0, 0.1 * span / dt))  # a sample between each corner and its crossing
+        start = rng.uniform(-0.5, 0.5)
+        target = start + rng.choice([-1, 1]) * span
+        t, command, arm = servo_ramp(speed, lag, start, target, dt_s=dt, step_at_s=rng.uniform(0.05, 0.2),
+                                     duration_s=1.0)
+        got = fn(t, command, arm)
+        expect(abs(got - speed) < 0.01 * speed, f"a {speed:.2f} rad/s ramp from {start:.2f} to {target:.2f} rad "
+               f"sampled every {1000 * dt:.0f} ms gave {got!r}")
+
+
+@slew.test(points=1, hidden=True, hint="Check it on the twin's own servo.")
+def the_twins_servo(fn, rng):
+    from pendkit.sim.sampling import servo_step_readings
+
+    readings = servo_step_readings(steps_rad=(0.6,), hold_s=0.6)
+    t, command, arm = readings.times_s, readings.commanded_rad, readings.arm_rad
+    k = int(np.argmax(command != command[0]))
+    progress = (arm[k:] - arm[k - 1]) / (command[k] - arm[k - 1])
+    times = t[k:]
+
+    def crossing(level):
+        i = int(np.argmax(progress >= level))
+        return times[i - 1] + (level - progress[i - 1]) * (times[i] - times[i - 1]) / (progress[i] - progress[i - 1])
+
+    expected = 0.8 * abs(command[k] - arm[k - 1]) / (crossing(0.9) - crossing(0.1))
+    got = fn(t, command, arm)
+    expect(abs(got - expected) < 0.01 * expected, f"the twin's servo stepping 0.6 rad should give "
+           f"{expected:.3f} rad/s, got {got!r}")

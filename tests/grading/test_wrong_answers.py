@@ -18,6 +18,21 @@ def score(task_id, fn):
 
 
 # --- reference answers ---
+def slew_rate(t, command, arm, interpolate=True):
+    t, command, arm = (np.asarray(v, dtype=float) for v in (t, command, arm))
+    k = int(np.argmax(command != command[0]))
+    progress = (arm[k:] - arm[k - 1]) / (command[k] - arm[k - 1])
+    times = t[k:]
+
+    def crossing(level):
+        i = int(np.argmax(progress >= level))
+        if not interpolate:
+            return times[i]
+        return times[i - 1] + (level - progress[i - 1]) * (times[i] - times[i - 1]) / (progress[i] - progress[i - 1])
+
+    return 0.8 * abs(command[k] - arm[k - 1]) / (crossing(0.9) - crossing(0.1))
+
+
 def decode_frame(frame):
     status = encoder.frame_status(frame)
     if status != "ok":
@@ -43,6 +58,7 @@ CORRECT = {
     "03.natural_frequency": lambda m, com, j: math.sqrt(m * 9.81 * com / j),
     "03.period_from_crossings": lambda t, a: float(np.mean(np.diff(up_crossings(t, a)))),
     "03.damping_ratio": lambda p: log_decrement(p) / math.sqrt(4 * math.pi**2 + log_decrement(p) ** 2),
+    "03.slew_rate": lambda t, command, arm: slew_rate(t, command, arm),
     "04.upright_matrices": lambda model: tuple(np.asarray(m) for m in (model.linearise("upright").A,
                                                                         model.linearise("upright").B)),
     "04.lqr_gain": lambda a, b, q, r: np.asarray(control.dlqr(a, b, np.diag(q), [[r]])[0]),
@@ -255,6 +271,9 @@ MISTAKES = [
     ("03.damping_ratio", lambda p: log_decrement(p), "decrement itself"),
     ("03.damping_ratio", lambda p: log_decrement(p) / (2 * math.pi), "light damping"),
     ("03.damping_ratio", lambda p: damping_with_log10(p), "log10"),
+    ("03.slew_rate", lambda t, c, a: -slew_rate(t, c, a) if c[-1] < c[0] else slew_rate(t, c, a), "positive"),
+    ("03.slew_rate", lambda t, c, a: slew_rate(t, c, a) / 0.8, "80 %"),
+    ("03.slew_rate", lambda t, c, a: slew_rate(t, c, a, interpolate=False), "interpolation"),
     ("04.upright_matrices", lambda model: upright_matrices_with(model, gravity_sign=-1.0), "wrong sign"),
     ("04.upright_matrices", lambda model: upright_matrices_with(model, coupling=False), "coupling"),
     ("04.lqr_gain", lambda a, b, q, r: np.asarray(control.lqr(a, b, np.diag(q), [[r]])[0]), "continuous-time"),

@@ -68,3 +68,48 @@ def from_peak_amplitudes(fn, rng):
         elif abs(got - zeta * math.log(10)) < 1e-3 or abs(got - zeta / math.log(10)) < 1e-3:
             message += ": use the natural logarithm (np.log), not log10"
         expect(abs(got - zeta) < 1e-6, message)
+
+
+slew = task("03.slew_rate", function="slew_rate", title="Servo slew rate from a step log")
+
+
+def servo_ramp(slew_rad_s: float, lag_s: float, start_rad: float, target_rad: float, dt_s: float,
+               step_at_s: float = 0.1, duration_s: float = 0.8):
+    """A step log: the command jumps at `step_at_s`; the arm waits `lag_s`, then moves at `slew_rad_s`."""
+    t = np.arange(0.0, duration_s, dt_s)
+    command = np.where(t >= step_at_s, target_rad, start_rad)
+    moved = np.clip((t - step_at_s - lag_s) * slew_rad_s, 0.0, abs(target_rad - start_rad))
+    arm = start_rad + np.sign(target_rad - start_rad) * moved
+    return t, command, arm
+
+
+def _slew_message(call: str, got: float, expected: float) -> str:
+    message = f"{call} should be {expected:.3f} rad/s, got {got:.4f}"
+    if abs(got + expected) < 1e-3 * expected:
+        message += ": a speed is positive whichever way the arm moves (use the size of the step)"
+    elif abs(got - expected / 0.8) < 2e-3 * expected:
+        message += ": between 10 % and 90 % the arm covers 80 % of the step, not all of it"
+    return message
+
+
+@slew.test(points=2, hint="Time the arm (not the command) at 10 % and 90 % of the way; it covers 80 % of the "
+                          "step in between.")
+def a_ramp_after_a_lag(fn, rng):
+    t, command, arm = servo_ramp(3.0, 0.02, 0.0, 0.6, dt_s=0.005)
+    got = as_number(fn(t, command, arm), "slew_rate(t, command, arm)")
+    expect(abs(got - 3.0) < 0.01, _slew_message("for a 3 rad/s ramp, slew_rate", got, 3.0))
+
+
+@slew.test(points=1, hint="The step can go either way: use its size.")
+def a_step_the_other_way(fn, rng):
+    t, command, arm = servo_ramp(2.5, 0.03, 0.3, -0.5, dt_s=0.005)
+    got = as_number(fn(t, command, arm), "slew_rate(t, command, arm)")
+    expect(abs(got - 2.5) < 0.01, _slew_message("for a 2.5 rad/s ramp from 0.3 to -0.5 rad, slew_rate", got, 2.5))
+
+
+@slew.test(points=1, hint="Interpolate each crossing between the two samples around it.")
+def coarse_samples(fn, rng):
+    t, command, arm = servo_ramp(3.3, 0.013, 0.0, 0.7, dt_s=0.02, step_at_s=0.107)
+    got = as_number(fn(t, command, arm), "slew_rate(t, command, arm)")
+    expect(abs(got - 3.3) < 0.01, f"with 20 ms samples a 3.3 rad/s ramp should still give 3.300 rad/s, got "
+           f"{got:.4f}: without interpolation each crossing is only known to within a sample")
