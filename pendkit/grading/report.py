@@ -73,6 +73,10 @@ def gradescope_results(grade: SubmissionGrade) -> dict:
                 "output": result.message or "passed",
                 "visibility": "after_published" if result.hidden else "visible",
             })
+    for answer in grade.written:  # shown to the grader; its points are given by hand
+        question = answer.question
+        tests.append({"name": f"{question.id} {question.title} (written, {question.points:g} points, graded by hand)",
+                      "score": 0, "max_score": 0, "output": answer.text or "(no answer)", "visibility": "visible"})
     output = "\n".join(grade.notes) if grade.notes else "Every cell ran."
     return {"score": grade.score, "execution_time": round(grade.execution_time_s), "output": output,
             "tests": tests}
@@ -87,13 +91,17 @@ def write_reports(grades: list[SubmissionGrade], out: Path) -> Path:
         folder.mkdir(parents=True, exist_ok=True)
         _write_atomically(folder / "results.json", json.dumps(gradescope_results(grade), indent=2) + "\n")
     task_ids = list(dict.fromkeys(t.task for g in grades for t in g.tasks))  # lab order
+    questions = list(dict.fromkeys(a.question for g in grades for a in g.written))
     buffer = io.StringIO()
     writer = csv.writer(buffer)
-    writer.writerow(["student", "lab", "score", "max_score", *task_ids, "notebook", "notes"])
+    writer.writerow(["student", "lab", "score", "max_score", *task_ids,
+                     *[f"{q.id} (by hand, /{q.points:g})" for q in questions], "notebook", "notes"])
     for grade in grades:
         per_task = {t.task: t.score for t in grade.tasks}
+        answered = {a.question.id for a in grade.written if a.text}
         writer.writerow([grade.student, grade.lab, f"{grade.score:g}", f"{grade.max_score:g}",
                          *[f"{per_task[t]:g}" if t in per_task else "" for t in task_ids],
+                         *["" if q.id in answered else "0 (no answer)" for q in questions],
                          grade.notebook, " | ".join(grade.notes)])
     csv_path = out / "grades.csv"
     _write_atomically(csv_path, buffer.getvalue())

@@ -22,6 +22,7 @@ from pendkit.grading.core import TASKS, TIMEOUT_CAP_VARIABLE, TestResult, load_h
 from pendkit.grading.notebook_files import nbformat
 from pendkit.grading.remote import KernelLost, KernelSession, RemoteFunction
 from pendkit.grading.sandbox import Sandbox, isolation_problem
+from pendkit.grading.written import WrittenAnswer, collect_answers
 
 LOG = logging.getLogger("pendkit.grading")
 MAX_RUNS = 5
@@ -52,6 +53,7 @@ class SubmissionGrade:
     notes: list[str] = field(default_factory=list)
     execution_time_s: float = 0.0
     isolated: bool = False  # the kernel ran in the sandbox
+    written: list[WrittenAnswer] = field(default_factory=list)  # graded by hand, not in the score
 
     @property
     def score(self) -> float:
@@ -108,6 +110,7 @@ def grade_notebook(path: Path, student: str, lab: str, hidden_paths: list[Path],
         grade.notes.append(f"could not read the notebook ({type(error).__name__}: {error}); nothing was run")
         grade.tasks = [zero_grade(t, "the notebook could not be read") for t in task_ids]
         return grade
+    grade.written = collect_answers(notebook, lab)
     sandbox = _sandbox_for(Path(path), isolate)
     grade.isolated = sandbox is not None
     workdir = sandbox.work if sandbox is not None else Path(path).parent

@@ -2,7 +2,8 @@
 
 In `solutions/NN_name.ipynb`:
 - code between `### BEGIN SOLUTION` and `### END SOLUTION` becomes a stub that raises NotImplementedError;
-- cells tagged `instructor` (notes, expected answers) are dropped;
+- cells tagged `instructor` (notes, expected answers, rubrics) are dropped;
+- cells tagged `answer` (a written answer, graded by hand) keep their metadata and get an empty prompt;
 - `# NBVAL_CHECK_OUTPUT` markers are dropped (a student copy's outputs differ by design);
 - outputs and execution counts are cleared; metadata records the lab number for the grader.
 """
@@ -18,10 +19,12 @@ from pathlib import Path
 import nbformat
 
 from pendkit.errors import ConfigError
+from pendkit.grading.written import ANSWER_PROMPT
 
 BEGIN = "### BEGIN SOLUTION"
 END = "### END SOLUTION"
 INSTRUCTOR_TAG = "instructor"
+ANSWER_TAG = "answer"
 LAB_NAME = re.compile(r"^(\d\d)_[a-z0-9_]+\.ipynb$")
 STUB = 'raise NotImplementedError("not implemented yet: replace this line with your code")'
 
@@ -78,6 +81,8 @@ def student_notebook(solution: nbformat.NotebookNode, lab_number: str, name: str
             new.outputs, new.execution_count = [], None
         elif BEGIN in new.source:
             raise ConfigError(f"{name} cell {index}: solution markers belong in code cells only")
+        elif ANSWER_TAG in new.get("metadata", {}).get("tags", []):
+            new.source = ANSWER_PROMPT
         cells.append(new)
     notebook = nbformat.v4.new_notebook(cells=cells)
     notebook.metadata = {

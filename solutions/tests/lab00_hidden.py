@@ -5,6 +5,7 @@ import math
 import numpy as np
 
 from pendkit.grading import expect, task
+from pendkit.grading.prelab import prelab_answers
 
 reward = task("00.reward", function="reward", title="The paper's reward")
 fraction = task("00.upright_fraction", function="upright_fraction", title="Fraction of time upright")
@@ -23,3 +24,6 @@ def lists_and_the_boundary(fn, rng):
     got = fn([0.3, -0.3, 0.2999])
     expect(abs(float(got) - 1 / 3) < 1e-9, f"upright_fraction([0.3, -0.3, 0.2999]) should be 1/3, got {got!r}")
     expect(abs(float(fn(np.zeros(7))) - 1.0) < 1e-9, "all-upright traces should give 1.0")
+
+
+prelab_answers("00", {"steps_per_second": 16.666667, "episode_seconds": 30.0})

@@ -4,6 +4,7 @@ import math
 
 from pendkit import encoder
 from pendkit.grading import Failed, expect, outcomes, task
+from pendkit.grading.prelab import prelab_answers
 
 decode = task("01.decode_frame", function="decode_frame", title="Decode an EMS-22A SSI frame")
 to_angle = task("01.counts_to_angle", function="counts_to_angle", title="Counts to angle from the bottom")
@@ -73,3 +74,6 @@ def the_seam_exactly(fn, rng):
     for (new, old), want, outcome in zip(calls, wanted, outcomes(fn, calls)):
         expect(outcome.error is None and outcome.value == want,
                f"wrap_delta({new}, {old}) should be {want}, got {outcome.error or outcome.value!r}")
+
+
+prelab_answers("01", {"counts_per_turn": 1024, "degrees_per_count": 0.351562})

@@ -4,6 +4,7 @@ import numpy as np
 
 from pendkit import encoder
 from pendkit.grading import expect, task
+from pendkit.grading.prelab import prelab_answers
 
 velocity = task("02.velocity_rev_s", function="velocity_rev_s", title="Wrap-aware velocity in rev/s")
 mean = task("02.firmware_mean", function="firmware_mean", title="The firmware's mean of the last N")
@@ -51,3 +52,6 @@ def random_periods(fn, rng):
         period_s = period_ms / 1000
         expect(len(got) == 2 and abs(float(got[0]) - 1 / 1024 / period_s) < 1e-9
                and abs(float(got[1]) - 0.5 / period_s) < 1e-9, f"period_limits({period_ms:.2f}) is wrong")
+
+
+prelab_answers("02", {"slowest_rev_s": 0.039062, "fastest_rev_s": 20.0})

@@ -5,6 +5,7 @@ import math
 import numpy as np
 
 from pendkit.grading import expect, task
+from pendkit.grading.prelab import prelab_answers
 from pendkit.rig import RigParams
 from pendkit.sim.sampling import free_swing_readings
 
@@ -76,3 +77,6 @@ def the_twins_servo(fn, rng):
     got = fn(t, command, arm)
     expect(abs(got - expected) < 0.01 * expected, f"the twin's servo stepping 0.6 rad should give "
            f"{expected:.3f} rad/s, got {got!r}")
+
+
+prelab_answers("03", {"period_s": 1.185507, "log_decrement": 0.693147})

@@ -5,6 +5,7 @@ import numpy as np
 
 from pendkit.control.model import FurutaModel, discretise
 from pendkit.grading import expect, task
+from pendkit.grading.prelab import prelab_answers
 from pendkit.rig import RigParams
 
 gain = task("04.lqr_gain", function="lqr_gain", title="A discrete LQR gain")
@@ -47,3 +48,6 @@ def random_rigs(fn, rng):
                and np.allclose(b.reshape(4, 1), np.asarray(reference.B), rtol=1e-6, atol=1e-9),
                f"upright_matrices is wrong for a rig with a {1000 * params.tip_mass_kg:.1f} g tip and a "
                f"{1000 * params.dowel_length_m:.0f} mm dowel")
+
+
+prelab_answers("04", {"growth_per_step": 1.349859, "states": 4})

@@ -3,6 +3,7 @@
 import math
 
 from pendkit.grading import expect, outcomes, task
+from pendkit.grading.prelab import prelab_answers
 
 energy = task("05.pendulum_energy", function="pendulum_energy", title="Normalised pendulum energy")
 direction = task("05.pumping_direction", function="pumping_direction", title="Which way to accelerate the arm")
@@ -38,4 +39,8 @@ def random_states(fn, rng):
         else:
             want = "swing" if abs(theta) > FALL_ANGLE_RAD else "balance"
         expect(outcome.error is None and outcome.value == want,
-               f"next_mode({mode!r}, {theta:.3f}, {omega:.3f}) should be {want!r}, got {outcome.error or outcome.value!r}")
+               f"next_mode({mode!r}, {theta:.3f}, {omega:.3f}) should be {want!r}, "
+               f"got {outcome.error or outcome.value!r}")
+
+
+prelab_answers("05", {"energy_hanging": -1.0, "energy_upright": 1.0, "energy_horizontal": 0.0})

@@ -3,6 +3,7 @@
 import numpy as np
 
 from pendkit.grading import expect, task
+from pendkit.grading.prelab import prelab_answers
 
 jitter = task("06.period_error_p99_ms", function="period_error_p99_ms", title="Step-period jitter")
 fit = task("06.fit_latency", function="fit_latency", title="A latency distribution from samples")
@@ -30,3 +31,6 @@ def random_states(fn, rng):
     for theta, rate, delay in rng.uniform([-0.2, -2, 0], [0.2, 2, 0.1], (20, 3)):
         expected = theta + rate * delay + 0.5 * 5.3**2 * theta * delay**2
         expect(abs(fn(theta, rate, delay, 5.3) - expected) < 1e-9, "wrong for a random state")
+
+
+prelab_answers("06", {"round_trip_ms": 40.0, "growth_during_delay": 1.419068})

@@ -4,6 +4,7 @@ import numpy as np
 import torch
 
 from pendkit.grading import expect, task
+from pendkit.grading.prelab import prelab_answers
 
 schedule = task("07.epsilon", function="epsilon", title="The exploration schedule")
 huber = task("07.huber", function="huber", title="The Huber loss")
@@ -42,3 +43,6 @@ def random_batches(fn, rng):
             got = np.asarray(fn(rewards, dones, online, target_q, gamma, double), dtype=float).reshape(-1)
             expect(got.shape == expected.shape and np.allclose(got, expected),
                    f"td_target on a batch of {batch} with {actions} actions (double={double}) is wrong")
+
+
+prelab_answers("07", {"epsilon_halfway": 0.525, "horizon_steps": 100.0})

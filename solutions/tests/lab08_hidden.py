@@ -4,6 +4,7 @@ import numpy as np
 import torch
 
 from pendkit.grading import expect, task
+from pendkit.grading.prelab import prelab_answers
 
 gru = task("08.gru_step", function="gru_step", title="One step of a GRU cell")
 augmented = task("08.augmented_state", function="augmented_state", title="The augmented state of a delayed rig")
@@ -59,3 +60,6 @@ def random_sweeps(fn, rng):
         want = next((d for d, p, o in zip(delays, plain, other) if p < threshold <= o), None)
         got = fn(delays, plain, other, threshold)
         expect(got == want, f"breaking_delay({delays}, {plain}, {other}, {threshold}) should be {want}, got {got!r}")
+
+
+prelab_answers("08", {"gru_blocks": 3, "delay_steps": 3})

@@ -117,7 +117,7 @@ def test_no_attack_beats_the_empty_template(attacked):
 def test_an_honest_submission_graded_after_the_attacks_gets_full_marks(attacked):
     grades, *_ = attacked
     honest = grades["z-honest"]
-    assert honest.score == honest.max_score == 26, honest.notes
+    assert honest.score == honest.max_score == 29, honest.notes
 
 
 def test_hidden_files_are_unchanged_and_were_loaded_once(attacked):

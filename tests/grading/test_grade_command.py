@@ -15,7 +15,7 @@ from pendkit.grading.runner import grade_notebook
 ROOT = Path(__file__).resolve().parents[2]
 SOLUTION = ROOT / "solutions" / "01_encoder.ipynb"
 HIDDEN = ROOT / "solutions" / "tests"
-FULL = 26  # lab 01: public + hidden points
+FULL = 29  # lab 01: public + hidden points (pre-lab included)
 
 
 def solution():

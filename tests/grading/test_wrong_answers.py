@@ -18,6 +18,34 @@ def score(task_id, fn):
 
 
 # --- reference answers ---
+def final_upright_start(angles, dt):
+    outside = np.nonzero(np.abs(np.asarray(angles, dtype=float)) >= 0.3)[0]
+    if len(outside) == 0:
+        return 0.0
+    return None if outside[-1] == len(angles) - 1 else float((outside[-1] + 1) * dt)
+
+
+def first_upright_entry(angles, dt):
+    inside = np.nonzero(np.abs(np.asarray(angles, dtype=float)) < 0.3)[0]
+    return None if final_upright_start(angles, dt) is None else float(inside[0] * dt)
+
+
+def balance_error_deg(angles, dt, rms=True):
+    start = final_upright_start(angles, dt)
+    if start is None:
+        return None
+    tail = np.asarray(angles, dtype=float)[int(round(start / dt)):]
+    return float(np.degrees(np.sqrt(np.mean(tail**2)) if rms else np.mean(tail)))
+
+
+def should_stop(arm, rate, age):
+    if not abs(arm) <= 1.6:
+        return "arm"
+    if not abs(rate) <= 20.0:
+        return "spin"
+    return None if age <= 0.3 else "stale"
+
+
 def slew_rate(t, command, arm, interpolate=True):
     t, command, arm = (np.asarray(v, dtype=float) for v in (t, command, arm))
     k = int(np.argmax(command != command[0]))
@@ -74,6 +102,9 @@ CORRECT = {
     "07.huber": lambda e, delta: np.where(np.abs(e) <= delta, 0.5 * e**2, delta * (np.abs(e) - 0.5 * delta)),
     "08.delayed_view": lambda obs, k: np.asarray(obs)[np.maximum(0, np.arange(len(obs)) - k)],
     "08.gru_step": lambda x, h, w_ih, w_hh, b_ih, b_hh: gru_step(x, h, w_ih, w_hh, b_ih, b_hh),
+    "09.time_to_upright_s": lambda angles, dt: final_upright_start(angles, dt),
+    "09.balance_error_deg": lambda angles, dt: balance_error_deg(angles, dt),
+    "09.should_stop": lambda arm, rate, age: should_stop(arm, rate, age),
     "08.augmented_state": lambda obs, recent, n: augmented_state(obs, recent, n),
     "08.breaking_delay": lambda d, p, r, t=0.5: next((a for a, b, c in zip(d, p, r) if b < t <= c), None),
 }
@@ -302,6 +333,16 @@ MISTAKES = [
     ("08.augmented_state", lambda o, r, n: augmented_state(o, r, n, oldest_first=True), "wrong order"),
     ("08.augmented_state", lambda o, r, n: augmented_state(o, r, n, one_hot=False), "one-hot codes"),
     ("08.breaking_delay", lambda d, p, r, t=0.5: d[int(np.argmin(p))], "first breaks"),
+    ("09.time_to_upright_s", lambda a, dt: first_upright_entry(a, dt), "only the final run counts"),
+    ("09.time_to_upright_s", lambda a, dt: None if final_upright_start(a, dt) is None
+     else round(final_upright_start(a, dt) / dt), "step index"),
+    ("09.balance_error_deg", lambda a, dt: balance_error_deg(a, dt, rms=False), "mean"),
+    ("09.balance_error_deg", lambda a, dt: None if balance_error_deg(a, dt) is None
+     else math.radians(balance_error_deg(a, dt)), "radians"),
+    ("09.should_stop", lambda arm, rate, age: "arm" if abs(arm) > 1.6 or abs(rate) > 20 or age > 0.3 else None,
+     "not a number"),
+    ("09.should_stop", lambda arm, rate, age: "arm" if arm > 1.6 or rate > 20 or not age <= 0.3 else None,
+     "either way"),
 ]
 
 
@@ -343,3 +384,13 @@ def test_check_prints_and_strict_mode_raises(all_tests_loaded, monkeypatch, caps
     with pytest.raises(GradingError, match="01.wrap_delta scored 2/5"):
         check("01.wrap_delta", lambda new, old: new - old)
     assert check("01.wrap_delta", wrap_delta) == 5  # full marks never raise
+
+
+@pytest.mark.parametrize("task_id, fn, misleading", [
+    ("02.velocity_rev_s", velocity_no_wrap, "Intervals need not be equal"),
+    ("04.upright_matrices", lambda model: upright_matrices_with(model, gravity_sign=-1.0), "Use the model's fields"),
+])
+def test_one_mistake_is_not_blamed_on_something_else(all_tests_loaded, task_id, fn, misleading):
+    """A single bug fails the test about it; the other tests either pass or say they depend on it."""
+    _, _, messages = score(task_id, fn)
+    assert misleading not in messages, messages

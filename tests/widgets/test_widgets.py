@@ -19,6 +19,7 @@ from pendkit.widgets import (
     tuning_run,
 )
 from pendkit.widgets.common import trace_alt_text, trace_png
+from pendkit.widgets.tuning import balance_png, describe
 
 OKABE_ITO = {"#000000", "#E69F00", "#56B4E9", "#009E73", "#F0E442", "#0072B2", "#D55E00", "#CC79A7", "#999999"}
 
@@ -111,3 +112,13 @@ def test_estop_and_telemetry_and_dashboard_on_a_virtual_rig():
         env.close()
     finally:
         rig.stop()
+
+
+def test_q_and_r_visibly_change_the_balance_the_tuner_shows():
+    gentle, stiff = tuning_run(pendulum_weight=4.0, steps=250), tuning_run(pendulum_weight=400.0, steps=250)
+    assert gentle.balance_error_deg is not None and stiff.balance_error_deg is not None
+    assert stiff.arm_travel_deg > 2 * gentle.arm_travel_deg  # a heavier angle weight works the arm harder
+    assert abs(stiff.largest_pole - gentle.largest_pole) > 0.01 and not np.allclose(stiff.gain, gentle.gain)
+    text = describe(stiff)
+    assert "K = [" in text and "largest closed-loop pole" in text and "arm travels over" in text
+    assert balance_png(stiff)[:4] == b"\x89PNG"

@@ -7,6 +7,8 @@ import math
 import numpy as np
 
 from pendkit.grading.core import expect, is_real, task
+from pendkit.grading.prelab import prelab_task
+from pendkit.grading.written import written
 
 reward_task = task("00.reward", function="reward", title="The paper's reward")
 fraction_task = task("00.upright_fraction", function="upright_fraction", title="Fraction of time upright")
@@ -44,3 +46,8 @@ def random_traces(fn, rng):
     expected = float(np.mean(np.abs(angles) < 0.3))
     got = fn(angles)
     expect(abs(float(got) - expected) < 1e-9, f"for 200 random angles expected {expected:.3f}, got {got!r}")
+
+
+prelab_task("00", ("steps_per_second", "episode_seconds",))
+
+written("00.reflection", "Reflection", points=2)

@@ -6,6 +6,8 @@ import math
 
 from pendkit.encoder import encode_ssi_frame
 from pendkit.grading.core import Failed, expect, is_real, task
+from pendkit.grading.prelab import prelab_task
+from pendkit.grading.written import written
 
 decode = task("01.decode_frame", function="decode_frame", title="Decode an EMS-22A SSI frame")
 to_angle = task("01.counts_to_angle", function="counts_to_angle", title="Counts to angle from the bottom")
@@ -173,3 +175,8 @@ def half_a_turn_keeps_its_sign(fn, rng):
         got = fn(new, old)
         expect(got == new - old, f"wrap_delta({new}, {old}) should be {new - old} (the firmware keeps exactly "
                f"half a turn as it is), got {got!r}")
+
+
+prelab_task("01", ("counts_per_turn", "degrees_per_count",))
+
+written("01.reflection", "Reflection", points=2)

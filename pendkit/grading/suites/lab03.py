@@ -7,6 +7,8 @@ import math
 import numpy as np
 
 from pendkit.grading.core import as_number, expect, task
+from pendkit.grading.prelab import prelab_task
+from pendkit.grading.written import written
 
 frequency = task("03.natural_frequency", function="natural_frequency", title="Compound-pendulum frequency")
 period = task("03.period_from_crossings", function="period_from_crossings", title="Period from zero crossings")
@@ -113,3 +115,8 @@ def coarse_samples(fn, rng):
     got = as_number(fn(t, command, arm), "slew_rate(t, command, arm)")
     expect(abs(got - 3.3) < 0.01, f"with 20 ms samples a 3.3 rad/s ramp should still give 3.300 rad/s, got "
            f"{got:.4f}: without interpolation each crossing is only known to within a sample")
+
+
+prelab_task("03", ("period_s", "log_decrement",))
+
+written("03.reflection", "Reflection", points=3)

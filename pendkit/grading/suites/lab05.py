@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 
 from pendkit.grading.core import as_number, expect, task
+from pendkit.grading.prelab import prelab_task
+from pendkit.grading.written import written
 
 energy = task("05.pendulum_energy", function="pendulum_energy", title="Normalised pendulum energy")
 direction = task("05.pumping_direction", function="pumping_direction", title="Which way to accelerate the arm")
@@ -57,3 +59,8 @@ def hand_over_with_hysteresis(fn, rng):
         got = fn(mode, theta, omega)
         expect(got == expected, f"next_mode({mode!r}, {theta}, {omega}) should be {expected!r} ({why}), "
                f"got {got!r}")
+
+
+prelab_task("05", ("energy_hanging", "energy_upright", "energy_horizontal",))
+
+written("05.reflection", "Reflection", points=2)

@@ -7,6 +7,8 @@ import math
 import numpy as np
 
 from pendkit.grading.core import Failed, as_number, expect, is_sequence_of, task
+from pendkit.grading.prelab import prelab_task
+from pendkit.grading.written import written
 
 jitter = task("06.period_error_p99_ms", function="period_error_p99_ms", title="Step-period jitter")
 fit = task("06.fit_latency", function="fit_latency", title="A latency distribution from samples")
@@ -60,3 +62,8 @@ def second_order_prediction(fn, rng):
             message += ": upright, gravity pushes away from the top: + w0^2 theta, not minus"
         expect(abs(got - expected) < 1e-9, message)
     expect(math.isfinite(as_number(fn(0.0, 0.0, 0.0, 5.3), "predict_angle(0, 0, 0, 5.3)")), "zero delay must work")
+
+
+prelab_task("06", ("round_trip_ms", "growth_during_delay",))
+
+written("06.reflection", "Reflection", points=3)

@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from pendkit.grading.core import Failed, as_number, expect, task
+from pendkit.grading.prelab import prelab_task
+from pendkit.grading.written import written
 
 schedule = task("07.epsilon", function="epsilon", title="The exploration schedule")
 target = task("07.td_target", function="td_target", title="The (double) DQN target")
@@ -62,3 +64,8 @@ def quadratic_then_linear(fn, rng):
     elif np.allclose(got, np.where(np.abs(errors) <= 1.0, 0.5 * errors**2, np.abs(errors))):
         message += ": subtract 0.5 delta in the linear part, so the two pieces meet"
     expect(np.allclose(got, expected), message)
+
+
+prelab_task("07", ("epsilon_halfway", "horizon_steps",))
+
+written("07.reflection", "Reflection", points=3)

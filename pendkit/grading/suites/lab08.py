@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from pendkit.grading.core import Failed, expect, task
+from pendkit.grading.prelab import prelab_task
+from pendkit.grading.written import written
 
 delayed = task("08.delayed_view", function="delayed_view", title="What a delayed agent sees")
 augmented = task("08.augmented_state", function="augmented_state", title="The augmented state of a delayed rig")
@@ -113,3 +115,8 @@ def first_contrast(fn, rng):
     expect(fn(delays, plain, [0.2] * 5, 0.5) is None,
            "when the recurrent agent also fails, there is no contrast: return None")
     expect(fn(delays, [1.0] * 5, recurrent, 0.5) is None, "when plain DQN never breaks, return None")
+
+
+prelab_task("08", ("gru_blocks", "delay_steps",))
+
+written("08.reflection", "Reflection", points=3)

@@ -1,0 +1,97 @@
+"""Lab 09, deploy to a rig: public tests."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pendkit.grading.core import Failed, as_number, expect, task
+from pendkit.grading.prelab import prelab_task
+from pendkit.grading.written import written
+
+upright = task("09.time_to_upright_s", function="time_to_upright_s", title="Time to upright from a run")
+balance = task("09.balance_error_deg", function="balance_error_deg", title="Balance error once upright")
+watchdog = task("09.should_stop", function="should_stop", title="The safety watchdog")
+written("09.gap_report", "Sim-to-real report", points=6)
+written("09.safety_checklist", "Safety checklist", points=4)
+
+UPRIGHT_RAD = 0.3
+ARM_LIMIT_RAD, SPIN_LIMIT_RAD_S, STALE_AFTER_S = 1.6, 20.0, 0.3
+
+
+def run_of(angles_deg, dt_s=0.06):
+    return np.radians(np.asarray(angles_deg, dtype=float)), dt_s
+
+
+def _optional_number(got, call: str):
+    return None if got is None else as_number(got, call)
+
+
+@upright.test(points=2, hint="The last time the pendulum was outside 0.3 rad ends the swing-up: the run that "
+                             "follows must last to the end.")
+def the_final_upright_run(fn, rng):
+    swing = [180, 120, 40, 10, 25, 5, 2, 1, 0, 0]  # 25 deg is outside 0.3 rad (17 deg)
+    angles, dt = run_of(swing)
+    got = _optional_number(fn(angles, dt), "time_to_upright_s(angles, 0.06)")
+    message = f"upright for good from step 5 (0.30 s), got {got!r}"
+    if got is not None and abs(got - 0.18) < 1e-9:
+        message += ": the pendulum left the upright band again at step 4; only the final run counts"
+    elif got is not None and abs(got - 5) < 1e-9:
+        message += ": that is a step index; multiply by the step time"
+    expect(got is not None and abs(got - 0.30) < 1e-9, message)
+
+
+@upright.test(points=1, hint="Not upright at the end means no time to upright: return None.")
+def never_or_always(fn, rng):
+    angles, dt = run_of([180, 150, 90, 30, 10, 40])
+    got = fn(angles, dt)
+    expect(got is None, f"a run that ends 40 deg from upright has no time to upright (None), got {got!r}")
+    angles, dt = run_of([3, 2, 1, 0])
+    got = _optional_number(fn(angles, dt), "time_to_upright_s")
+    expect(got is not None and abs(got) < 1e-9, f"a run upright from the start is upright at 0 s, got {got!r}")
+
+
+@balance.test(points=2, hint="RMS over the final upright run only, in degrees.")
+def rms_over_the_final_run(fn, rng):
+    angles, dt = run_of([180, 90, 30, 4, -3, 4, -3])
+    got = _optional_number(fn(angles, dt), "balance_error_deg(angles, 0.06)")
+    expected = math.sqrt((16 + 9 + 16 + 9) / 4)
+    message = f"the final upright run [4, -3, 4, -3] deg has an RMS error of {expected:.3f} deg, got {got!r}"
+    if got is not None and abs(got - 0.5) < 1e-9:
+        message += ": that is the mean; square, average, then take the root"
+    elif got is not None and abs(got - math.radians(expected)) < 1e-6:
+        message += ": that is in radians; the lab wants degrees"
+    expect(got is not None and abs(got - expected) < 1e-6, message)
+    angles, dt = run_of([0, 20, 60, 120])
+    got = fn(angles, dt)
+    expect(got is None, f"a run that ends fallen has no balance error (None), got {got!r}")
+
+
+def _stops(fn, call, *args) -> bool:
+    got = fn(*args)
+    if got is not None and not isinstance(got, str):
+        raise Failed(f"{call} should return None (safe) or a reason as text, got {type(got).__name__}")
+    return bool(got)
+
+
+@watchdog.test(points=1, hint="Safe means None; anything to stop for returns a short reason.")
+def safe_states_go_on(fn, rng):
+    for args in [(0.0, 0.0, 0.05), (1.5, -12.0, 0.25), (-1.59, 19.0, 0.0)]:
+        call = f"should_stop{args}"
+        expect(not _stops(fn, call, *args), f"{call} is inside every limit: it should return None")
+
+
+@watchdog.test(points=2, hint="Each limit on its own stops the rig: the arm's angle either way, the pendulum's "
+                              "rate either way, and readings older than STALE_AFTER_S.")
+def each_limit_stops_the_rig(fn, rng):
+    for args, what in [((1.65, 0.0, 0.05), "the arm past +1.6 rad"), ((-1.65, 0.0, 0.05), "the arm past -1.6 rad"),
+                       ((0.0, 21.0, 0.05), "the pendulum turning at +21 rad/s"),
+                       ((0.0, -21.0, 0.05), "the pendulum turning at -21 rad/s"),
+                       ((0.0, 0.0, 0.5), "readings 0.5 s old (the link is failing)"),
+                       ((0.0, float("nan"), 0.05), "a reading that is not a number")]:
+        call = f"should_stop{args}"
+        expect(_stops(fn, call, *args), f"{call}: {what} must stop the rig, got None")
+
+
+prelab_task("09", ("speed_ratio", "stale_steps",))

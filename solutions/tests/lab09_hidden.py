@@ -1,0 +1,70 @@
+"""Hidden tests for lab 09 (instructor material: never copied into labs/)."""
+
+import math
+
+import numpy as np
+
+from pendkit.grading import expect, task
+from pendkit.grading.prelab import prelab_answers
+from pendkit.grading.suites.lab09 import ARM_LIMIT_RAD, SPIN_LIMIT_RAD_S, STALE_AFTER_S, UPRIGHT_RAD
+
+upright = task("09.time_to_upright_s", function="time_to_upright_s", title="Time to upright from a run")
+balance = task("09.balance_error_deg", function="balance_error_deg", title="Balance error once upright")
+watchdog = task("09.should_stop", function="should_stop", title="The safety watchdog")
+
+
+def random_run(rng, settles: bool):
+    """A swing-up: large angles, a few near misses, then (if it `settles`) a long upright tail."""
+    swing = rng.uniform(0.5, math.pi, rng.integers(5, 30)) * rng.choice([-1, 1], 1)
+    near = rng.uniform(0.0, 0.6, rng.integers(0, 8)) * rng.choice([-1, 1], 1)
+    tail = rng.uniform(-0.25, 0.25, rng.integers(5, 40)) if settles else rng.uniform(0.35, 2.0, 3)
+    return np.concatenate([swing, near, tail])
+
+
+def final_run_start(angles) -> int | None:
+    outside = np.nonzero(np.abs(angles) >= UPRIGHT_RAD)[0]
+    if len(outside) == 0:
+        return 0
+    return None if outside[-1] == len(angles) - 1 else int(outside[-1] + 1)
+
+
+@upright.test(points=1, hidden=True, hint="Check it on random swing-ups, with any step time.")
+def random_swing_ups(fn, rng):
+    for _ in range(6):
+        angles, dt = random_run(rng, settles=bool(rng.integers(0, 2))), float(rng.choice([0.02, 0.05, 0.06]))
+        start = final_run_start(angles)
+        got = fn(angles, dt)
+        expected = None if start is None else start * dt
+        ok = got is None if expected is None else got is not None and abs(got - expected) < 1e-9
+        expect(ok, f"a random run of {len(angles)} steps at {dt} s: expected {expected!r}, got {got!r}")
+
+
+@balance.test(points=1, hidden=True, hint="Check it on random swing-ups.")
+def random_balance_tails(fn, rng):
+    for _ in range(6):
+        angles = random_run(rng, settles=bool(rng.integers(0, 2)))
+        start = final_run_start(angles)
+        got = fn(angles, 0.06)
+        expected = None if start is None else float(np.degrees(np.sqrt(np.mean(angles[start:] ** 2))))
+        ok = got is None if expected is None else got is not None and abs(got - expected) < 1e-6
+        expect(ok, f"a random run of {len(angles)} steps: expected {expected!r}, got {got!r}")
+
+
+@watchdog.test(points=1, hidden=True, hint="Right at and just past each limit, and for readings that never came.")
+def at_the_limits(fn, rng):
+    eps = 1e-3
+    cases = [((ARM_LIMIT_RAD - eps, 0.0, 0.0), False), ((ARM_LIMIT_RAD + eps, 0.0, 0.0), True),
+             ((0.0, SPIN_LIMIT_RAD_S - eps, 0.0), False), ((0.0, -SPIN_LIMIT_RAD_S - eps, 0.0), True),
+             ((0.0, 0.0, STALE_AFTER_S - eps), False), ((0.0, 0.0, STALE_AFTER_S + eps), True),
+             ((0.0, 0.0, float("inf")), True), ((float("nan"), 0.0, 0.0), True), ((0.0, 0.0, float("nan")), True)]
+    for _ in range(4):
+        arm, rate = rng.uniform(-ARM_LIMIT_RAD, ARM_LIMIT_RAD) * 0.99, rng.uniform(-1, 1) * SPIN_LIMIT_RAD_S * 0.99
+        cases.append(((arm, rate, rng.uniform(0, STALE_AFTER_S * 0.99)), False))
+    for args, stop in cases:
+        got = fn(*args)
+        expect(bool(got) == stop and (got is None or isinstance(got, str)),
+               f"should_stop{tuple(round(a, 4) for a in args)} should {'stop' if stop else 'return None'}, "
+               f"got {got!r}")
+
+
+prelab_answers("09", {"speed_ratio": 1.4, "stale_steps": 5.0})

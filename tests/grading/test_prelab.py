@@ -1,0 +1,60 @@
+"""Pre-lab questions: every lab has them; the solutions' answers get full marks, wrong or missing ones
+lose the hidden points with a message naming the key, and the public check gives no value away."""
+
+from pathlib import Path
+
+import nbformat
+import pytest
+
+from pendkit.grading import TASKS, run_task
+from pendkit.labs.build import strip_solutions
+
+ROOT = Path(__file__).resolve().parents[2]
+LABS = [f"{n:02d}" for n in range(10)]
+
+
+def solution_prelab(lab: str):
+    path = next((ROOT / "solutions").glob(f"{lab}_*.ipynb"))
+    cell = next(c for c in nbformat.read(path, as_version=4).cells if c.source.startswith("def prelab("))
+    namespace: dict = {}
+    exec(cell.source, namespace)  # the instructor's own notebook
+    return namespace["prelab"]
+
+
+def scored(lab, fn):
+    results = run_task(f"{lab}.prelab", fn, include_hidden=True)
+    return sum(r.points for r in results), sum(r.max_points for r in results), [r for r in results if not r.passed]
+
+
+@pytest.mark.parametrize("lab", LABS)
+def test_the_solutions_answers_get_full_marks(all_tests_loaded, lab):
+    got, total, failed = scored(lab, solution_prelab(lab))
+    assert total >= 3 and got == total, [f.message for f in failed]
+
+
+@pytest.mark.parametrize("lab", LABS)
+def test_a_wrong_answer_loses_its_point_and_names_its_key(all_tests_loaded, lab):
+    right = solution_prelab(lab)()
+    key = next(iter(right))
+    wrong = dict(right, **{key: right[key] * 1.1 + 0.5})
+    got, total, failed = scored(lab, lambda: wrong)
+    assert got == total - 1 and len(failed) == 1 and repr(key) in failed[0].message
+
+
+def test_missing_keys_and_non_numbers_are_named_and_no_value_is_shown(all_tests_loaded):
+    right = solution_prelab("04")()
+    results = run_task("04.prelab", lambda: {"growth_per_step": "about 1.3"})
+    message = " ".join(r.message for r in results)
+    assert "'states'" in message and "not numbers" not in message  # the missing key comes first
+    results = run_task("04.prelab", lambda: dict(right, states="four"))
+    assert "['states']" in " ".join(r.message for r in results)
+    assert not any(str(round(v, 3)) in r.message for r in results for v in right.values() if v not in (4,))
+    assert run_task("04.prelab", lambda: [1.35, 4])[0].message.startswith("prelab() should return a dict")
+
+
+def test_the_student_copy_asks_without_answering():
+    path = next((ROOT / "solutions").glob("05_*.ipynb"))
+    cell = next(c for c in nbformat.read(path, as_version=4).cells if c.source.startswith("def prelab("))
+    student = strip_solutions(cell.source, "05 prelab")
+    assert "NotImplementedError" in student and "energy_hanging" not in student
+    assert TASKS["05.prelab"].function == "prelab"
