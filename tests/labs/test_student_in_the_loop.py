@@ -69,3 +69,16 @@ def test_lab05_the_students_functions_swing_the_twin_up_and_a_braking_rule_does_
     wrong = printed_by_lab("05_swingup.ipynb", "parts=yours), seed=0", {"pumping_direction": WRONG_DIRECTION})
     assert re.search(r"time to upright: [\d.]+ s", right), right
     assert "time to upright: None s" in wrong, wrong
+
+
+NEVER_STOPS = '''
+def should_stop(arm_angle_rad, pendulum_velocity_rad_s, observation_age_s):
+    return None
+'''
+
+
+def test_lab09_the_students_watchdog_holds_the_rig_when_the_wifi_drops_and_a_silent_one_does_not():
+    right = printed_by_lab("09_deploy.ipynb", "WifiDropsOut(SwingUpController")
+    wrong = printed_by_lab("09_deploy.ipynb", "WifiDropsOut(SwingUpController", {"should_stop": NEVER_STOPS})
+    assert "your watchdog held the rig" in right and "old" in right, right
+    assert "your watchdog did not stop the rig" in wrong, wrong
