@@ -157,33 +157,37 @@ class _Run:
                                 allow_errors=True, interrupt_on_timeout=False, record_timing=False,
                                 shutdown_kernel="immediate",  # nothing of the kernel's is kept
                                 resources={"metadata": {"path": str(self.workdir)}})
-        with client.setup_kernel():
-            for index, cell in enumerate(notebook.cells):
-                if cell.cell_type != "code" or index in self.excluded:
-                    continue
-                remaining = self.deadline - time.monotonic()
-                if remaining <= 1:
-                    self.grade.notes.append(f"the notebook's time limit was reached at {_where(index, cell)}; "
-                                            "later cells were not run")
-                    break
-                client.timeout = int(max(1, min(self.cell_timeout_s, remaining)))
-                try:
-                    client.execute_cell(cell, index)
-                except (CellTimeoutError, DeadKernelError) as error:
-                    what = "ran past its time limit" if isinstance(error, CellTimeoutError) else "killed the kernel"
-                    self.grade.notes.append(f"{_where(index, cell)} {what}; it was left out and the notebook "
-                                            "run again without it")
-                    self.excluded.add(index)
-                    raise _Restart from error
-                self._note_error(index, cell)
-            with _call_channel(self.sandbox) as channel_dir:
-                session = KernelSession(client, channel_dir)
-                try:
-                    for task_id in self.task_ids:
-                        if task_id not in self.graded and task_id not in self.skipped:
-                            self._grade_task(session, task_id)
-                finally:
-                    session.close()
+        try:
+            with client.setup_kernel():
+                for index, cell in enumerate(notebook.cells):
+                    if cell.cell_type != "code" or index in self.excluded:
+                        continue
+                    remaining = self.deadline - time.monotonic()
+                    if remaining <= 1:
+                        self.grade.notes.append(f"the notebook's time limit was reached at {_where(index, cell)}; "
+                                                "later cells were not run")
+                        break
+                    client.timeout = int(max(1, min(self.cell_timeout_s, remaining)))
+                    try:
+                        client.execute_cell(cell, index)
+                    except (CellTimeoutError, DeadKernelError) as error:
+                        what = "ran past its time limit" if isinstance(error, CellTimeoutError) else "killed the kernel"
+                        self.grade.notes.append(f"{_where(index, cell)} {what}; it was left out and the notebook "
+                                                "run again without it")
+                        self.excluded.add(index)
+                        raise _Restart from error
+                    self._note_error(index, cell)
+                with _call_channel(self.sandbox) as channel_dir:
+                    session = KernelSession(client, channel_dir)
+                    try:
+                        for task_id in self.task_ids:
+                            if task_id not in self.graded and task_id not in self.skipped:
+                                self._grade_task(session, task_id)
+                    finally:
+                        session.close()
+        finally:
+            if km is not None:  # nbclient shuts down only the kernels it started itself
+                _kill_kernel(km)
 
     def _grade_task(self, session: KernelSession, task_id: str) -> None:
         """Every test runs here, in the grader; only the student's function runs in their kernel."""
@@ -220,6 +224,17 @@ def _call_channel(sandbox: Sandbox | None):
     else:
         with tempfile.TemporaryDirectory(prefix="pendkit-calls-") as folder:
             yield Path(folder)
+
+
+def _kill_kernel(km) -> None:
+    """End a sandboxed kernel now (killing bwrap ends everything inside it)."""
+    from jupyter_core.utils import run_sync
+
+    try:
+        if run_sync(km.is_alive)():
+            run_sync(km.shutdown_kernel)(now=True)
+    except Exception as error:  # noqa: BLE001 - the sandbox's close() kills what is left
+        LOG.warning("could not stop a sandboxed kernel: %s", error)
 
 
 def _where(index: int, cell) -> str:

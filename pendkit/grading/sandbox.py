@@ -102,6 +102,18 @@ def _font_cache_files() -> tuple[Path, ...]:
     return tuple(Path(matplotlib.get_cachedir()).glob("fontlist-*.json"))
 
 
+def _kill_user_processes(uid: int) -> None:
+    """SIGKILL every process of `uid` (a root grader's kernel user: nothing else runs as it)."""
+    import signal
+
+    for entry in Path("/proc").iterdir():
+        try:
+            if entry.name.isdigit() and entry.stat().st_uid == uid:
+                os.kill(int(entry.name), signal.SIGKILL)
+        except (OSError, ValueError):
+            continue
+
+
 def _readable_parents(paths: list[str]) -> list[str]:
     """bwrap arguments that create the folders above `paths` world-readable (as root it would make them
     private to root, and the kernel's own user could not reach its Python or its scratch folder)."""
@@ -163,4 +175,7 @@ class Sandbox:
                                   ip=str(run / "kernel"), connection_file=str(run / "connection.json"))
 
     def close(self) -> None:
+        """Kill whatever still runs as the sandbox's own user, then remove the scratch folder."""
+        if self.uid is not None:
+            _kill_user_processes(self.uid)
         shutil.rmtree(self.root, ignore_errors=True)

@@ -40,4 +40,4 @@ def test_the_autograder_zip_grades_a_submission_like_gradescope(tmp_path):
         results = json.loads((root / "results" / "results.json").read_text())
         scores[name] = results["score"]
         assert all({"name", "score", "max_score", "output", "visibility"} <= set(t) for t in results["tests"])
-    assert scores["solution"] == 7 and scores["template"] < scores["solution"]
+    assert scores["solution"] == 10 and scores["template"] < scores["solution"]
