@@ -61,19 +61,12 @@ def random_ramps(fn, rng):
 
 @slew.test(points=1, hidden=True, hint="Check it on the twin's own servo.")
 def the_twins_servo(fn, rng):
+    from pendkit.control.sysid import identify_servo_steps
     from pendkit.sim.sampling import servo_step_readings
 
     readings = servo_step_readings(steps_rad=(0.6,), hold_s=0.6)
     t, command, arm = readings.times_s, readings.commanded_rad, readings.arm_rad
-    k = int(np.argmax(command != command[0]))
-    progress = (arm[k:] - arm[k - 1]) / (command[k] - arm[k - 1])
-    times = t[k:]
-
-    def crossing(level):
-        i = int(np.argmax(progress >= level))
-        return times[i - 1] + (level - progress[i - 1]) * (times[i] - times[i - 1]) / (progress[i] - progress[i - 1])
-
-    expected = 0.8 * abs(command[k] - arm[k - 1]) / (crossing(0.9) - crossing(0.1))
+    expected = identify_servo_steps(t, command, arm).slew_rate_rad_s  # the kit's own 10-90 % slope
     got = fn(t, command, arm)
     expect(abs(got - expected) < 0.01 * expected, f"the twin's servo stepping 0.6 rad should give "
            f"{expected:.3f} rad/s, got {got!r}")

@@ -4,9 +4,10 @@ import math
 
 import numpy as np
 
+from pendkit.episode import time_to_upright_s
 from pendkit.grading import expect, task
 from pendkit.grading.prelab import prelab_answers
-from pendkit.grading.suites.lab09 import ARM_LIMIT_RAD, SPIN_LIMIT_RAD_S, STALE_AFTER_S, UPRIGHT_RAD
+from pendkit.grading.suites.lab09 import ARM_LIMIT_RAD, SPIN_LIMIT_RAD_S, STALE_AFTER_S
 
 upright = task("09.time_to_upright_s", function="time_to_upright_s", title="Time to upright from a run")
 balance = task("09.balance_error_deg", function="balance_error_deg", title="Balance error once upright")
@@ -22,10 +23,9 @@ def random_run(rng, settles: bool):
 
 
 def final_run_start(angles) -> int | None:
-    outside = np.nonzero(np.abs(angles) >= UPRIGHT_RAD)[0]
-    if len(outside) == 0:
-        return 0
-    return None if outside[-1] == len(angles) - 1 else int(outside[-1] + 1)
+    """Index where the final upright stretch begins (the kit's own definition), None if the end is not upright."""
+    start = time_to_upright_s(angles, 1.0)
+    return None if start is None else int(start)
 
 
 @upright.test(points=1, hidden=True, hint="Check it on random swing-ups, with any step time.")

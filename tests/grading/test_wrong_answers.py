@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from pendkit import encoder
+from pendkit.episode import time_to_upright_s
 from pendkit.grading import run_task
 
 
@@ -19,10 +20,7 @@ def score(task_id, fn):
 
 # --- reference answers ---
 def final_upright_start(angles, dt):
-    outside = np.nonzero(np.abs(np.asarray(angles, dtype=float)) >= 0.3)[0]
-    if len(outside) == 0:
-        return 0.0
-    return None if outside[-1] == len(angles) - 1 else float((outside[-1] + 1) * dt)
+    return time_to_upright_s(angles, dt)
 
 
 def first_upright_entry(angles, dt):

@@ -16,7 +16,6 @@ watchdog = task("09.should_stop", function="should_stop", title="The safety watc
 written("09.gap_report", "Sim-to-real report", points=6)
 written("09.safety_checklist", "Safety checklist", points=4)
 
-UPRIGHT_RAD = 0.3
 ARM_LIMIT_RAD, SPIN_LIMIT_RAD_S, STALE_AFTER_S = 1.6, 20.0, 0.3
 
 
