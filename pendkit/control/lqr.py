@@ -121,8 +121,9 @@ class LqrBalancer:
                    observer=observer, internal_filter=internal)
 
     def reset(self, state: RigState, keep_estimate: bool = False) -> None:
-        """Start balancing from `state` (its servo_target_rad is the filter's state)."""
-        self._filtered_rad = state.servo_target_rad
+        """Start balancing from `state` (its servo_target_rad, within the servo's range, is the filter's state)."""
+        limit = self.params.servo_range_rad
+        self._filtered_rad = max(-limit, min(limit, state.servo_target_rad))
         if self.observer is not None and not keep_estimate:
             self.observer.reset(state)
 

@@ -77,24 +77,29 @@ class FurutaModel:
         """Small swings with the arm held: sqrt(m g l / J)."""
         return math.sqrt(self.gravity_torque_n_m / self.pendulum_inertia_kg_m2)
 
-    def servo_torque_n_m(self, target_rad: float, arm_rad: float, arm_velocity_rad_s: float) -> float:
+    def servo_torque_n_m(self, target_rad, arm_rad, arm_velocity_rad_s):
+        """The servo's drive torque (scalars or arrays): PD on the target, clipped at the stall torque."""
         drive = self.servo_kp_n_m_per_rad * (target_rad - arm_rad) - self.servo_kv_n_m_s_per_rad * arm_velocity_rad_s
-        return max(-self.servo_stall_torque_n_m, min(self.servo_stall_torque_n_m, drive))
+        return np.clip(drive, -self.servo_stall_torque_n_m, self.servo_stall_torque_n_m)
 
-    def accelerations(self, state: np.ndarray, target_rad: float) -> np.ndarray:
-        """[phi'', alpha''] of the nonlinear model at state [phi, alpha, phi', alpha']."""
+    def accelerations(self, state: np.ndarray, target_rad) -> np.ndarray:
+        """[phi'', alpha''] of the nonlinear model at state [phi, alpha, phi', alpha'].
+
+        Also for many states at once: `state` of shape (4, n) and `target_rad` a number or n of them give
+        shape (2, n) (the trajectory optimiser simulates thousands of input sequences together).
+        """
         phi, alpha, phi_dot, alpha_dot = state
-        s, c = math.sin(alpha), math.cos(alpha)
+        s, c = np.sin(alpha), np.cos(alpha)
         extra = self.pendulum_inertia_kg_m2 - self.pendulum_long_axis_inertia_kg_m2
-        mass = np.array([[self.arm_inertia_kg_m2 + extra * s * s, self.coupling_kg_m2 * c],
-                         [self.coupling_kg_m2 * c, self.pendulum_inertia_kg_m2]])
+        m_arm = self.arm_inertia_kg_m2 + extra * s * s
+        m_cross = self.coupling_kg_m2 * c
+        m_pend = self.pendulum_inertia_kg_m2
         torque = self.servo_torque_n_m(target_rad, phi, phi_dot)
-        rhs = np.array([
-            torque - self.arm_damping_n_m_s_per_rad * phi_dot - 2 * extra * s * c * phi_dot * alpha_dot
-            + self.coupling_kg_m2 * s * alpha_dot**2,
-            extra * s * c * phi_dot**2 - self.gravity_torque_n_m * s - self.pendulum_damping_n_m_s_per_rad * alpha_dot,
-        ])
-        return np.linalg.solve(mass, rhs)
+        rhs_arm = (torque - self.arm_damping_n_m_s_per_rad * phi_dot - 2 * extra * s * c * phi_dot * alpha_dot
+                   + self.coupling_kg_m2 * s * alpha_dot**2)
+        rhs_pend = extra * s * c * phi_dot**2 - self.gravity_torque_n_m * s - self.pendulum_damping_n_m_s_per_rad * alpha_dot
+        det = m_arm * m_pend - m_cross * m_cross  # > 0: the mass matrix is positive definite
+        return np.array([(m_pend * rhs_arm - m_cross * rhs_pend) / det, (m_arm * rhs_pend - m_cross * rhs_arm) / det])
 
     def linearise(self, about: Equilibrium = "upright") -> control.StateSpace:
         """Continuous-time model about an equilibrium, with the servo unsaturated.

@@ -176,7 +176,10 @@ class SwingUpController:
         return self.mode
 
     def action(self, state: RigState) -> np.ndarray:
-        estimate = self.balancer.estimate(state)
+        return self.act(self.balancer.estimate(state))
+
+    def act(self, estimate: RigState) -> np.ndarray:
+        """The action for a state already passed through the balancer's estimator."""
         theta = angle_from_upright_rad(estimate)
         cfg = self.config
         mode = self._next_mode(theta, estimate.pendulum_velocity_rad_s)
@@ -196,6 +199,16 @@ class SwingUpController:
             step = self.swing_rate_rad_s(estimate) * self.balancer.period_s
             self._swing_target_rad = max(-limit, min(limit, self._swing_target_rad + step))
             unit = self._towards(self._swing_target_rad)
+        c = self.env_filter_coefficient
+        self._filtered_rad = c * self._filtered_rad + (1 - c) * unit * self.params.servo_range_rad
+        self.balancer.advance(self._filtered_rad)
+        return np.array([unit], dtype=np.float32)
+
+    def follow(self, target_rad: float) -> np.ndarray:
+        """Send `target_rad` for another controller (the trajectory tracker), keeping the filter, the
+        observer and the next swing's starting point as if it had been ours."""
+        self._swing_target_rad = max(-self.params.servo_range_rad, min(self.params.servo_range_rad, target_rad))
+        unit = self._towards(self._swing_target_rad)
         c = self.env_filter_coefficient
         self._filtered_rad = c * self._filtered_rad + (1 - c) * unit * self.params.servo_range_rad
         self.balancer.advance(self._filtered_rad)
