@@ -30,15 +30,19 @@ def main() -> None:
               default=Path("pendkit-output"), show_default=True, help="Where to write the plot and animation.")
 @click.option("--no-animation", is_flag=True, help="Skip the GIF.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
-def demo(fidelity: str, seed: int, start: str, out_dir: Path, no_animation: bool, quiet: bool) -> None:
-    """Swing up and balance on the MuJoCo twin (energy swing-up + LQR); save a plot and a GIF."""
+@click.option("--controller", type=click.Choice(("energy", "trajopt")), default="energy", show_default=True,
+              help="Energy pumping, or the minimum-time plan tracked by time-varying LQR.")
+def demo(fidelity: str, seed: int, start: str, out_dir: Path, no_animation: bool, quiet: bool,
+         controller: str) -> None:
+    """Swing up and balance on the MuJoCo twin (energy or minimum-time swing-up + LQR); save a plot and a GIF."""
     import warnings
 
     from pendkit.demo import run_demo
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # no GL here: frames are drawn instead
-        result = run_demo(fidelity, seed, start, out_dir, progress=not quiet, animate=not no_animation)
+        result = run_demo(fidelity, seed, start, out_dir, progress=not quiet, animate=not no_animation,
+                          controller_name=controller)
     trace = result.trace
     upright = (f"upright after {result.time_to_upright_s:.2f} s and to the end"
                if result.time_to_upright_s is not None else "not upright at the end")

@@ -1,4 +1,7 @@
-"""`pendkit demo`: swing up and balance on the twin with the classical controller; plot and animate."""
+"""`pendkit demo`: swing up and balance on the twin with a classical controller; plot and animate.
+
+Controllers: "energy" (energy pumping, pendkit.control.swingup) and "trajopt" (the minimum-time plan tracked
+by time-varying LQR, pendkit.control.tracking; its plans are drawn over the measured angle)."""
 
 from __future__ import annotations
 
@@ -9,9 +12,13 @@ import numpy as np
 
 import pendkit
 from pendkit.control.swingup import SwingUpController
+from pendkit.control.tracking import TrajectoryController
+from pendkit.errors import ConfigError
 from pendkit.episode import EpisodeTrace, plot_episode, run_episode, time_to_upright_s
 
 ANIMATION_SECONDS = 6.0
+CONTROLLERS = {"energy": SwingUpController.for_env, "trajopt": TrajectoryController.for_env}
+TITLES = {"energy": "Energy swing-up and LQR balance", "trajopt": "Minimum-time swing-up (tracked plan) and LQR"}
 
 
 @dataclass
@@ -23,11 +30,13 @@ class DemoResult:
 
 
 def run_demo(fidelity: str = "realistic", seed: int = 0, start: str = "rest", out_dir: Path = Path("pendkit-output"),
-             progress: bool = True, animate: bool = True) -> DemoResult:
+             progress: bool = True, animate: bool = True, controller_name: str = "energy") -> DemoResult:
     """One episode of swing-up and balance; a plot (angles, action, reward, energy) and a GIF of its start."""
+    if controller_name not in CONTROLLERS:
+        raise ConfigError(f"controller must be one of {sorted(CONTROLLERS)}, got {controller_name!r}")
     env = pendkit.make(action_mode="continuous", fidelity=fidelity, start=start, filter_coefficient=0.0,
                        render_mode="rgb_array" if animate else None)
-    controller = SwingUpController.for_env(env)
+    controller = CONTROLLERS[controller_name](env)
     frames: list[np.ndarray] = []
     frame_steps = max(1, round(0.12 / env.unwrapped.dt))  # about 8 frames per second of rig time
     last_frame_step = int(ANIMATION_SECONDS / env.unwrapped.dt)
@@ -39,21 +48,39 @@ def run_demo(fidelity: str = "realistic", seed: int = 0, start: str = "rest", ou
             frames.append(env.render())
         return controller(observation, state)
 
+    policy.reset = controller.reset  # run_episode starts stateful controllers afresh
     frames_seen: list[int] = []
     trace = run_episode(env, policy, seed=seed, progress=progress)
     env.close()
     out_dir.mkdir(parents=True, exist_ok=True)
-    plot_path = out_dir / f"demo-{fidelity}-seed{seed}.png"
-    plot_episode(trace, plot_path, title=f"Swing-up and LQR balance on the twin ({fidelity})",
-                 natural_frequency_rad_s=controller.natural_frequency_rad_s)
+    stem = f"demo-{fidelity}-seed{seed}" + ("" if controller_name == "energy" else f"-{controller_name}")
+    plot_path = out_dir / f"{stem}.png"
+    figure = plot_episode(trace, None, title=f"{TITLES[controller_name]} on the twin ({fidelity})",
+                          natural_frequency_rad_s=controller.natural_frequency_rad_s)
+    _draw_plans(figure.axes[0], getattr(controller, "plans", []), trace)
+    figure.savefig(plot_path, dpi=110)
     animation_path = None
     if animate and frames:
-        animation_path = out_dir / f"demo-{fidelity}-seed{seed}.gif"
+        animation_path = out_dir / f"{stem}.gif"
         _write_gif(frames, animation_path, frame_ms=round(frame_steps * env.unwrapped.dt * 1000),
                    description=f"The rig's twin swinging up and balancing, the first {ANIMATION_SECONDS:g} s "
                                f"of the episode ({fidelity} fidelity).")
     return DemoResult(trace, time_to_upright_s(trace.pendulum_from_upright_rad, env.unwrapped.dt), plot_path,
                       animation_path)
+
+
+def _draw_plans(axis, plans, trace: EpisodeTrace) -> None:
+    """Each plan's pendulum angle from upright (degrees), dotted, from the step it was made."""
+    times = np.asarray(trace.time_s)
+    for number, plan in enumerate(plans):
+        start_s = plan.notes.get("made_at_s", 0.0)
+        planned = np.degrees(plan.states[:, 1] % (2 * np.pi) - np.pi)
+        planned[1:][np.abs(np.diff(planned)) > 180] = np.nan  # no line across the +-180 deg wrap
+        axis.plot(start_s + np.arange(len(planned)) * plan.period_s, planned, color="black", linestyle=":",
+                  lw=1.2, label="plan" if number == 0 else None)
+    if plans:
+        axis.set_xlim(times[0], times[-1])
+        axis.legend(loc="upper right", fontsize=8)
 
 
 def _write_gif(frames: list[np.ndarray], path: Path, frame_ms: int, description: str) -> None:

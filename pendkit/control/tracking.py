@@ -11,6 +11,7 @@ stall torque), so the gain is small there and the feedback acts around the switc
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import control
 import numpy as np
@@ -58,13 +59,13 @@ class TrajectoryController:
     thresholds, its balancer). A new plan starts from the present state when the pendulum drifts
     `drift_rad` off the plan, falls while settling or falls from balance, at most `replans` times; after
     that, or when no plan reaches upright within `max_steps`, the energy pumping of `SwingUpController`
-    is the fallback. `mode` is "track" while a plan (or its settling) drives, else the swing-up's mode.
+    is the fallback. `planner(x0) -> Plan | None` replaces the search (lab 05 plugs in a student's problem). `mode` is "track" while a plan (or its settling) drives, else the swing-up's mode.
     """
 
     def __init__(self, swing_up: SwingUpController, step_model: StepModel, limits: SwingUpLimits | None = None,
                  max_switches: int = 5, max_steps: int = 40, drift_rad: float = 0.15,
                  replans: int = 20, settle_steps: int = 30, warmup_steps: int = 3,
-                 weights: LqrWeights | None = None) -> None:
+                 weights: LqrWeights | None = None, planner: Callable[[np.ndarray], Plan | None] | None = None) -> None:
         if max_switches < 1 or max_steps < 1 or not drift_rad > 0 or replans < 0:
             raise ConfigError("max_switches and max_steps must be >= 1, drift_rad > 0 and replans >= 0")
         self.swing_up, self.step_model = swing_up, step_model
@@ -72,10 +73,12 @@ class TrajectoryController:
         self.max_switches, self.max_steps, self.drift_rad, self.replans = max_switches, max_steps, drift_rad, replans
         self.settle_steps, self.warmup_steps = settle_steps, warmup_steps
         self.weights = weights or TRACKING_WEIGHTS
+        self.planner = planner or (lambda x0: fastest_bang_bang(self.step_model, x0, self.limits, self.max_steps,
+                                                                self.max_switches))
         self.natural_frequency_rad_s = swing_up.natural_frequency_rad_s
         self.plans: list[Plan] = []
         self._plan: Plan | None = None
-        self._replans_left = replans
+        self._replans_left, self._steps_taken, self._warmup_left = replans, 0, warmup_steps
 
     @property
     def mode(self) -> str:
@@ -87,7 +90,7 @@ class TrajectoryController:
 
     def reset(self, state: RigState) -> None:
         self.swing_up.reset(state)
-        self.plans, self._replans_left = [], self.replans
+        self.plans, self._replans_left, self._steps_taken = [], self.replans, 0
         self._plan, self._warmup_left = None, self.warmup_steps
         if self.warmup_steps == 0:
             self._start_plan(state)
@@ -95,14 +98,16 @@ class TrajectoryController:
     def _start_plan(self, estimate: RigState) -> None:
         x0 = np.array([estimate.arm_angle_rad, estimate.pendulum_angle_rad, estimate.arm_velocity_rad_s,
                        estimate.pendulum_velocity_rad_s, self.swing_up._filtered_rad])
-        plan = fastest_bang_bang(self.step_model, x0, self.limits, self.max_steps, self.max_switches)
+        plan = self.planner(x0)
         self._plan, self._step = None, 0
         if plan is not None and len(plan.targets_rad) > 0:
             plan.notes["gains"], self._settle_gain = time_varying_lqr(self.step_model, plan, self.weights)
+            plan.notes["made_at_s"] = (self._steps_taken - 1) * self.step_model.period_s
             self._plan = plan
             self.plans.append(plan)
 
     def action(self, state: RigState) -> np.ndarray:
+        self._steps_taken += 1
         estimate = self.swing_up.balancer.estimate(state)
         if self._warmup_left > 0:  # hold still while the observer settles on the rates
             self._warmup_left -= 1

@@ -43,4 +43,38 @@ def random_states(fn, rng):
                f"got {outcome.error or outcome.value!r}")
 
 
+catch = task("05.catch_set", function="catch_set", title="The catch set as bounds on the final state")
+final_cost = task("05.terminal_cost", function="terminal_cost", title="The plan's terminal cost")
+limits = task("05.path_limits", function="path_limits", title="Bounds along the swing-up plan")
+
+
+@catch.test(points=1, hidden=True, hint="Every threshold goes where its name says, for any values.")
+def random_thresholds(fn, rng):
+    for _ in range(10):
+        upright = float(rng.choice([math.pi, -math.pi, 3 * math.pi]))
+        angle, velocity, arm, arm_velocity = (float(v) for v in rng.uniform(0.05, 8.0, 4))
+        lower, upper = (list(map(float, x)) for x in fn(upright, angle, velocity, arm, arm_velocity))
+        want = ([-arm, upright - angle, -arm_velocity, -velocity], [arm, upright + angle, arm_velocity, velocity])
+        expect(all(abs(a - b) < 1e-9 for a, b in zip(lower + upper, want[0] + want[1])),
+               f"catch_set({upright:.4f}, {angle:.3f}, {velocity:.3f}, {arm:.3f}, {arm_velocity:.3f}) is wrong")
+
+
+@final_cost.test(points=1, hidden=True, hint="Random states, both uprights; the fifth entry does not count.")
+def random_states(fn, rng):
+    for _ in range(20):
+        state = [float(v) for v in rng.uniform(-4, 4, 5)]
+        upright = float(rng.choice([math.pi, -math.pi]))
+        expected = (0.1 * state[0] ** 2 + 10 * (state[1] - upright) ** 2 + 0.1 * state[2] ** 2 + state[3] ** 2)
+        got = float(fn(state, upright))
+        expect(abs(got - expected) < 1e-9 * max(1.0, expected), f"terminal_cost({state}, {upright:.4f}) is wrong")
+
+
+@limits.test(points=1, hidden=True, hint="Any arm limit and over-spin limit.")
+def other_limits(fn, rng):
+    for arm, overspin in rng.uniform([0.2, 0.5], [1.5, 5.0], (5, 2)):
+        target, rate = (float(x) for x in fn(float(arm), float(overspin)))
+        expect(abs(target - arm) < 1e-9 and abs(rate - 2 * math.pi * overspin) < 1e-9,
+               f"path_limits({arm:.3f}, {overspin:.3f}) is wrong")
+
+
 prelab_answers("05", {"energy_hanging": -1.0, "energy_upright": 1.0, "energy_horizontal": 0.0})

@@ -92,6 +92,9 @@ CORRECT = {
     "05.pendulum_energy": lambda alpha, w, w0: 0.5 * (w / w0) ** 2 - math.cos(alpha),
     "05.pumping_direction": lambda alpha, w: -1 if w * math.cos(alpha) > 0 else 1,
     "05.next_mode": lambda mode, theta, w: next_mode(mode, theta, w),
+    "05.path_limits": lambda arm, rev_s: (arm, 2 * math.pi * rev_s),
+    "05.catch_set": lambda up, a, w, arm, arm_w: catch_set(up, a, w, arm, arm_w),
+    "05.terminal_cost": lambda x, up: terminal_cost(x, up),
     "06.period_error_p99_ms": lambda t, nominal: float(np.percentile(np.abs(np.diff(t) - nominal) * 1000, 99)),
     "06.fit_latency": lambda samples: fit_latency(samples),
     "06.predict_angle": lambda theta, rate, d, w0: theta + rate * d + 0.5 * w0**2 * theta * d**2,
@@ -157,6 +160,17 @@ def period_counting_both_directions(t, a):
 def damping_with_log10(peaks):
     delta = log_decrement(peaks, np.log10)
     return delta / math.sqrt(4 * math.pi**2 + delta**2)
+
+
+def catch_set(upright, angle, velocity, arm, arm_velocity, centre=None, one_sided=False):
+    centre = upright if centre is None else centre
+    low_rate = 0.0 if one_sided else 1.0
+    return ([-arm, centre - angle, -low_rate * arm_velocity, -low_rate * velocity],
+            [arm, centre + angle, arm_velocity, velocity])
+
+
+def terminal_cost(x, upright):
+    return 0.1 * x[0] ** 2 + 10 * (x[1] - upright) ** 2 + 0.1 * x[2] ** 2 + x[3] ** 2
 
 
 def next_mode(mode, theta, w, catch=0.8, fall=1.1, check_velocity=True):
@@ -315,6 +329,10 @@ MISTAKES = [
     ("05.pumping_direction", lambda alpha, w: -1 if w > 0 else 1, "above horizontal"),
     ("05.next_mode", lambda mode, theta, w: next_mode(mode, theta, w, fall=0.8), "hysteresis"),
     ("05.next_mode", lambda mode, theta, w: next_mode(mode, theta, w, check_velocity=False), "fly through"),
+    ("05.path_limits", lambda arm, rev_s: (arm, rev_s), "revolutions to radians"),
+    ("05.catch_set", lambda up, a, w, arm, arm_w: catch_set(up, a, w, arm, arm_w, centre=0.0), "around hanging"),
+    ("05.catch_set", lambda up, a, w, arm, arm_w: catch_set(up, a, w, arm, arm_w, one_sided=True), "both sides"),
+    ("05.terminal_cost", lambda x, up: terminal_cost(x, 0.0), "not from 0"),
     ("06.period_error_p99_ms", lambda t, n: float(np.percentile(np.abs(np.diff(t) - n), 99)), "seconds"),
     ("06.period_error_p99_ms", lambda t, n: float(np.percentile((np.diff(t) - n) * 1000, 99)), "absolute error"),
     ("06.fit_latency", lambda samples: fit_latency(samples, subtract_floor=False), "subtract the floor"),

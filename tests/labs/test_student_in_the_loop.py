@@ -82,3 +82,23 @@ def test_lab09_the_students_watchdog_holds_the_rig_when_the_wifi_drops_and_a_sil
     wrong = printed_by_lab("09_deploy.ipynb", "WifiDropsOut(SwingUpController", {"should_stop": NEVER_STOPS})
     assert "your watchdog held the rig" in right and "old" in right, right
     assert "your watchdog did not stop the rig" in wrong, wrong
+
+
+CATCH_AROUND_HANGING = '''
+def catch_set(upright_rad, angle_rad, velocity_rad_s, arm_angle_rad, arm_velocity_rad_s):
+    lower = [-arm_angle_rad, -angle_rad, -arm_velocity_rad_s, -velocity_rad_s]  # centred on hanging
+    upper = [arm_angle_rad, angle_rad, arm_velocity_rad_s, velocity_rad_s]
+    return lower, upper
+'''
+
+
+def upright_at_s(text: str, label: str) -> float:
+    return float(re.search(rf"{label}: upright at ([\d.]+) s", text).group(1))
+
+
+def test_lab05_the_students_problem_plans_a_swing_up_faster_than_pumping_and_a_wrong_catch_set_does_not():
+    right = printed_by_lab("05_swingup.ipynb", "your_planner(step_model, made)")
+    wrong = printed_by_lab("05_swingup.ipynb", "your_planner(step_model, made)", {"catch_set": CATCH_AROUND_HANGING})
+    assert upright_at_s(right, "tracked plan") < 0.6 * upright_at_s(right, "your pumping law"), right
+    assert "found no solution" in wrong, wrong
+    assert upright_at_s(wrong, "tracked plan") > upright_at_s(right, "tracked plan") + 1.0, (right, wrong)

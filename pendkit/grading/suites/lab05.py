@@ -4,13 +4,16 @@ from __future__ import annotations
 
 import math
 
-from pendkit.grading.core import as_number, expect, task
+from pendkit.grading.core import as_number, expect, is_sequence_of, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
 energy = task("05.pendulum_energy", function="pendulum_energy", title="Normalised pendulum energy")
 direction = task("05.pumping_direction", function="pumping_direction", title="Which way to accelerate the arm")
 switch = task("05.next_mode", function="next_mode", title="Hand-over between swing-up and LQR")
+limits = task("05.path_limits", function="path_limits", title="Bounds along the swing-up plan")
+catch = task("05.catch_set", function="catch_set", title="The catch set as bounds on the final state")
+final_cost = task("05.terminal_cost", function="terminal_cost", title="The plan's terminal cost")
 
 W0 = 5.3
 
@@ -61,6 +64,54 @@ def hand_over_with_hysteresis(fn, rng):
                f"got {got!r}")
 
 
+@limits.test(points=1, hint="The over-spin limit is in revolutions per second; the plan's rates are in rad/s.")
+def targets_and_rates(fn, rng):
+    got = fn(1.4, 2.0)
+    expect(is_sequence_of(got, 2), f"path_limits(1.4, 2.0) should return a pair, got {got!r}")
+    target, rate = (as_number(x, "path_limits(1.4, 2.0)") for x in got)
+    expect(abs(target - 1.4) < 1e-9, f"the target limit should be the arm limit 1.4 rad, got {target}")
+    message = f"2 rev/s is {4 * math.pi:.3f} rad/s, got {rate}"
+    if abs(rate - 2.0) < 1e-9:
+        message += ": convert revolutions to radians (one turn is 2 pi)"
+    expect(abs(rate - 4 * math.pi) < 1e-9, message)
+
+
+def bounds_pair(got, call: str):
+    expect(is_sequence_of(got, 2), f"{call} should return (lower, upper), got {type(got).__name__}")
+    lower, upper = (list(x) if is_sequence_of(x, 4) else None for x in got)
+    expect(lower is not None and upper is not None, f"{call}: lower and upper should have 4 bounds each")
+    return [as_number(x, call) for x in lower], [as_number(x, call) for x in upper]
+
+
+@catch.test(points=3, hint="A box around upright_rad for the pendulum (measured from the bottom), symmetric "
+                           "bounds for the rates and the arm.")
+def box_around_upright(fn, rng):
+    for upright in (math.pi, -math.pi):
+        call = f"catch_set({upright:.4f}, 0.25, 1.5, 0.9, 6.0)"
+        lower, upper = bounds_pair(fn(upright, 0.25, 1.5, 0.9, 6.0), call)
+        want_lower, want_upper = [-0.9, upright - 0.25, -6.0, -1.5], [0.9, upright + 0.25, 6.0, 1.5]
+        message = f"{call} should be ({want_lower}, {want_upper}), got ({lower}, {upper})"
+        if abs(lower[1] + 0.25) < 1e-9 and abs(upper[1] - 0.25) < 1e-9:
+            message += ": the box is around hanging; centre it on upright_rad"
+        elif lower[2] == 0 or lower[3] == 0:
+            message += ": rates can be negative too; bound them on both sides"
+        expect(all(abs(a - b) < 1e-9 for a, b in zip(lower + upper, want_lower + want_upper)), message)
+
+
+@final_cost.test(points=2, hint="0.1 phi^2 + 10 (alpha - upright)^2 + 0.1 phi'^2 + alpha'^2; ignore the fifth entry.")
+def distance_from_upright(fn, rng):
+    for state, upright in [([0.0, math.pi, 0.0, 0.0, 0.7], math.pi), ([0.3, 2.9, 1.0, 0.5, 0.2], math.pi),
+                           ([-0.2, -3.0, 0.0, -1.0, 0.0], -math.pi)]:
+        arm, pendulum, arm_rate, pendulum_rate = state[:4]
+        expected = 0.1 * arm**2 + 10 * (pendulum - upright) ** 2 + 0.1 * arm_rate**2 + pendulum_rate**2
+        call = f"terminal_cost({state}, {upright:.4f})"
+        got = as_number(fn(list(state), upright), call)
+        message = f"{call} should be {expected:.4f}, got {got:.4f}"
+        if abs(got - (expected - 10 * (pendulum - upright) ** 2 + 10 * pendulum**2)) < 1e-9:
+            message += ": measure the pendulum's error from upright_rad, not from 0"
+        expect(abs(got - expected) < 1e-9, message)
+
+
 prelab_task("05", ("energy_hanging", "energy_upright", "energy_horizontal",))
 
-written("05.reflection", "Reflection", points=2)
+written("05.reflection", "Reflection", points=3)
