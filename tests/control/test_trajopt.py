@@ -123,10 +123,11 @@ def test_with_no_plan_the_controller_falls_back_to_energy_pumping():
     traced = run_episode(env, fallback, seed=3, steps=200)
     env = pendkit.make(action_mode="continuous", fidelity="ideal", filter_coefficient=0.0)
     pumped = run_episode(env, SwingUpController.for_env(env), seed=3, steps=200)
-    assert not fallback.plans
-    assert time_to_upright_s(traced.pendulum_from_upright_rad, env.unwrapped.dt) is not None
-    # After the warm-up hold, the same pumping law as the energy controller's (shifted by the hold).
-    assert np.max(np.abs(np.diff(traced.action[4:20]))) > 0
+    assert not fallback.plans and fallback.mode in ("swing", "balance")
+    fallback_s = time_to_upright_s(traced.pendulum_from_upright_rad, env.unwrapped.dt)
+    pumped_s = time_to_upright_s(pumped.pendulum_from_upright_rad, env.unwrapped.dt)
+    # The energy controller's own law, started after the warm-up hold (3 steps): about as fast.
+    assert fallback_s is not None and pumped_s is not None and abs(fallback_s - pumped_s) < 1.5, (fallback_s, pumped_s)
 
 
 def test_the_tracker_runs_unchanged_through_the_rig_backend():
