@@ -55,10 +55,9 @@ def run_demo(fidelity: str = "realistic", seed: int = 0, start: str = "rest", ou
     out_dir.mkdir(parents=True, exist_ok=True)
     stem = f"demo-{fidelity}-seed{seed}" + ("" if controller_name == "energy" else f"-{controller_name}")
     plot_path = out_dir / f"{stem}.png"
-    figure = plot_episode(trace, None, title=f"{TITLES[controller_name]} on the twin ({fidelity})",
-                          natural_frequency_rad_s=controller.natural_frequency_rad_s)
-    _draw_plans(figure.axes[0], getattr(controller, "plans", []), trace)
-    figure.savefig(plot_path, dpi=110)
+    plot_episode(trace, plot_path, title=f"{TITLES[controller_name]} on the twin ({fidelity})",
+                 natural_frequency_rad_s=controller.natural_frequency_rad_s,
+                 decorate=lambda axes: _draw_plans(axes[0], getattr(controller, "plans", []), trace))
     animation_path = None
     if animate and frames:
         animation_path = out_dir / f"{stem}.gif"

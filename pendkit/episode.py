@@ -115,7 +115,7 @@ def time_to_upright_s(angles_from_upright_rad, dt_s: float) -> float | None:
 
 
 def plot_episode(trace: EpisodeTrace, path: str | Path | None = None, title: str = "Episode",
-                 natural_frequency_rad_s: float | None = None):
+                 natural_frequency_rad_s: float | None = None, decorate=None):
     """Angles, action, reward (and the pendulum's energy, given its natural frequency) against time;
     saved to `path` (PNG) when given. Returns the figure."""
     from matplotlib.figure import Figure
@@ -143,6 +143,8 @@ def plot_episode(trace: EpisodeTrace, path: str | Path | None = None, title: str
         axes[3].set_ylabel("energy (upright = 1)")
     axes[-1].set_xlabel("time (s)")
     figure.suptitle(f"{title}: return {trace.episode_return:.1f}")
+    if decorate is not None:
+        decorate(axes)  # the caller's additions (the demo's planned trajectories)
     if path is not None:
         Path(path).parent.mkdir(parents=True, exist_ok=True)
         alt = (f"{title}. Pendulum angle from upright and arm angle in degrees, the action and the reward "

@@ -39,3 +39,15 @@ def test_info_json_has_versions_and_rig():
 def test_info_rejects_unknown_preset():
     result = CliRunner().invoke(main, ["info", "--preset", "nope"])
     assert result.exit_code == 2 and "unknown rig preset" in result.output
+
+
+def test_demo_runs_the_minimum_time_swing_up_and_draws_its_plans(tmp_path):
+    result = CliRunner().invoke(main, ["demo", "--fidelity", "ideal", "--controller", "trajopt", "--no-animation",
+                                       "--out", str(tmp_path), "--quiet"])
+    assert result.exit_code == 0, result.output
+    plot = tmp_path / "demo-ideal-seed0-trajopt.png"
+    from PIL import Image
+
+    assert "Minimum-time swing-up" in Image.open(plot).info["Description"]
+    upright_s = float(result.output.split("upright after ")[1].split(" s")[0])
+    assert upright_s < 2.5  # energy pumping from rest on the ideal twin: 4.0 s
