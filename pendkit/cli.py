@@ -204,6 +204,41 @@ def bom(csv_path: Path, rigs: int) -> None:
 
 
 @main.command()
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("pendkit-cad"),
+              show_default=True, help="Where to write the STL files and parts.json.")
+@click.option("--preset", default=None, help="A RigParams preset (see `pendkit info`); default the paper's rig.")
+@click.option("--render", "render_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Also draw the assembled and exploded views into this folder (needs OpenGL).")
+def cad(out_dir: Path, preset: str | None, render_dir: Path | None) -> None:
+    """Write the printed parts as STL (mm) from RigParams, check they fit together, print their masses."""
+    from pendkit.cad.assembly import export, overlaps_mm3
+    from pendkit.errors import ConfigError
+    from pendkit.rig import RigParams
+
+    try:
+        params = RigParams.preset(preset) if preset else RigParams()
+    except ConfigError as error:
+        raise click.ClickException(str(error)) from None
+    clashes = {pair: volume for pair, volume in overlaps_mm3(params).items() if volume > 1e-3}
+    if clashes:
+        raise click.ClickException(f"parts overlap (mm^3): {clashes}")
+    written = export(out_dir, params)
+    summary = json.loads(written[-1].read_text())
+    for name, part in summary["parts"].items():
+        click.echo(f"{part['file']:<20} {part['size_mm'][0]:6.1f} x {part['size_mm'][1]:5.1f} x "
+                   f"{part['size_mm'][2]:5.1f} mm  {part['printed_mass_g']:5.1f} g")
+    click.echo(f"filament per rig: {summary['filament_per_rig_g']:.0f} g; written to {out_dir}/")
+    if render_dir is not None:
+        from pendkit.cad.render import render
+
+        try:
+            for path in render(params, render_dir):
+                click.echo(f"view: {path}")
+        except ConfigError as error:
+            raise click.ClickException(str(error)) from None
+
+
+@main.command()
 @click.option("--pins", "pins_path", type=click.Path(exists=True, dir_okay=False, path_type=Path),
               default=Path("firmware/include/pins.h"), show_default=True, help="The firmware's pin map.")
 @click.option("--out", "out_path", type=click.Path(dir_okay=False, path_type=Path),

@@ -41,7 +41,11 @@ class RigParams:
     mount_half_y_m: float = 0.012
     encoder_radius_m: float = 0.011
     encoder_half_length_m: float = 0.006
-    encoder_inset_m: float = 0.017  # encoder body centre, inboard of the pivot along the arm
+    # Encoder body centre, inboard of the pivot along the arm: behind the printed mount's 3 mm plate, with
+    # the coupler's 7 mm of shaft engagement in front of it (pendkit/cad/parts.py draws them).
+    encoder_inset_m: float = 0.0215
+    encoder_shaft_diameter_m: float = 0.00635   # EMS-22A: 1/4 inch shaft
+    encoder_bushing_diameter_m: float = 0.0095  # 3/8-32 threaded bushing through the mount's plate
 
     # --- pendulum: pine dowel with a printed tip weight, hanging from the encoder shaft ---
     coupler_mass_kg: float = 0.015
@@ -61,6 +65,11 @@ class RigParams:
 
     # --- servo (defaults: Hitec D645MW on the 6 V channel) ---
     servo_name: str = "Hitec D645MW"
+    # Body of a standard-size servo (the printed mount's window and screw holes), mm-accurate for the D645MW
+    servo_body_length_m: float = 0.0405
+    servo_body_width_m: float = 0.0200
+    servo_body_height_m: float = 0.0370
+    servo_ear_hole_spacing_m: float = 0.0495
     servo_speed_s_per_60deg: float = 0.20
     servo_stall_torque_kg_cm: float = 11.3
     servo_range_deg: float = 90.0

@@ -26,10 +26,15 @@ NOT_HERE = ("# hardware-only", "# windows-only", "# online-only", "# classroom-o
 def test_bom_columns_and_totals():
     lines = read_bom(BOM)
     assert len(lines) >= 12
-    total = sum(line.quantity * line.unit_price for line in lines)
+    total = sum(line.quantity * line.unit_price for line in lines if line.scope == "rig")
+    shared = sum(line.quantity * line.unit_price for line in lines if line.scope == "class")
     summary = cost_summary(lines, rigs=10)
-    assert f"**{total:.2f}**" in summary and f"**{10 * total:.2f}**" in summary
+    assert f"**{total:.2f}**" in summary and f"**{shared:.2f}**" in summary
+    assert f"**{10 * total + shared:.2f}**" in summary
     assert 100 < total < 300  # a low-cost rig, as the paper promises
+    parts = {line.part for line in lines}
+    assert {"Kill switch", "Wi-Fi access point", "Broker computer"} <= parts
+    assert {line.scope for line in lines if line.part in ("Wi-Fi access point", "Broker computer")} == {"class"}
     assert (ROOT / "hardware_bom" / "README.md").read_text().count(summary) == 1, \
         "hardware_bom/README.md is stale: paste `pendkit bom` into it"
 
@@ -38,6 +43,7 @@ def test_bom_columns_and_totals():
     (lambda text: text.replace("part,part_number", "part,number"), "columns must be"),
     (lambda text: text.replace("2026-11-21", "21/11/2026", 1), "YYYY-MM-DD"),
     (lambda text: text.replace(",USD,", ",EUR,", 1), "one currency"),
+    (lambda text: text.replace(",rig,", ",lab,", 1), "scope must be one of"),
     (lambda text: text.replace(",44.99,", ",free,", 1), "must be numbers"),
 ])
 def test_bad_bom_files_are_refused(tmp_path, change, words):

@@ -8,6 +8,9 @@ The servo is one actuator: an integrator whose state is the target angle (so a d
 rate" command needs no per-substep Python), a proportional-derivative drive clipped at the stall
 torque, and back-EMF damping on the joint, which together give a linear torque-speed curve that
 tops out at the datasheet's no-load speed. The gear train's reflected rotor inertia is joint armature.
+
+The printed parts are drawn with the meshes their STL files are cut from (pendkit/cad: visual only, no
+mass); their masses sit in simple shapes (hidden, group 3) that the analytic model shares.
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ import math
 
 import mujoco
 
+from pendkit.cad.twin_meshes import twin_meshes
 from pendkit.rig import GRAVITY_M_S2, RigParams
 
 ARM_JOINT = "arm"
@@ -38,11 +42,18 @@ _TEMPLATE = """
     <material name="pine" rgba=".87 .72 .48 1"/>
     <material name="print" rgba=".00 .45 .70 1"/>
     <material name="dark" rgba=".20 .20 .22 1"/>
+    <mesh name="tip_weight" file="tip_weight.stl" scale=".001 .001 .001"/>
+    <mesh name="coupler" file="coupler.stl" scale=".001 .001 .001"/>
+    <mesh name="encoder_mount" file="encoder_mount.stl" scale=".001 .001 .001"/>
+    <mesh name="servo_mount" file="servo_mount.stl" scale=".001 .001 .001"/>
+    <mesh name="base_clamp" file="base_clamp.stl" scale=".001 .001 .001"/>
   </asset>
   <worldbody>
     <light pos="0.3 -0.6 1.2" dir="-0.2 0.5 -1"/>
     <geom name="floor" type="plane" size="1 1 0.01" material="grid" pos="0 0 -{servo_height}"/>
     <geom name="stand" type="cylinder" size="0.015 {stand_half}" pos="0 0 -{stand_centre}" material="dark" mass="0"/>
+    <geom name="servo_mount_print" type="mesh" mesh="servo_mount" material="print" mass="0" contype="0" conaffinity="0"/>
+    <geom name="base_clamp_print" type="mesh" mesh="base_clamp" material="print" mass="0" contype="0" conaffinity="0"/>
     <camera name="front" pos="{cam_x} -1.1 0.15" xyaxes="1 0 0 0 0.2 1"/>
     <camera name="top" pos="{cam_x} 0 1.1" xyaxes="1 0 0 0 1 0"/>
     <body name="arm">
@@ -53,16 +64,21 @@ _TEMPLATE = """
       <geom name="servo_horn" type="cylinder" size="{horn_r} {horn_hh}" pos="0 0 {horn_z}" mass="{horn_mass}"
             material="dark"/>
       <geom name="encoder_mount" type="box" size="{mount_hx} {mount_hy} {mount_half_h}" pos="{pivot_r} 0 {mount_z}"
-            mass="{mount_mass}" material="print"/>
+            mass="{mount_mass}" material="print" group="3"/>
+      <geom name="encoder_mount_print" type="mesh" mesh="encoder_mount" material="print" mass="0" contype="0"
+            conaffinity="0"/>
       <geom name="encoder" type="cylinder" size="{enc_r} {enc_hl}" pos="{encoder_x} 0 {pivot_z}" zaxis="1 0 0"
             mass="{encoder_mass}" material="dark"/>
       <body name="pendulum" pos="{pivot_r} 0 {pivot_z}">
         <joint name="{pendulum}" type="hinge" axis="1 0 0" damping="{pendulum_damping}"/>
-        <geom name="coupler" type="sphere" size="{coupler_r}" mass="{coupler_mass}" material="print"/>
+        <geom name="coupler" type="sphere" size="{coupler_r}" mass="{coupler_mass}" material="print" group="3"/>
+        <geom name="coupler_print" type="mesh" mesh="coupler" material="print" mass="0" contype="0" conaffinity="0"/>
         <geom name="dowel" type="cylinder" fromto="0 0 0 0 0 -{dowel_len}" size="{dowel_r}"
               mass="{dowel_mass}" material="pine"/>
         <geom name="tip_weight" type="cylinder" pos="0 0 -{tip_z}" size="{tip_r} {tip_half_h}"
-              mass="{tip_mass}" material="print"/>
+              mass="{tip_mass}" material="print" group="3"/>
+        <geom name="tip_weight_print" type="mesh" mesh="tip_weight" material="print" mass="0" contype="0"
+              conaffinity="0"/>
         <site name="tip" pos="0 0 -{dowel_len}" size="0.004"/>
       </body>
     </body>
@@ -117,12 +133,12 @@ def model_xml(params: RigParams, *, lock_arm: bool = False, energy: bool = False
 @functools.lru_cache(maxsize=16)
 def build_model(params: RigParams, *, lock_arm: bool = False, energy: bool = False) -> mujoco.MjModel:
     """Compile the twin for `params` (cached: RigParams is frozen and hashable). Do not mutate the result."""
-    return mujoco.MjModel.from_xml_string(model_xml(params, lock_arm=lock_arm, energy=energy))
+    return mujoco.MjModel.from_xml_string(model_xml(params, lock_arm=lock_arm, energy=energy), twin_meshes(params))
 
 
 def fresh_model(params: RigParams, **kwargs) -> mujoco.MjModel:
     """An uncached model that callers may modify (tests, system identification)."""
-    return mujoco.MjModel.from_xml_string(model_xml(params, **kwargs))
+    return mujoco.MjModel.from_xml_string(model_xml(params, **kwargs), twin_meshes(params))
 
 
 def small_oscillation_period_s(params: RigParams) -> float:
