@@ -6,7 +6,7 @@ from the servo axis, z up, the tube's axis at z = 0); the pendulum's parts hang 
 assembly (pendkit/cad/assembly.py) therefore needs no transforms, and the twin can place the meshes at
 the same coordinates.
 
-Why manifold3d (with trimesh for STL) and not build123d/CadQuery: its wheels are ~3 MB against ~240 MB
+Why manifold3d and not build123d/CadQuery: its wheels are ~3 MB against ~240 MB
 for build123d with OpenCascade (measured with `pip download` here), which matters on a student's laptop;
 it has exact booleans and volumes, which is all these parts need. It cannot write STEP.
 """
