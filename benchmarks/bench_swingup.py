@@ -22,13 +22,9 @@ import time
 import numpy as np
 
 import pendkit
-from pendkit.control.swingup import SwingUpController
-from pendkit.control.tracking import TrajectoryController
 from pendkit.control.trajopt import StepModel, fastest_bang_bang, initial_state, polish_with_ocp
+from pendkit.demo import CONTROLLERS
 from pendkit.episode import run_episode, time_to_upright_s
-
-
-CONTROLLERS = {"energy": SwingUpController.for_env, "trajopt": TrajectoryController.for_env}
 
 
 def run(fidelity: str, starts: int, env_filter: bool, controller: str = "energy") -> tuple[list[float], int]:

@@ -12,7 +12,7 @@ import numpy as np
 
 from pendkit.cad.parts import (COUPLER_INBOARD_MM, MM, PLATE_GAP_MM, PLATE_MM, PRINTED_PARTS, SHAFT_END_MM,
                                PrintSettings, _box, _cylinder, _servo_top_mm, pivot_mm, printed_mass_g,
-                               table_top, tip_weight)
+                               servo_footprint_mm, table_top, tip_weight)
 from pendkit.rig import RigParams
 
 # Assembly order for the build guide: each printed part's file and what it joins.
@@ -37,8 +37,7 @@ def bought_parts(params: RigParams) -> dict[str, mf.Manifold]:
     half_w, half_h = params.arm_tube_width_m * MM / 2, params.arm_tube_height_m * MM / 2
     plate_front = x - COUPLER_INBOARD_MM - PLATE_GAP_MM
     encoder_length = 2 * params.encoder_half_length_m * MM
-    length, width = params.servo_body_length_m * MM, params.servo_body_width_m * MM
-    offset = length / 2 - width / 2
+    length, width, offset = servo_footprint_mm(params)
     servo_top = _servo_top_mm(params)
     horn_h = 2 * params.horn_half_height_m * MM
     socket_top = z + params.coupler_radius_m * MM / 2

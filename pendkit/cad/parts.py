@@ -124,9 +124,8 @@ def servo_mount(params: RigParams, settings: PrintSettings = PrintSettings()) ->
     """A deck under the arm with a window the servo drops into, hanging by its ears (two screws each side);
     the servo's output shaft on the arm's axis."""
     c = settings.bore_clearance_mm
-    length, width = params.servo_body_length_m * MM, params.servo_body_width_m * MM
+    length, width, offset = servo_footprint_mm(params)
     top = _servo_top_mm(params)
-    offset = length / 2 - width / 2  # the output shaft sits near one end of the body
     deck = _box((-offset - length / 2 - 12, -width / 2 - 10, top - 5), (-offset + length / 2 + 12, width / 2 + 10, top))
     window = _box((-offset - length / 2 - c, -width / 2 - c, top - 6), (-offset + length / 2 + c, width / 2 + c, top + 1))
     mount = deck - window
@@ -146,8 +145,7 @@ def base_clamp(params: RigParams, settings: PrintSettings = PrintSettings(), tab
     """A C-clamp for a table edge up to `table_mm` thick. Its top jaw carries the servo mount (M4 holes
     matching) with a window the servo hangs through in front of the table's edge; the bottom jaw takes
     an M6 clamping screw."""
-    length, width = params.servo_body_length_m * MM, params.servo_body_width_m * MM
-    offset = length / 2 - width / 2
+    length, width, offset = servo_footprint_mm(params)
     top = _servo_top_mm(params) - 5  # under the servo mount's deck
     x0, x1 = -offset - length / 2 - 12, -offset + length / 2 + 12
     y0 = -width / 2 - 10
@@ -169,6 +167,12 @@ def table_top(params: RigParams, table_mm: float = 40.0) -> mf.Manifold:
     """The table the clamp grips (for the assembly check): its edge at TABLE_EDGE_Y_MM."""
     top = _servo_top_mm(params) - 5 - 8.0
     return _box((-100, TABLE_EDGE_Y_MM, top - table_mm), (100, CLAMP_DEPTH_MM - 10, top))
+
+
+def servo_footprint_mm(params: RigParams) -> tuple[float, float, float]:
+    """(body length, body width, how far the body's centre sits from the output shaft along -x)."""
+    length, width = params.servo_body_length_m * MM, params.servo_body_width_m * MM
+    return length, width, length / 2 - width / 2  # the output shaft sits near one end of the body
 
 
 def _servo_top_mm(params: RigParams) -> float:

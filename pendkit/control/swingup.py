@@ -204,6 +204,11 @@ class SwingUpController:
         self.balancer.advance(self._filtered_rad)
         return np.array([unit], dtype=np.float32)
 
+    @property
+    def target_in_force_rad(self) -> float:
+        """The servo target the last action left in force (after the env's filter, if any)."""
+        return self._filtered_rad
+
     def follow(self, target_rad: float) -> np.ndarray:
         """Send `target_rad` for another controller (the trajectory tracker), keeping the filter, the
         observer and the next swing's starting point as if it had been ours."""

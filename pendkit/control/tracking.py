@@ -30,7 +30,8 @@ TRACKING_WEIGHTS = LqrWeights(action=0.3, arm_velocity=1.0)
 
 
 def time_varying_lqr(step_model: StepModel, plan: Plan, weights: LqrWeights | None = None) -> np.ndarray:
-    """Gains (N, 1, 5) for x = [phi, alpha, phi', alpha', target in force] along `plan`."""
+    """(gains (N, 1, 5) along `plan`, the upright LQR gain (1, 5) its cost-to-go comes from), both for
+    x = [phi, alpha, phi', alpha', target in force]."""
     weights = weights or LqrWeights()
     q = np.diag([weights.arm_angle, weights.pendulum_angle, weights.arm_velocity, weights.pendulum_velocity,
                  weights.filtered_target])
@@ -97,7 +98,7 @@ class TrajectoryController:
 
     def _start_plan(self, estimate: RigState) -> None:
         x0 = np.array([estimate.arm_angle_rad, estimate.pendulum_angle_rad, estimate.arm_velocity_rad_s,
-                       estimate.pendulum_velocity_rad_s, self.swing_up._filtered_rad])
+                       estimate.pendulum_velocity_rad_s, self.swing_up.target_in_force_rad])
         plan = self.planner(x0)
         self._plan, self._step = None, 0
         if plan is not None and len(plan.targets_rad) > 0:
@@ -112,7 +113,7 @@ class TrajectoryController:
         if self._warmup_left > 0:  # hold still while the observer settles on the rates
             self._warmup_left -= 1
             if self._warmup_left > 0:
-                return self.swing_up.follow(self.swing_up._filtered_rad)
+                return self.swing_up.follow(self.swing_up.target_in_force_rad)
             self._start_plan(estimate)
         if self._plan is not None:
             target = self._tracking_target(estimate)
@@ -141,7 +142,7 @@ class TrajectoryController:
         over, lost (the pendulum more than `drift_rad` off it) or the pendulum falls while settling."""
         plan, k = self._plan, self._step
         x = np.array([estimate.arm_angle_rad, estimate.pendulum_angle_rad, estimate.arm_velocity_rad_s,
-                      estimate.pendulum_velocity_rad_s, self.swing_up._filtered_rad])
+                      estimate.pendulum_velocity_rad_s, self.swing_up.target_in_force_rad])
         if k >= len(plan.targets_rad):  # past the plan: the upright LQR of the same model settles it
             x[1] = angle_from_upright_rad(estimate)
             if k >= len(plan.targets_rad) + self.settle_steps or abs(x[1]) > self.swing_up.config.fall_angle_rad:

@@ -281,13 +281,8 @@ def polish_with_ocp(step_model: StepModel, plan: Plan, limits: SwingUpLimits | N
     faster. None where the solver finds no solution."""
     limits = limits or SwingUpLimits()
     steps = len(plan.targets_rad) if steps is None else steps
-    system = step_model.as_nlsys()
     upright = math.pi * round(plan.states[-1][1] / math.pi)
-    bounds = [opt.input_range_constraint(system, [-limits.arm_limit_rad], [limits.arm_limit_rad]),
-              opt.state_range_constraint(system, [-np.inf, -np.inf, -np.inf, -limits.overspin_rad_s, -np.inf],
-                                         [np.inf, np.inf, np.inf, limits.overspin_rad_s, np.inf])]
+    effort, bounds, terminal, terminal_cost = approach_problem(step_model, limits, upright)
     guess = np.resize(plan.targets_rad, steps) if steps != len(plan.targets_rad) else plan.targets_rad
-    effort = opt.quadratic_cost(system, None, np.array([[1e-3]]))
-    return solve_swing_up(step_model, plan.states[0], steps, effort, bounds,
-                          [catch_set_constraint(system, limits, upright)], guess, max_iterations,
-                          terminal_cost=upright_cost(system, upright))
+    return solve_swing_up(step_model, plan.states[0], steps, effort, bounds, terminal, guess, max_iterations,
+                          terminal_cost=terminal_cost)
