@@ -224,7 +224,7 @@ def cad(out_dir: Path, preset: str | None, render_dir: Path | None) -> None:
         raise click.ClickException(f"parts overlap (mm^3): {clashes}")
     written = export(out_dir, params)
     summary = json.loads(written[-1].read_text())
-    for name, part in summary["parts"].items():
+    for part in summary["parts"].values():
         click.echo(f"{part['file']:<20} {part['size_mm'][0]:6.1f} x {part['size_mm'][1]:5.1f} x "
                    f"{part['size_mm'][2]:5.1f} mm  {part['printed_mass_g']:5.1f} g")
     click.echo(f"filament per rig: {summary['filament_per_rig_g']:.0f} g; written to {out_dir}/")

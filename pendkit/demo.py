@@ -13,8 +13,8 @@ import numpy as np
 import pendkit
 from pendkit.control.swingup import SwingUpController
 from pendkit.control.tracking import TrajectoryController
-from pendkit.errors import ConfigError
 from pendkit.episode import EpisodeTrace, plot_episode, run_episode, time_to_upright_s
+from pendkit.errors import ConfigError
 
 ANIMATION_SECONDS = 6.0
 CONTROLLERS = {"energy": SwingUpController.for_env, "trajopt": TrajectoryController.for_env}

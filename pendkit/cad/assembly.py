@@ -10,9 +10,24 @@ from pathlib import Path
 import manifold3d as mf
 import numpy as np
 
-from pendkit.cad.parts import (COUPLER_INBOARD_MM, MM, PLATE_GAP_MM, PLATE_MM, PRINTED_PARTS, SHAFT_END_MM,
-                               PrintSettings, _box, _cylinder, _servo_top_mm, pivot_mm, printed_mass_g,
-                               servo_footprint_mm, table_top, tip_weight)
+from pendkit.cad.parts import (
+    COUPLER_INBOARD_MM,
+    DEFAULT_PRINT,
+    MM,
+    PLATE_GAP_MM,
+    PLATE_MM,
+    PRINTED_PARTS,
+    SHAFT_END_MM,
+    PrintSettings,
+    _box,
+    _cylinder,
+    _servo_top_mm,
+    pivot_mm,
+    printed_mass_g,
+    servo_footprint_mm,
+    table_top,
+    tip_weight,
+)
 from pendkit.rig import RigParams
 
 # Assembly order for the build guide: each printed part's file and what it joins.
@@ -60,11 +75,11 @@ def bought_parts(params: RigParams) -> dict[str, mf.Manifold]:
     }
 
 
-def printed_parts(params: RigParams, settings: PrintSettings = PrintSettings()) -> dict[str, mf.Manifold]:
+def printed_parts(params: RigParams, settings: PrintSettings = DEFAULT_PRINT) -> dict[str, mf.Manifold]:
     return {name: make(params, settings) for name, make in PRINTED_PARTS.items()}
 
 
-def overlaps_mm3(params: RigParams, settings: PrintSettings = PrintSettings()) -> dict[tuple[str, str], float]:
+def overlaps_mm3(params: RigParams, settings: PrintSettings = DEFAULT_PRINT) -> dict[tuple[str, str], float]:
     """Volume (mm^3) shared by any pair of parts with a printed one in it (bought parts among themselves,
     such as the encoder's body, bushing and shaft, are one part)."""
     printed = printed_parts(params, settings)
@@ -79,7 +94,7 @@ def overlaps_mm3(params: RigParams, settings: PrintSettings = PrintSettings()) -
     return shared
 
 
-def part_masses_g(params: RigParams, settings: PrintSettings = PrintSettings(),
+def part_masses_g(params: RigParams, settings: PrintSettings = DEFAULT_PRINT,
                   default_infill: float = 0.4) -> dict[str, float]:
     """Printed mass of each part: the tip weight at the settings' infill, the others at `default_infill`."""
     masses = {}
@@ -109,7 +124,7 @@ def to_stl_bytes(part: mf.Manifold) -> bytes:
 
 
 def export(out_dir: str | Path, params: RigParams | None = None,
-           settings: PrintSettings = PrintSettings()) -> list[Path]:
+           settings: PrintSettings = DEFAULT_PRINT) -> list[Path]:
     """Write every printed part as STL (mm) and parts.json (volumes, masses, print settings, order)."""
     params = params or RigParams()
     out = Path(out_dir)

@@ -39,6 +39,9 @@ class PrintSettings:
             raise ConfigError(f"print settings out of range: {self}")
 
 
+DEFAULT_PRINT = PrintSettings()
+
+
 def _cylinder(radius: float, start: tuple[float, float, float], length: float, axis: str) -> mf.Manifold:
     """A cylinder of `radius` from `start` along +axis ("x", "y", "z") for `length` (negative: -axis)."""
     body = mf.Manifold.cylinder(abs(length), radius, radius, SEGMENTS)
@@ -127,7 +130,8 @@ def servo_mount(params: RigParams, settings: PrintSettings = PrintSettings()) ->
     length, width, offset = servo_footprint_mm(params)
     top = _servo_top_mm(params)
     deck = _box((-offset - length / 2 - 12, -width / 2 - 10, top - 5), (-offset + length / 2 + 12, width / 2 + 10, top))
-    window = _box((-offset - length / 2 - c, -width / 2 - c, top - 6), (-offset + length / 2 + c, width / 2 + c, top + 1))
+    window = _box((-offset - length / 2 - c, -width / 2 - c, top - 6),
+                  (-offset + length / 2 + c, width / 2 + c, top + 1))
     mount = deck - window
     for side in (-1, 1):
         for y in (-5.0, 5.0):

@@ -97,7 +97,8 @@ class FurutaModel:
         torque = self.servo_torque_n_m(target_rad, phi, phi_dot)
         rhs_arm = (torque - self.arm_damping_n_m_s_per_rad * phi_dot - 2 * extra * s * c * phi_dot * alpha_dot
                    + self.coupling_kg_m2 * s * alpha_dot**2)
-        rhs_pend = extra * s * c * phi_dot**2 - self.gravity_torque_n_m * s - self.pendulum_damping_n_m_s_per_rad * alpha_dot
+        rhs_pend = (extra * s * c * phi_dot**2 - self.gravity_torque_n_m * s
+                    - self.pendulum_damping_n_m_s_per_rad * alpha_dot)
         det = m_arm * m_pend - m_cross * m_cross  # > 0: the mass matrix is positive definite
         return np.array([(m_pend * rhs_arm - m_cross * rhs_pend) / det, (m_arm * rhs_pend - m_cross * rhs_arm) / det])
 

@@ -60,7 +60,8 @@ class TrajectoryController:
     thresholds, its balancer). A new plan starts from the present state when the pendulum drifts
     `drift_rad` off the plan, falls while settling or falls from balance, at most `replans` times; after
     that, or when no plan reaches upright within `max_steps`, the energy pumping of `SwingUpController`
-    is the fallback. `planner(x0) -> Plan | None` replaces the search (lab 05 plugs in a student's problem). `mode` is "track" while a plan (or its settling) drives, else the swing-up's mode.
+    is the fallback. `planner(x0) -> Plan | None` replaces the search (lab 05 plugs in a student's problem).
+    `mode` is "track" while a plan (or its settling) drives, else the swing-up's mode.
     """
 
     def __init__(self, swing_up: SwingUpController, step_model: StepModel, limits: SwingUpLimits | None = None,

@@ -52,8 +52,10 @@ _TEMPLATE = """
     <light pos="0.3 -0.6 1.2" dir="-0.2 0.5 -1"/>
     <geom name="floor" type="plane" size="1 1 0.01" material="grid" pos="0 0 -{servo_height}"/>
     <geom name="stand" type="cylinder" size="0.015 {stand_half}" pos="0 0 -{stand_centre}" material="dark" mass="0"/>
-    <geom name="servo_mount_print" type="mesh" mesh="servo_mount" material="print" mass="0" contype="0" conaffinity="0"/>
-    <geom name="base_clamp_print" type="mesh" mesh="base_clamp" material="print" mass="0" contype="0" conaffinity="0"/>
+    <geom name="servo_mount_print" type="mesh" mesh="servo_mount" material="print" mass="0" contype="0"
+          conaffinity="0"/>
+    <geom name="base_clamp_print" type="mesh" mesh="base_clamp" material="print" mass="0" contype="0"
+          conaffinity="0"/>
     <camera name="front" pos="{cam_x} -1.1 0.15" xyaxes="1 0 0 0 0.2 1"/>
     <camera name="top" pos="{cam_x} 0 1.1" xyaxes="1 0 0 0 1 0"/>
     <body name="arm">

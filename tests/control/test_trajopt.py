@@ -10,8 +10,14 @@ import pendkit
 from pendkit.control.model import FurutaModel, filtered_model
 from pendkit.control.swingup import SwingUpController
 from pendkit.control.tracking import TrajectoryController, time_varying_lqr
-from pendkit.control.trajopt import (StepModel, SwingUpLimits, fastest_bang_bang, initial_state, polish_approach,
-                                     solve_swing_up)
+from pendkit.control.trajopt import (
+    StepModel,
+    SwingUpLimits,
+    fastest_bang_bang,
+    initial_state,
+    polish_approach,
+    solve_swing_up,
+)
 from pendkit.episode import run_episode, time_to_upright_s
 from pendkit.errors import ConfigError
 
