@@ -1,5 +1,8 @@
 """The minimum-time swing-up: the step model's physics, the search's optimality and limits, the solve_ocp
-polish, and the tracked plan on the twin (ideal, realistic) and through the rig backend."""
+polish, and the tracked plan on the twin (ideal, realistic) and through the rig backend.
+
+Every duration asserted here is simulated time (plan lengths, the twin's time to upright), deterministic
+for a seed, never the wall clock."""
 
 import math
 

@@ -97,6 +97,7 @@ def upright_at_s(text: str, label: str) -> float:
 
 
 def test_lab05_the_students_problem_plans_a_swing_up_faster_than_pumping_and_a_wrong_catch_set_does_not():
+    # Times to upright printed by the lab are the ideal twin's simulated seconds (seed 0), not wall time.
     right = printed_by_lab("05_swingup.ipynb", "your_planner(step_model, made)")
     wrong = printed_by_lab("05_swingup.ipynb", "your_planner(step_model, made)", {"catch_set": CATCH_AROUND_HANGING})
     assert upright_at_s(right, "tracked plan") < 0.6 * upright_at_s(right, "your pumping law"), right
