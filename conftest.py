@@ -2,6 +2,11 @@
 
 Notebooks run in ci mode (short horizons) with the Agg backend; the kernels inherit this environment.
 Solutions run strict: a check short of full marks fails the notebook.
+
+The suite runs on pytest-xdist workers (`-n auto` in pyproject.toml), one file per worker at a time (a
+notebook's cells share one kernel). Much of it waits on real time (virtual rigs, brokers, timeouts), so
+there are more workers than cores; each computes on one thread, or the workers' torch and BLAS threads
+fight over the cores (a 9 s R-DQN test took 97 s that way).
 """
 
 import os
@@ -11,6 +16,29 @@ import pytest
 
 os.environ.setdefault("PENDKIT_MODE", "ci")
 os.environ.setdefault("MPLBACKEND", "Agg")
+for _threads in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
+    os.environ.setdefault(_threads, "1")  # read when torch and numpy load: the kernels inherit it too
+
+ROOT = Path(__file__).resolve().parent
+# Files that take longest start first, so that no worker is left with one at the end: the real-time labs
+# and anything with a test marked expensive.
+SLOW_NOTEBOOKS = ("09_deploy.ipynb",)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_auto_num_workers(config):
+    """`-n auto`: a worker more than the cores (they wait on real time), at most 6 (memory: a worker with
+    torch, MuJoCo and a notebook kernel holds about 1 GB)."""
+    return min(6, (os.cpu_count() or 1) + 1)
+
+
+def pytest_collection_modifyitems(config, items):
+    def first(item) -> bool:
+        path = Path(str(item.fspath))
+        return path.name in SLOW_NOTEBOOKS or path in expensive_files
+
+    expensive_files = {Path(str(item.fspath)) for item in items if item.get_closest_marker("expensive")}
+    items.sort(key=lambda item: not first(item))  # stable: each file's own order is kept
 
 
 @pytest.hookimpl(tryfirst=True)
