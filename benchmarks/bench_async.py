@@ -17,7 +17,7 @@ import numpy as np
 import pendkit
 from pendkit.agents.async_trainer import AsyncTrainer
 from pendkit.agents.dqn import DqnAgent, DqnConfig
-from pendkit.agents.train import step_dim
+from pendkit.agents.inputs import StepInputs
 from pendkit.link.broker import MosquittoBroker
 from pendkit.link.virtual_rig import virtual_rig_process
 
@@ -27,7 +27,7 @@ def phase(env, learning_starts: int, seconds: float) -> tuple[np.ndarray, object
     backend = env.unwrapped.backend
     start = len(backend.step_period_errors_s)
     config = DqnConfig(learning_starts=learning_starts, batch_size=128, hidden=(256, 256))
-    agent = DqnAgent(step_dim(env), env.action_space.n, config)
+    agent = DqnAgent(StepInputs.for_env(env).dim, env.action_space.n, config)
     stats = AsyncTrainer(agent, [env], publish_every=20).run(seconds=seconds)
     return np.abs(np.array(backend.step_period_errors_s[start:])) * 1000, stats
 

@@ -37,8 +37,9 @@ import numpy as np
 
 import pendkit
 from pendkit.agents.dqn import DqnConfig
-from pendkit.agents.train import make_buffer, run_episode, train_sync
-from pendkit.agents.variants import build_learner, inputs_for, variant
+from pendkit.agents.learners import inputs_for
+from pendkit.agents.runs import RunSpec, build_run, greedy_episode, make_env, solved
+from pendkit.agents.train import train_sync
 from pendkit.features import UPRIGHT_RAD, holds_upright
 from pendkit.sim.fidelity import Fidelity, observation_delay_fidelity
 from pendkit.sim.observation_delay import ObservationDelay
@@ -59,18 +60,23 @@ class StepDelay:
         return f"ideal-delayed-{self.delay_steps}-steps"
 
 
-def make_env(setting: str | Fidelity | StepDelay, learner: str = "dqn"):
-    kwargs = variant(learner).env_kwargs() if learner != "sb3-dqn" else {}
+def sb3_env(setting: str | Fidelity | StepDelay):
+    """The env of a benchmark setting for Stable-Baselines3's DQN: the kit's default observation."""
     if isinstance(setting, StepDelay):
-        return ObservationDelay(pendkit.make(fidelity="ideal", **kwargs), setting.delay_steps)
-    return pendkit.make(fidelity=setting, **kwargs)
+        return ObservationDelay(pendkit.make(fidelity="ideal"), setting.delay_steps)
+    return pendkit.make(fidelity=setting)
 
 
-def solved(env, agent, inputs) -> bool:
-    """A greedy episode from hanging holds |theta| < 0.3 rad for its last 200 steps."""
-    _, infos = run_episode(env, agent, inputs, seed=123, explore=False, options={"start": "rest"})
-    angles = [abs(info["angle_from_upright_rad"]) for info in infos]
-    return holds_upright(angles, TAIL_STEPS)
+def run_spec(learner: str, setting: str | Fidelity | StepDelay, seed: int, overrides: dict | None = None) -> RunSpec:
+    """The run of a benchmark row (a Fidelity object names the sweeps' own fidelities)."""
+    if isinstance(setting, StepDelay):
+        return RunSpec(learner, "ideal", seed, delay_steps=setting.delay_steps, agent=overrides or {})
+    return RunSpec(learner, setting, seed, agent=overrides or {})
+
+
+def held(env, agent, inputs) -> bool:
+    """The kit's solved rule on a greedy episode from hanging (seed 123)."""
+    return solved(greedy_episode(env, agent, inputs)[1])
 
 
 def run_one(algo: str, fidelity: str | Fidelity | StepDelay, seed: int, max_episodes: int,
@@ -78,10 +84,11 @@ def run_one(algo: str, fidelity: str | Fidelity | StepDelay, seed: int, max_epis
     """Episodes and seconds until solved, or (None, seconds spent)."""
     if algo == "sb3-dqn":
         return run_sb3(fidelity, seed, max_episodes, max_wall_s)
-    env, probe = make_env(fidelity, algo), make_env(fidelity, algo)
-    agent, inputs = build_learner(algo, env, seed, **(overrides or {}))
-    probe_inputs = inputs_for(variant(algo), probe, seed)
-    buffer = make_buffer(agent, inputs.dim, env.action_space, seed)
+    spec = run_spec(algo, fidelity, seed, overrides)
+    env, agent, inputs = build_run(spec)
+    probe = make_env(spec)
+    probe_inputs = inputs_for(algo, probe, seed)
+    buffer = agent.new_buffer(seed)
     started = time.perf_counter()
     for done_episodes in range(CHECK_EVERY, max_episodes + 1, CHECK_EVERY):
         returns = train_sync(env, agent, CHECK_EVERY, inputs, buffer, seed=seed + done_episodes, progress=False)
@@ -89,7 +96,7 @@ def run_one(algo: str, fidelity: str | Fidelity | StepDelay, seed: int, max_epis
             print(f"    {algo} {setting_name(fidelity)} seed={seed} episodes={done_episodes} "
                   f"mean_return={np.mean(returns):.0f} wall_s={time.perf_counter() - started:.0f}",
                   file=sys.stderr, flush=True)
-        if solved(probe, agent, probe_inputs):
+        if held(probe, agent, probe_inputs):
             return done_episodes, time.perf_counter() - started
         if time.perf_counter() - started > max_wall_s:
             break
@@ -102,7 +109,7 @@ def run_sb3(fidelity: str | Fidelity, seed: int, max_episodes: int, max_wall_s: 
 
     ours = DqnConfig()
     total_steps = max_episodes * EPISODE_STEPS
-    env, probe = make_env(fidelity), make_env(fidelity)
+    env, probe = sb3_env(fidelity), sb3_env(fidelity)
     model = DQN("MlpPolicy", env, seed=seed, learning_rate=ours.learning_rate, gamma=ours.gamma,
                 batch_size=ours.batch_size, buffer_size=ours.buffer_capacity, learning_starts=ours.learning_starts,
                 target_update_interval=ours.target_update_every, train_freq=1, gradient_steps=1,

@@ -19,12 +19,10 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_context
 
-import pendkit
-from pendkit.agents.train import make_buffer, run_episode, train_sync
-from pendkit.agents.variants import build_learner, inputs_for, variant
-from pendkit.features import holds_upright
-from pendkit.rig import SERVO_PRESETS, RigParams
-from pendkit.sim.randomize import DomainRandomization
+from pendkit.agents.learners import inputs_for
+from pendkit.agents.runs import RunSpec, build_run, greedy_episode, make_env, solved
+from pendkit.agents.train import train_sync
+from pendkit.rig import SERVO_PRESETS
 
 RANDOMIZED = "servo,latency,masses"
 CHECK_EVERY = 20
@@ -33,26 +31,21 @@ GOAL_PRESETS = 4
 
 
 def presets_solved(algo: str, agent, seed: int) -> list[str]:
-    solved = []
+    """The presets on which a greedy episode from hanging meets the kit's solved rule."""
+    held = []
     for name in sorted(SERVO_PRESETS):
-        env = pendkit.make(fidelity="realistic", params=RigParams.preset(name), **variant(algo).env_kwargs())
-        _, infos = run_episode(env, agent, inputs_for(variant(algo), env, seed), seed=123, explore=False,
-                               options={"start": "rest"})
-        angles = [abs(info["angle_from_upright_rad"]) for info in infos]
-        if holds_upright(angles, TAIL_STEPS):
-            solved.append(name)
-    return solved
+        env = make_env(RunSpec(algo, "realistic", seed, preset=name))
+        if solved(greedy_episode(env, agent, inputs_for(algo, env, seed))[1]):
+            held.append(name)
+    return held
 
 
 def run(algo: str, randomized: bool, seed: int, max_episodes: int, max_wall_s: float, verbose: bool) -> tuple:
     import torch
 
     torch.set_num_threads(1)
-    env = pendkit.make(fidelity="realistic", **variant(algo).env_kwargs())
-    if randomized:
-        env = DomainRandomization(env, RANDOMIZED, seed)
-    agent, inputs = build_learner(algo, env, seed)
-    buffer = make_buffer(agent, inputs.dim, env.action_space, seed)
+    env, agent, inputs = build_run(RunSpec(algo, "realistic", seed, randomize=RANDOMIZED if randomized else ""))
+    buffer = agent.new_buffer(seed)
     started, episodes, best = time.perf_counter(), 0, []
     while time.perf_counter() - started < max_wall_s and episodes < max_episodes:
         train_sync(env, agent, CHECK_EVERY, inputs, buffer, seed=seed + episodes, progress=False)

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pendkit.backend_contract import RigState
 from pendkit.episode import EpisodeTrace, Policy
-from pendkit.state import RigState
 
 CENTRED_RAD, CENTRING_S = 0.1, 1.5
 Watchdog = Callable[[float, float, float], object]  # (arm rad, pendulum rate rad/s, observation age s) -> reason

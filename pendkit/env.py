@@ -10,6 +10,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from pendkit.backend_contract import RigState, ServoCommand
 from pendkit.device.logic import action_increments_counts, discrete_command
 from pendkit.env_name import ENV_ID, EPISODE_STEPS  # noqa: F401 - re-exported
 from pendkit.errors import ActionError, ConfigError
@@ -17,7 +18,6 @@ from pendkit.features import PAPER_FEATURES, angle_from_upright_rad, resolve_fea
 from pendkit.rig import RigParams
 from pendkit.sim.backend import STARTS, SimBackend
 from pendkit.sim.fidelity import Fidelity
-from pendkit.state import RigState, ServoCommand
 
 ACTION_MODES = ("discrete", "continuous")
 FEATURE_SOURCES = ("measured", "estimated")
@@ -169,18 +169,22 @@ class SwingUpEnv(gym.Env):
         self._shown: RigState | None = None  # what the observation is made of: measured, or estimated
         self._estimator = None
         if features == "estimated":
-            from pendkit.control.estimated_state import estimated_state_feed
-
-            self._estimator = estimated_state_feed(self)
+            self._estimator = self._new_estimator()
         self._filtered_unit = 0.0
         self._steps = 0
         self._clipped = False
-        self._gl_renderer = None
+        self._gl_renderer, self._gl_data = None, None
         self._drawn_frames = None
 
     def _set_increments(self) -> None:
         self._increments = action_increments_counts(self.params)
         self._discrete_commands = tuple(discrete_command(k, self.params) for k in range(len(self._increments)))
+
+    def _new_estimator(self):
+        """The observer's feed, designed for this step and the backend's own delays."""
+        from pendkit.control.estimated_state import EstimatedStateFeed
+
+        return EstimatedStateFeed(self.params, self.dt, self.backend.timing)
 
     def set_rig(self, params: RigParams, fidelity: str | Fidelity | None = None) -> None:
         """Swap the twin for one with other parameters (domain randomisation), from the next `reset()` on.
@@ -194,11 +198,10 @@ class SwingUpEnv(gym.Env):
         self.backend.close()
         self.backend = SimBackend(params, fidelity, self.backend.log_dir)
         self.params = params
+        self._close_renderers()  # drawn for the old rig's dimensions
         self._set_increments()
         if self._estimator is not None:
-            from pendkit.control.estimated_state import estimated_state_feed
-
-            self._estimator = estimated_state_feed(self)
+            self._estimator = self._new_estimator()
         self._state = None
 
     # --- Gymnasium API ---
@@ -229,11 +232,13 @@ class SwingUpEnv(gym.Env):
             return None
         if isinstance(self.backend, SimBackend):
             if self._gl_renderer is None and self._drawn_frames is None:
-                from pendkit.sim.render import mujoco_renderer
-
-                self._gl_renderer = mujoco_renderer(self.backend.model)
+                self._start_gl_renderer()
             if self._gl_renderer is not None:
-                self._gl_renderer.update_scene(self.backend.data, camera="front")
+                import mujoco
+
+                self._gl_data.qpos[:] = self.backend.data.qpos
+                mujoco.mj_kinematics(self._gl_renderer.model, self._gl_data)
+                self._gl_renderer.update_scene(self._gl_data, camera="front")
                 return self._gl_renderer.render()
         if self._drawn_frames is None:
             from pendkit.sim.render import DrawnFrames
@@ -244,10 +249,24 @@ class SwingUpEnv(gym.Env):
         pendulum = true["pendulum_angle_rad"] if true else self._state.pendulum_angle_rad
         return self._drawn_frames.frame(arm, pendulum)
 
-    def close(self) -> None:
+    def _start_gl_renderer(self) -> None:
+        """MuJoCo's renderer on the twin's drawn model (printed parts as meshes), or None without GL."""
+        import mujoco
+
+        from pendkit.cad.twin_meshes import visual_twin_model
+        from pendkit.sim.render import mujoco_renderer
+
+        model = visual_twin_model(self.params)
+        self._gl_renderer = mujoco_renderer(model)
+        self._gl_data = mujoco.MjData(model) if self._gl_renderer is not None else None
+
+    def _close_renderers(self) -> None:
         if self._gl_renderer is not None:
             self._gl_renderer.close()
-            self._gl_renderer = None
+        self._gl_renderer, self._gl_data, self._drawn_frames = None, None, None
+
+    def close(self) -> None:
+        self._close_renderers()
         self.backend.close()
 
     # --- action mapping ---

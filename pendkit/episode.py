@@ -9,8 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
+from pendkit.backend_contract import RigState
 from pendkit.features import UPRIGHT_RAD, angle_from_upright_rad, pendulum_energy
-from pendkit.state import RigState
 
 Policy = Callable[[np.ndarray, RigState], object]
 # Colour-blind-safe (Okabe-Ito) colours for every figure the kit draws.
@@ -86,13 +86,13 @@ def energy_pumping_policy(env) -> Policy:
     base = env.unwrapped
     near_top_rad = 0.5
     omega0 = base.params.pendulum_natural_frequency_rad_s
-    upright_energy = 2.0  # (1 - cos(pi)) in the normalised energy below
+    upright_energy = 1.0  # the kit's normalised energy (`pendulum_energy`): -1 hanging still, +1 upright still
 
     def policy(observation, state: RigState):
         theta = angle_from_upright_rad(state)
         if abs(theta) < near_top_rad:
             return 0
-        energy = 0.5 * (state.pendulum_velocity_rad_s / omega0) ** 2 + 1 - math.cos(state.pendulum_angle_rad)
+        energy = pendulum_energy(state.pendulum_angle_rad, state.pendulum_velocity_rad_s, omega0)
         pumping = state.pendulum_velocity_rad_s * math.cos(state.pendulum_angle_rad)
         if energy > upright_energy:
             pumping = -pumping  # too much energy: brake instead

@@ -9,8 +9,8 @@ from operator import attrgetter
 
 import numpy as np
 
+from pendkit.backend_contract import RigState
 from pendkit.errors import ConfigError
-from pendkit.state import RigState
 
 TWO_PI = 2 * math.pi
 # Reward weight of the squared pendulum rate in (rev/s)^2 (paper, "Reward Calculation").

@@ -1,6 +1,6 @@
 """The firmware's constants, written from `RigParams` (the one source of truth) as a C++ header.
 
-`python -m pendkit.firmware_constants > firmware/lib/pendcore/src/rig_constants.h` regenerates it; a test
+`pendkit firmware-header > firmware/lib/pendcore/src/rig_constants.h` regenerates it; a test
 fails when the committed header and RigParams disagree. `--preset mks-x5-hbl550` writes a header for a rig
 built with another servo (flash that rig with it, and give the host the same preset).
 """
@@ -39,19 +39,3 @@ def render_header(params: RigParams | None = None) -> str:
         lines.append(f"constexpr {kind} {name} = {literal};  // {comment}")
     lines += ["", "}  // namespace pend", ""]
     return "\n".join(lines)
-
-
-def main(argv: list[str] | None = None) -> None:
-    import argparse
-
-    from pendkit.rig import SERVO_PRESETS
-
-    parser = argparse.ArgumentParser(description="Write the firmware's rig_constants.h from RigParams.")
-    parser.add_argument("--preset", choices=sorted(SERVO_PRESETS), default=None,
-                        help="a servo preset (default: RigParams' defaults, the paper's D645MW)")
-    args = parser.parse_args(argv)
-    print(render_header(RigParams.preset(args.preset) if args.preset else None), end="")
-
-
-if __name__ == "__main__":
-    main()

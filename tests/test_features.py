@@ -2,8 +2,8 @@ import math
 
 import pytest
 
+from pendkit.backend_contract import RigState
 from pendkit.features import PAPER_FEATURES, angle_from_upright_rad, resolve_features, reward
-from pendkit.state import RigState
 
 
 def state(angle_from_bottom, velocity=0.0):

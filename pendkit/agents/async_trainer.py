@@ -14,7 +14,8 @@ import threading
 import time
 from dataclasses import dataclass, field
 
-from pendkit.agents.train import as_inputs, make_buffer
+from pendkit.agents.base import Agent
+from pendkit.agents.inputs import StepInputs
 
 
 @dataclass
@@ -31,15 +32,12 @@ class AsyncStats:
 class AsyncTrainer:
     """`run(seconds)` with one actor thread per env and a learner thread; `close()` stops them."""
 
-    def __init__(self, agent, envs: list, inputs: list | None = None, buffer=None,
+    def __init__(self, agent: Agent, envs: list, inputs: list[StepInputs] | None = None, buffer=None,
                  transition_queue_size: int = 1000, publish_every: int = 20, seed: int = 0) -> None:
-        """`inputs`: one `StepInputs` per env (what the agent sees; default: observation and last action),
-        or, as before, one fixed `GruEncoder` (or None) per env."""
+        """`inputs`: one `StepInputs` per env (what the agent sees; default: observation and last action)."""
         self.agent, self.envs = agent, envs
-        given = inputs or [None] * len(envs)
-        self.inputs = [as_inputs(env, x) for x, env in zip(given, envs)]
-        self.recurrent = getattr(agent, "recurrent", False)
-        self.buffer = buffer or make_buffer(agent, self.inputs[0].dim, envs[0].action_space, seed)
+        self.inputs = inputs or [StepInputs.for_env(env) for env in envs]
+        self.buffer = buffer if buffer is not None else agent.new_buffer(seed)
         self.transitions: queue.Queue = queue.Queue(maxsize=transition_queue_size)
         self.weights: list[queue.Queue] = [queue.Queue(maxsize=1) for _ in envs]
         self.publish_every, self.seed = publish_every, seed
@@ -102,8 +100,7 @@ class AsyncTrainer:
 
     def _store(self, transition: tuple) -> None:
         x, action, reward, x_next, done, extras = transition
-        if hasattr(self.agent, "track_input"):
-            self.agent.track_input(x)
+        self.agent.track_input(x)
         self.buffer.add(x, action, reward, x_next, done, **extras)
 
     # --- an actor: act at the env's pace, never wait for the learner ---
@@ -114,8 +111,7 @@ class AsyncTrainer:
         while not self.stop.is_set():
             observation, _ = env.reset(seed=self.seed + 1000 * k + episode)
             x = inputs.reset(observation)
-            if self.recurrent:
-                actor.reset()
+            actor.reset()
             done, total, step = False, 0.0, 0
             while not done and not self.stop.is_set():
                 try:
@@ -127,8 +123,7 @@ class AsyncTrainer:
                 action = actor.act(x)
                 observation, reward, terminated, truncated, _ = env.step(action)
                 x_next = inputs.step(observation, action)
-                extras = ({"hidden": actor.hidden_before, "episode": 1_000_000 * k + episode, "step": step}
-                          if self.recurrent else {})
+                extras = {"episode": 1_000_000 * k + episode, "step": step, **actor.step_extras()}
                 try:
                     self.transitions.put_nowait((x, action, reward, x_next, terminated, extras))
                 except queue.Full:

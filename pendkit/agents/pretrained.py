@@ -1,6 +1,7 @@
-"""Policies trained on the twin and shipped with the kit, weights only (lab 09 deploys them to a rig).
+"""Policies trained on the twin and shipped with the kit, in the kit's weights format (lab 09 deploys them).
 
-    python -m pendkit.agents.pretrained          # trains them again into pendkit/data/policies (~6 min)
+    pendkit policies build [NAME ...]      # trains them again into pendkit/data/policies (~6 min)
+    python -m pendkit.agents.pretrained    # the same
 
 | name            | learner | trained on                | episodes |
 |-----------------|---------|---------------------------|----------|
@@ -10,9 +11,11 @@
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from pendkit.agents.runs import RunSpec, build_run, load_weights, save_weights
 from pendkit.errors import ConfigError
 
 POLICY_DIR = Path(__file__).resolve().parents[1] / "data" / "policies"
@@ -20,14 +23,12 @@ POLICY_DIR = Path(__file__).resolve().parents[1] / "data" / "policies"
 
 @dataclass(frozen=True)
 class PretrainedSpec:
-    algo: str
-    fidelity: str
+    run: RunSpec
     episodes: int
-    seed: int = 0
 
 
-POLICIES = {"dqn-ideal": PretrainedSpec("dqn", "ideal", 120),
-            "r-dqn-realistic": PretrainedSpec("r-dqn", "realistic", 260)}
+POLICIES = {"dqn-ideal": PretrainedSpec(RunSpec("dqn", "ideal"), 120),
+            "r-dqn-realistic": PretrainedSpec(RunSpec("r-dqn", "realistic"), 260)}
 
 
 class GreedyPolicy:
@@ -39,8 +40,7 @@ class GreedyPolicy:
 
     def reset(self, state=None) -> None:
         self._x, self._last = None, None
-        if getattr(self.agent, "recurrent", False):
-            self.agent.reset()
+        self.agent.reset()
 
     def __call__(self, observation, state=None):
         self._x = self.inputs.reset(observation) if self._x is None else self.inputs.step(observation, self._last)
@@ -49,39 +49,32 @@ class GreedyPolicy:
 
 
 def load_policy(name: str, env) -> GreedyPolicy:
-    """The shipped policy `name` for `env` (a discrete-action env: twin or rig)."""
-    import torch
-
-    from pendkit.agents.variants import build_learner
-
+    """The shipped policy `name` for `env` (an env of the policy's action mode: twin or rig)."""
     if name not in POLICIES:
         raise ConfigError(f"unknown policy {name!r}; the kit ships {sorted(POLICIES)}")
     path = POLICY_DIR / f"{name}.pt"
     if not path.exists():
-        raise ConfigError(f"{path} is missing: run `python -m pendkit.agents.pretrained` to train it")
-    spec = POLICIES[name]
-    agent, inputs = build_learner(spec.algo, env, spec.seed)
-    agent.load_state_dict(torch.load(path, weights_only=False))
+        raise ConfigError(f"{path} is missing: run `pendkit policies build {name}` to train it")
+    spec, state = load_weights(path)
+    _, agent, inputs = build_run(spec, env)
+    agent.load_state_dict(state)
     return GreedyPolicy(agent, inputs)
 
 
 def build(names: list[str] | None = None) -> None:
     """Train the named policies (all by default) and write their weights."""
-    import torch
-
-    import pendkit
     from pendkit.agents.train import train_sync
-    from pendkit.agents.variants import build_learner, variant
 
     POLICY_DIR.mkdir(parents=True, exist_ok=True)
     for name in names or list(POLICIES):
+        if name not in POLICIES:
+            raise ConfigError(f"unknown policy {name!r}; the kit ships {sorted(POLICIES)}")
         spec = POLICIES[name]
-        env = pendkit.make(fidelity=spec.fidelity, **variant(spec.algo).env_kwargs())
-        agent, inputs = build_learner(spec.algo, env, spec.seed)
-        returns = train_sync(env, agent, spec.episodes, inputs, seed=spec.seed)
-        torch.save(agent.state_dict(), POLICY_DIR / f"{name}.pt")
+        env, agent, inputs = build_run(spec.run)
+        returns = train_sync(env, agent, spec.episodes, inputs, seed=spec.run.seed)
+        save_weights(POLICY_DIR / f"{name}.pt", agent, spec.run, {"episodes": spec.episodes})
         print(f"{name}: last 10 mean return {sum(returns[-10:]) / 10:.1f}")
 
 
 if __name__ == "__main__":
-    build()
+    build(sys.argv[1:] or None)

@@ -48,7 +48,3 @@ class GruTrunk(nn.Module):
                 warm = self.unroll(inputs[:, :burn_in], hidden[:, :burn_in], starts[:, :burn_in])[:, -1]
             start = torch.where(starts[:, burn_in:burn_in + 1], start, warm)
         return start
-
-
-def masked_mean(values: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
-    return (values * mask).sum() / mask.sum().clamp(min=1.0)

@@ -24,48 +24,23 @@ import numpy as np
 import torch
 from torch import nn
 
-from pendkit.agents.dqn import adam, descend, linear_epsilon, mlp
+from pendkit.agents.base import EpsilonGreedyConfig, SequenceConfig
+from pendkit.agents.dqn import linear_epsilon
+from pendkit.agents.nets import adam, descend, masked_mean, mlp
 from pendkit.agents.normalizer import RunningNormalizer
-from pendkit.agents.recurrent import GruTrunk, masked_mean
+from pendkit.agents.recurrent import GruTrunk
 from pendkit.agents.sequence_replay import SequenceBatch, SequenceReplay
-from pendkit.errors import ConfigError
 
 
 @dataclass(frozen=True)
-class RecurrentDqnConfig:
+class RecurrentDqnConfig(SequenceConfig, EpsilonGreedyConfig):
     """R-DQN settings: the DQN ones plus the GRU's size and the replayed stretch (burn-in + trained steps)."""
 
-    hidden: tuple[int, ...] = (64, 64)
-    gru_size: int = 32
-    burn_in: int = 8
-    sequence_length: int = 8
-    learning_rate: float = 1e-3
-    gamma: float = 0.98
-    batch_size: int = 64
     buffer_capacity: int = 100_000
-    learning_starts: int = 500
     # 64 stretches x 8 steps every 8 env steps: 64 replayed steps per env step, as DQN's batch. Fewer, larger
     # updates cost a third of the time of 32 x 8 every 4 on a CPU and solved `realistic` sooner (docs/rl.md).
     update_every: int = 8
-    target_update_every: int = 250
-    epsilon_start: float = 1.0
-    epsilon_end: float = 0.05
     epsilon_decay_steps: int = 10_000
-    huber_delta: float = 1.0
-    seed: int = 0
-
-    def __post_init__(self) -> None:
-        if not 0 < self.gamma < 1:
-            raise ConfigError(f"gamma must be in (0, 1), got {self.gamma}")
-        if not 0 <= self.epsilon_end <= self.epsilon_start <= 1:
-            raise ConfigError(f"need 0 <= epsilon_end <= epsilon_start <= 1, got {self.epsilon_end}, "
-                              f"{self.epsilon_start}")
-        if self.burn_in < 0:
-            raise ConfigError(f"burn_in must be >= 0, got {self.burn_in}")
-        for name in ("gru_size", "sequence_length", "learning_rate", "batch_size", "buffer_capacity",
-                     "update_every", "target_update_every", "epsilon_decay_steps", "huber_delta"):
-            if not getattr(self, name) > 0:
-                raise ConfigError(f"{name} must be > 0, got {getattr(self, name)}")
 
 
 class RecurrentQ(nn.Module):
@@ -82,9 +57,7 @@ class RecurrentQ(nn.Module):
 
 class RecurrentDqnAgent:
     """`reset()` at each episode start; `act(x)` advances the GRU; `update(SequenceBatch)`; `state_dict()`.
-    `hidden_before` is the state before the last `act`, which the trainer stores with the step."""
-
-    recurrent = True
+    `step_extras()` hands the trainer the state before the last `act`, stored with the step."""
 
     def __init__(self, input_dim: int, n_actions: int, config: RecurrentDqnConfig | None = None) -> None:
         self.config = c = config or RecurrentDqnConfig()
@@ -114,6 +87,9 @@ class RecurrentDqnAgent:
     def reset(self) -> None:
         self.hidden = torch.zeros(1, self.config.gru_size)
         self.hidden_before = self.hidden[0].numpy().copy()
+
+    def step_extras(self) -> dict:
+        return {"hidden": self.hidden_before}
 
     def track_input(self, x) -> None:
         """Fold a new raw input into the normalisation statistics (the trainer calls this once per step)."""

@@ -17,41 +17,19 @@ import numpy as np
 import torch
 from torch import nn
 
-from pendkit.agents.dqn import adam, mlp
+from pendkit.agents.base import ActorCriticConfig, SequenceConfig
+from pendkit.agents.nets import adam, descend, masked_mean, mlp, soft_update
 from pendkit.agents.normalizer import RunningNormalizer
-from pendkit.agents.recurrent import GruTrunk, masked_mean
+from pendkit.agents.recurrent import GruTrunk
 from pendkit.agents.sequence_replay import SequenceBatch, SequenceReplay
-from pendkit.errors import ConfigError
 
 
 @dataclass(frozen=True)
-class RecurrentTd3Config:
-    hidden: tuple[int, ...] = (64, 64)
-    gru_size: int = 32
-    burn_in: int = 8
-    sequence_length: int = 8
-    actor_learning_rate: float = 1e-3
-    critic_learning_rate: float = 1e-3
-    gamma: float = 0.98
-    tau: float = 0.005
+class RecurrentTd3Config(SequenceConfig, ActorCriticConfig):
     batch_size: int = 32
     buffer_capacity: int = 100_000
     learning_starts: int = 1000
     update_every: int = 2
-    exploration_noise: float = 0.1
-    target_noise: float = 0.2
-    target_noise_clip: float = 0.5
-    policy_delay: int = 2
-    seed: int = 0
-
-    def __post_init__(self) -> None:
-        if not 0 < self.gamma < 1 or not 0 < self.tau <= 1:
-            raise ConfigError(f"gamma must be in (0, 1) and tau in (0, 1], got {self.gamma}, {self.tau}")
-        if self.policy_delay < 1 or min(self.exploration_noise, self.target_noise, self.target_noise_clip) < 0:
-            raise ConfigError("policy_delay must be >= 1 and the noise settings >= 0")
-        for name in ("gru_size", "sequence_length", "batch_size", "buffer_capacity", "update_every"):
-            if not getattr(self, name) > 0:
-                raise ConfigError(f"{name} must be > 0, got {getattr(self, name)}")
 
 
 class RecurrentActorCritic(nn.Module):
@@ -69,8 +47,6 @@ class RecurrentActorCritic(nn.Module):
 
 class RecurrentTd3Agent:
     """`reset()` per episode; `act(x)` advances the GRU; `update(SequenceBatch)`; `state_dict()`."""
-
-    recurrent = True
 
     def __init__(self, input_dim: int, action_dim: int, config: RecurrentTd3Config | None = None) -> None:
         self.config = c = config or RecurrentTd3Config()
@@ -94,6 +70,9 @@ class RecurrentTd3Agent:
     def reset(self) -> None:
         self.hidden = torch.zeros(1, self.config.gru_size)
         self.hidden_before = self.hidden[0].numpy().copy()
+
+    def step_extras(self) -> dict:
+        return {"hidden": self.hidden_before}
 
     def track_input(self, x) -> None:
         self.normalizer.update(x)
@@ -127,20 +106,14 @@ class RecurrentTd3Agent:
         features = torch.cat([x_t, online_h], dim=-1)
         q1, q2 = self.net.q(features, actions)
         critic_loss = masked_mean((q1 - target) ** 2 + (q2 - target) ** 2, mask)
-        self.critic_optimizer.zero_grad()
-        critic_loss.backward()
-        self.critic_optimizer.step()
+        descend(self.critic_optimizer, critic_loss, [], max_grad_norm=None)
         self.updates += 1
         metrics = {"critic_loss": float(critic_loss.item())}
         if self.updates % c.policy_delay == 0:
             detached = features.detach()
             actor_loss = -masked_mean(self.net.q(detached, self.net.actor(detached), self.net.critics[:1])[0], mask)
-            self.actor_optimizer.zero_grad()
-            actor_loss.backward()
-            self.actor_optimizer.step()
-            with torch.no_grad():
-                for parameter, target_parameter in zip(self.net.parameters(), self.target.parameters()):
-                    target_parameter.mul_(1 - c.tau).add_(c.tau * parameter)
+            descend(self.actor_optimizer, actor_loss, [], max_grad_norm=None)
+            soft_update(self.net, self.target, c.tau)
             metrics["actor_loss"] = float(actor_loss.item())
         if not math.isfinite(metrics["critic_loss"]):
             raise FloatingPointError("the R-TD3 critic loss is not finite: lower the learning rates")

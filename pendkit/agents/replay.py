@@ -39,7 +39,9 @@ class ReplayBuffer:
     def __len__(self) -> int:
         return self.size
 
-    def add(self, observation, action: int, reward: float, next_observation, done: bool) -> None:
+    def add(self, observation, action: int, reward: float, next_observation, done: bool, *, episode: int = 0,
+            step: int = 0) -> None:
+        """One transition (`episode` and `step` are the trainers' keys; a uniform buffer has no use for them)."""
         k = self.position
         self.observations[k], self.next_observations[k] = observation, next_observation
         self.actions[k], self.rewards[k], self.dones[k] = action, reward, float(done)

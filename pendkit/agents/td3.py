@@ -12,41 +12,25 @@ import numpy as np
 import torch
 from torch import nn
 
-from pendkit.agents.dqn import adam, mlp
-from pendkit.agents.replay import Batch
-from pendkit.errors import ConfigError
+from pendkit.agents.base import ActorCriticConfig, Stateless
+from pendkit.agents.nets import adam, descend, mlp, soft_update
+from pendkit.agents.replay import Batch, ReplayBuffer
 
 
 @dataclass(frozen=True)
-class Td3Config:
-    hidden: tuple[int, ...] = (64, 64)
-    actor_learning_rate: float = 1e-3
-    critic_learning_rate: float = 1e-3
-    gamma: float = 0.98
-    tau: float = 0.005
+class Td3Config(ActorCriticConfig):
     batch_size: int = 128
     buffer_capacity: int = 100_000
     learning_starts: int = 1000
-    exploration_noise: float = 0.1
-    target_noise: float = 0.2
-    target_noise_clip: float = 0.5
-    policy_delay: int = 2
-    seed: int = 0
-
-    def __post_init__(self) -> None:
-        if not 0 < self.gamma < 1 or not 0 < self.tau <= 1:
-            raise ConfigError(f"gamma must be in (0, 1) and tau in (0, 1], got {self.gamma}, {self.tau}")
-        if self.policy_delay < 1 or min(self.exploration_noise, self.target_noise, self.target_noise_clip) < 0:
-            raise ConfigError("policy_delay must be >= 1 and the noise settings >= 0")
 
 
-class Td3Agent:
+class Td3Agent(Stateless):
     """`act(observation, explore)` -> action array in [-1, 1]; `update(batch)`; `state_dict()`."""
 
     def __init__(self, observation_dim: int, action_dim: int, config: Td3Config | None = None) -> None:
         self.config = config or Td3Config()
         torch.manual_seed(self.config.seed)
-        self.action_dim = action_dim
+        self.input_dim, self.action_dim = observation_dim, action_dim
         self.actor = nn.Sequential(mlp(observation_dim, action_dim, self.config.hidden), nn.Tanh())
         self.critics = nn.ModuleList([mlp(observation_dim + action_dim, 1, self.config.hidden) for _ in range(2)])
         self.actor_target, self.critics_target = copy.deepcopy(self.actor), copy.deepcopy(self.critics)
@@ -54,6 +38,9 @@ class Td3Agent:
         self.critic_optimizer = adam(self.critics.parameters(), self.config.critic_learning_rate)
         self.rng = np.random.default_rng(self.config.seed)
         self.steps = self.updates = 0
+
+    def new_buffer(self, seed: int = 0) -> ReplayBuffer:
+        return ReplayBuffer(self.config.buffer_capacity, self.input_dim, seed, action_dim=self.action_dim)
 
     def act(self, observation, explore: bool = True) -> np.ndarray:
         with torch.no_grad():
@@ -77,20 +64,14 @@ class Td3Agent:
             target = batch.rewards + c.gamma * (1.0 - batch.dones) * next_q
         q1, q2 = self._q(self.critics, batch.observations, actions)
         critic_loss = nn.functional.mse_loss(q1, target) + nn.functional.mse_loss(q2, target)
-        self.critic_optimizer.zero_grad()
-        critic_loss.backward()
-        self.critic_optimizer.step()
+        descend(self.critic_optimizer, critic_loss, self.critics.parameters(), max_grad_norm=None)
         self.updates += 1
         metrics = {"critic_loss": float(critic_loss.item())}
         if self.updates % c.policy_delay == 0:  # the actor (and the targets) move half as often
             actor_loss = -self._q(self.critics[:1], batch.observations, self.actor(batch.observations))[0].mean()
-            self.actor_optimizer.zero_grad()
-            actor_loss.backward()
-            self.actor_optimizer.step()
-            with torch.no_grad():
-                for network, target_network in ((self.actor, self.actor_target), (self.critics, self.critics_target)):
-                    for parameter, target_parameter in zip(network.parameters(), target_network.parameters()):
-                        target_parameter.mul_(1 - c.tau).add_(c.tau * parameter)
+            descend(self.actor_optimizer, actor_loss, self.actor.parameters(), max_grad_norm=None)
+            soft_update(self.actor, self.actor_target, c.tau)
+            soft_update(self.critics, self.critics_target, c.tau)
             metrics["actor_loss"] = float(actor_loss.item())
         if not math.isfinite(metrics["critic_loss"]):
             raise FloatingPointError("the TD3 critic loss is not finite: lower the learning rates")

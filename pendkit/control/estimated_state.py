@@ -4,25 +4,27 @@ state in place of the raw readings.
 On the rig (and the realistic twin) a reading is 0-20 ms old when it arrives, its rate is a mean over the
 last 75 ms of quantised positions, and the arm angle it carries is the servo command, not the arm. The
 `DelayedAngleObserver` predicts with the model through the commands sent since and corrects with the
-encoder angle at the reading's own time. The env's `features="estimated"` uses this class.
+encoder angle at the reading's own time. The env's `features="estimated"` uses this class, designed for
+its backend's `BackendTiming`.
 """
 
 from __future__ import annotations
 
+from pendkit.backend_contract import BackendTiming, RigState, ServoCommand
 from pendkit.control.model import FurutaModel
 from pendkit.control.observer import DelayedAngleObserver
 from pendkit.rig import RigParams
-from pendkit.state import RigState, ServoCommand
 
 
 class EstimatedStateFeed:
     """`reset(state)` at an episode's start, `update(command, state)` after each step; both return the
     state to show the agent (estimated angles, rates and pendulum acceleration; the rest as measured)."""
 
-    def __init__(self, params: RigParams, period_s: float, actuation_delay_s: float, reading_delay_s: float) -> None:
+    def __init__(self, params: RigParams, period_s: float, timing: BackendTiming) -> None:
+        """`period_s`: the control step; `timing`: the backend's command and reading delays."""
         self.params = params
         self.model = FurutaModel.from_rig(params)
-        self.observer = DelayedAngleObserver(self.model, period_s, actuation_delay_s, reading_delay_s)
+        self.observer = DelayedAngleObserver(self.model, period_s, timing.command_delay_s, timing.reading_delay_s)
         self._ramp_per_count_rad_s = params.servo_rad_per_count * 1000.0 / params.acting_period_ms
 
     def reset(self, state: RigState) -> RigState:
@@ -48,13 +50,5 @@ class EstimatedStateFeed:
         _, pendulum_acceleration = self.model.accelerations(x, self.observer.target_in_force_rad)
         return estimated._replace(pendulum_acceleration_rad_s2=float(pendulum_acceleration))
 
-
-def estimated_state_feed(env) -> EstimatedStateFeed:
-    """A feed designed for this env's step and delays (see `pendkit.control.lqr.expected_delays_s`)."""
-    from pendkit.control.lqr import expected_delays_s
-
-    base = env.unwrapped
-    actuation_s, reading_s = expected_delays_s(base)
-    return EstimatedStateFeed(base.params, base.dt, actuation_s, reading_s)
 
 

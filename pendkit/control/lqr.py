@@ -9,12 +9,12 @@ from dataclasses import dataclass
 import control
 import numpy as np
 
+from pendkit.backend_contract import RigState
 from pendkit.control.model import FurutaModel, filtered_model
 from pendkit.control.observer import DelayedAngleObserver
 from pendkit.errors import ConfigError
 from pendkit.features import angle_from_upright_rad
 from pendkit.rig import RigParams
-from pendkit.state import RigState
 
 
 @dataclass(frozen=True)
@@ -108,11 +108,12 @@ class LqrBalancer:
         """A balancer designed for this env's step, filter and delays; with an observer where the env's
         sensing is realistic."""
         base = env.unwrapped
-        actuation_s, reading_s = expected_delays_s(base)
+        timing = base.backend.timing
+        actuation_s, reading_s = timing.command_delay_s, timing.reading_delay_s
         internal = base.filter_coefficient == 0  # no filter in the env: smooth our own targets
         design_filter = base.params.filter_coefficient if internal else base.filter_coefficient
         observer = None
-        if base.backend.timing.firmware_readings:
+        if timing.firmware_readings:
             observer = DelayedAngleObserver(FurutaModel.from_rig(base.params), base.dt, actuation_s, reading_s)
             delay = actuation_s  # the observer's estimate is of "now": only the command's way remains
         else:
@@ -191,9 +192,3 @@ class StateFeedback:
     def __call__(self, observation, state: RigState) -> np.ndarray:
         return self.action(state)
 
-
-def expected_delays_s(env) -> tuple[float, float]:
-    """(command, reading) delays in seconds that the env's backend reports (`backend.timing`): mean time
-    from sending a command to the servo acting on it, and from an encoder reading to the host having it."""
-    timing = env.unwrapped.backend.timing
-    return timing.command_delay_s, timing.reading_delay_s

@@ -14,8 +14,8 @@ import math
 import control
 import numpy as np
 
+from pendkit.backend_contract import RigState
 from pendkit.control.model import FurutaModel
-from pendkit.state import RigState
 
 SUBSTEP_S = 0.005
 

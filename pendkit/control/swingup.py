@@ -18,11 +18,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pendkit.control.lqr import LqrBalancer, expected_delays_s
+from pendkit.backend_contract import RigState
+from pendkit.control.lqr import LqrBalancer
 from pendkit.errors import ConfigError
 from pendkit.features import angle_from_upright_rad, pendulum_energy
 from pendkit.rig import RigParams
-from pendkit.state import RigState
 
 
 @dataclass(frozen=True)
@@ -137,7 +137,8 @@ class SwingUpController:
     def for_env(cls, env, config: SwingUpConfig | None = None, parts: SwingUpParts | None = None,
                 **lqr_kwargs) -> SwingUpController:
         balancer = LqrBalancer.for_env(env, **lqr_kwargs)
-        return cls(balancer, config, env.unwrapped.params, loop_delay_s=sum(expected_delays_s(env)), parts=parts)
+        return cls(balancer, config, env.unwrapped.params, loop_delay_s=env.unwrapped.backend.timing.loop_delay_s,
+                   parts=parts)
 
     def reset(self, state: RigState) -> None:
         self.mode, self.switches = "swing", 0

@@ -1,7 +1,7 @@
 """System identification from logs: the pendulum's natural frequency and damping from a free swing,
 the servo's lag and slew rate from step responses, each with a standard error.
 
-Works on any arrays of times and angles: a twin episode, `pendkit.link.log.readings_from_log` of a rig's
+Works on any arrays of times and angles: a twin episode, `pendkit.device.log.readings_from_log` of a rig's
 or the realistic twin's episode log, or the labs' sampled swings.
 """
 
@@ -134,7 +134,7 @@ def match_servo_speed(measured_slew_rad_s: float, params=None, steps_rad=(0.6, -
     rated speed is found by simulating, not by converting: bisection on the twin's own step response.
     """
     from pendkit.rig import RigParams
-    from pendkit.sim.sampling import servo_step_readings
+    from pendkit.sim.lab_readings import servo_step_readings
 
     params = params or RigParams()
     if not (math.isfinite(measured_slew_rad_s) and measured_slew_rad_s > 0):

@@ -16,13 +16,13 @@ from collections.abc import Callable
 import control
 import numpy as np
 
+from pendkit.backend_contract import RigState
 from pendkit.control.lqr import LqrWeights
 from pendkit.control.model import filtered_model
 from pendkit.control.swingup import SwingUpController
 from pendkit.control.trajopt import Plan, StepModel, SwingUpLimits, fastest_bang_bang
 from pendkit.errors import ConfigError
 from pendkit.features import angle_from_upright_rad
-from pendkit.state import RigState
 
 # The tracker's weights: the balancer's, with a cheaper target and more damping on the arm. Chosen on 50-100
 # starts of the realistic twin (p90 time to upright 3.2 s -> 2.8 s; the closing note of issue 17 has the sweep).

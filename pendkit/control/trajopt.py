@@ -73,12 +73,10 @@ class StepModel:
 
     @classmethod
     def for_env(cls, env) -> StepModel:
-        from pendkit.control.lqr import expected_delays_s
-
         base = env.unwrapped
-        command_s, reading_s = expected_delays_s(base)
+        timing = base.backend.timing
         # With readings from the firmware an observer estimates "now"; otherwise the reading's age adds up.
-        delay = command_s if base.backend.timing.firmware_readings else command_s + reading_s
+        delay = timing.command_delay_s if timing.firmware_readings else timing.loop_delay_s
         return cls(FurutaModel.from_rig(base.params), base.dt, min(delay, 0.9 * base.dt))
 
     def step(self, x: np.ndarray, target_rad) -> np.ndarray:

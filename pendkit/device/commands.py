@@ -23,10 +23,10 @@ import functools
 import re
 from dataclasses import dataclass
 
+from pendkit.backend_contract import ServoCommand
 from pendkit.device.logic import action_increments_counts
 from pendkit.device.protocol import ProtocolError
 from pendkit.rig import RigParams
-from pendkit.state import ServoCommand
 
 MAX_COMMAND_LENGTH = 64
 MAX_UINT32 = 4294967295

@@ -15,9 +15,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from pendkit.backend_contract import FLAG_BITS, STOP, RigState, ServoCommand
 from pendkit.encoder import FirmwareVelocityEstimator, frame_status
 from pendkit.rig import RigParams
-from pendkit.state import FLAG_BITS, STOP, RigState, ServoCommand
 
 HOLDING_FLAGS = frozenset(("watchdog", "overspin", "stuck_encoder"))
 STUCK_BAD_FRAMES = 8

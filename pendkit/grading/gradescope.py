@@ -9,10 +9,8 @@ sandbox hides it again while their notebook runs.
 
 from __future__ import annotations
 
-import argparse
 import json
 import shutil
-import sys
 import tempfile
 import zipfile
 from pathlib import Path
@@ -37,7 +35,7 @@ RUN_AUTOGRADER = """#!/usr/bin/env bash
 # Gradescope runs this for every submission; AUTOGRADER_ROOT and AUTOGRADER_PYTHON are for local tests.
 ROOT="${{AUTOGRADER_ROOT:-/autograder}}"
 PYTHON="${{AUTOGRADER_PYTHON:-$ROOT/venv/bin/python}}"
-exec "$PYTHON" -m pendkit.grading.gradescope --root "$ROOT" --lab {lab}
+exec "$PYTHON" -m pendkit.cli autograder-run --root "$ROOT" --lab {lab}
 """
 
 
@@ -95,16 +93,3 @@ def unpack_for_test(zip_path: Path, root: Path) -> Path:
     with zipfile.ZipFile(zip_path) as archive:
         archive.extractall(root / "source")
     return root
-
-
-def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description="Gradescope's run_autograder for a pendkit lab.")
-    parser.add_argument("--root", type=Path, default=Path("/autograder"))
-    parser.add_argument("--lab", required=True)
-    args = parser.parse_args(argv)
-    result = run(args.root, args.lab)
-    print(f"score {result['score']:g}", file=sys.stderr)
-
-
-if __name__ == "__main__":
-    main()

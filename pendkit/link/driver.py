@@ -16,10 +16,10 @@ from urllib.parse import urlparse
 
 import paho.mqtt.client as mqtt
 
+from pendkit.device.log import EpisodeLog
 from pendkit.device.protocol import ANY_DEVICE, ProtocolError, ReadingLimits, ReceivedObservation, parse_observation
 from pendkit.errors import ConfigError, PendkitError
 from pendkit.link import DEFAULT_BROKER
-from pendkit.link.log import EpisodeLog
 
 LOG = logging.getLogger("pendkit.link")
 # An observation older than the newest (time or v2 sequence), or a sequence number further ahead than

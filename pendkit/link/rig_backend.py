@@ -15,16 +15,16 @@ from pathlib import Path
 
 import numpy as np
 
+from pendkit.backend_contract import STOP, BackendTiming, RigState, ServoCommand
 from pendkit.device.commands import command_body, frame_command
+from pendkit.device.log import EpisodeLog
 from pendkit.device.logic import observation_to_state
 from pendkit.device.protocol import ReadingLimits
 from pendkit.device.scheduler import PROTOCOLS
 from pendkit.errors import ConfigError
 from pendkit.link.driver import DEFAULT_BROKER, RigLink, RigLinkError
-from pendkit.link.log import EpisodeLog
 from pendkit.rig import RigParams
 from pendkit.sim.latency import CLASSROOM_WIFI, median_latency_ms
-from pendkit.state import STOP, BackendTiming, RigState, ServoCommand
 
 SETTLED_REV_S = 0.05
 SETTLE_HOLD_S = 1.0

@@ -10,17 +10,17 @@ from typing import Literal
 import mujoco
 import numpy as np
 
+from pendkit.backend_contract import BackendTiming, RigState, ServoCommand
 from pendkit.device.commands import command_body, frame_command
+from pendkit.device.log import EpisodeLog
 from pendkit.device.logic import McuObservation, observation_to_state
 from pendkit.device.protocol import format_observation_v1
 from pendkit.device.twin import TwinDevice
 from pendkit.errors import ConfigError
-from pendkit.link.log import EpisodeLog
 from pendkit.rig import RigParams
 from pendkit.sim.fidelity import Fidelity, resolve_fidelity
 from pendkit.sim.latency import median_latency_ms
 from pendkit.sim.model import ARM_JOINT, PENDULUM_JOINT, build_model
-from pendkit.state import BackendTiming, RigState, ServoCommand
 
 Start = Literal["random", "rest", "upright"]
 STARTS = ("random", "rest", "upright")

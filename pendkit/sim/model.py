@@ -9,8 +9,10 @@ rate" command needs no per-substep Python), a proportional-derivative drive clip
 torque, and back-EMF damping on the joint, which together give a linear torque-speed curve that
 tops out at the datasheet's no-load speed. The gear train's reflected rotor inertia is joint armature.
 
-The printed parts are drawn with the meshes their STL files are cut from (pendkit/cad: visual only, no
-mass); their masses sit in simple shapes (hidden, group 3) that the analytic model shares.
+The printed parts' masses sit in simple shapes (hidden, group 3) that the analytic model shares. For
+drawing, `build_model(params, assets=...)` adds the printed parts as meshes (the STL files' solids,
+`pendkit.cad.twin_meshes.visual_twin_model`: visual only, no mass); physics, training and the virtual rig
+compile without them, so none of them touches the CAD.
 """
 
 from __future__ import annotations
@@ -20,7 +22,6 @@ import math
 
 import mujoco
 
-from pendkit.cad.twin_meshes import twin_meshes
 from pendkit.rig import GRAVITY_M_S2, RigParams
 
 ARM_JOINT = "arm"
@@ -42,20 +43,13 @@ _TEMPLATE = """
     <material name="pine" rgba=".87 .72 .48 1"/>
     <material name="print" rgba=".00 .45 .70 1"/>
     <material name="dark" rgba=".20 .20 .22 1"/>
-    <mesh name="tip_weight" file="tip_weight.stl" scale=".001 .001 .001"/>
-    <mesh name="coupler" file="coupler.stl" scale=".001 .001 .001"/>
-    <mesh name="encoder_mount" file="encoder_mount.stl" scale=".001 .001 .001"/>
-    <mesh name="servo_mount" file="servo_mount.stl" scale=".001 .001 .001"/>
-    <mesh name="base_clamp" file="base_clamp.stl" scale=".001 .001 .001"/>
-  </asset>
+{mesh_assets}  </asset>
   <worldbody>
     <light pos="0.3 -0.6 1.2" dir="-0.2 0.5 -1"/>
     <geom name="floor" type="plane" size="1 1 0.01" material="grid" pos="0 0 -{servo_height}"/>
     <geom name="stand" type="cylinder" size="0.015 {stand_half}" pos="0 0 -{stand_centre}" material="dark" mass="0"/>
-    <geom name="servo_mount_print" type="mesh" mesh="servo_mount" material="print" mass="0" contype="0"
-          conaffinity="0"/>
-    <geom name="base_clamp_print" type="mesh" mesh="base_clamp" material="print" mass="0" contype="0"
-          conaffinity="0"/>
+{print_servo_mount}
+{print_base_clamp}
     <camera name="front" pos="{cam_x} -1.1 0.15" xyaxes="1 0 0 0 0.2 1"/>
     <camera name="top" pos="{cam_x} 0 1.1" xyaxes="1 0 0 0 1 0"/>
     <body name="arm">
@@ -67,20 +61,18 @@ _TEMPLATE = """
             material="dark"/>
       <geom name="encoder_mount" type="box" size="{mount_hx} {mount_hy} {mount_half_h}" pos="{pivot_r} 0 {mount_z}"
             mass="{mount_mass}" material="print" group="3"/>
-      <geom name="encoder_mount_print" type="mesh" mesh="encoder_mount" material="print" mass="0" contype="0"
-            conaffinity="0"/>
+{print_encoder_mount}
       <geom name="encoder" type="cylinder" size="{enc_r} {enc_hl}" pos="{encoder_x} 0 {pivot_z}" zaxis="1 0 0"
             mass="{encoder_mass}" material="dark"/>
       <body name="pendulum" pos="{pivot_r} 0 {pivot_z}">
         <joint name="{pendulum}" type="hinge" axis="1 0 0" damping="{pendulum_damping}"/>
         <geom name="coupler" type="sphere" size="{coupler_r}" mass="{coupler_mass}" material="print" group="3"/>
-        <geom name="coupler_print" type="mesh" mesh="coupler" material="print" mass="0" contype="0" conaffinity="0"/>
+{print_coupler}
         <geom name="dowel" type="cylinder" fromto="0 0 0 0 0 -{dowel_len}" size="{dowel_r}"
               mass="{dowel_mass}" material="pine"/>
         <geom name="tip_weight" type="cylinder" pos="0 0 -{tip_z}" size="{tip_r} {tip_half_h}"
               mass="{tip_mass}" material="print" group="3"/>
-        <geom name="tip_weight_print" type="mesh" mesh="tip_weight" material="print" mass="0" contype="0"
-              conaffinity="0"/>
+{print_tip_weight}
         <site name="tip" pos="0 0 -{dowel_len}" size="0.004"/>
       </body>
     </body>
@@ -95,10 +87,25 @@ _TEMPLATE = """
 """
 
 
-def model_xml(params: RigParams, *, lock_arm: bool = False, energy: bool = False) -> str:
-    """The MJCF text for `params`. `lock_arm` fixes the arm (for analytic checks of the pendulum)."""
+PRINTED_PART_NAMES = ("tip_weight", "coupler", "encoder_mount", "servo_mount", "base_clamp")
+
+
+def _printed_parts_xml(drawn: bool) -> dict[str, str]:
+    """The mesh assets and the massless, collision-free geoms that draw the printed parts (or nothing)."""
+    if not drawn:
+        return {"mesh_assets": "", **{f"print_{name}": "" for name in PRINTED_PART_NAMES}}
+    meshes = "".join(f'    <mesh name="{name}" file="{name}.stl" scale=".001 .001 .001"/>\n'
+                     for name in PRINTED_PART_NAMES)
+    geoms = {f"print_{name}": f'<geom name="{name}_print" type="mesh" mesh="{name}" material="print" mass="0" '
+                              'contype="0" conaffinity="0"/>' for name in PRINTED_PART_NAMES}
+    return {"mesh_assets": meshes, **geoms}
+
+
+def model_xml(params: RigParams, *, lock_arm: bool = False, energy: bool = False, drawn_parts: bool = False) -> str:
+    """The MJCF text for `params`. `lock_arm` fixes the arm (for analytic checks of the pendulum);
+    `drawn_parts` adds the printed parts' meshes (files `<part>.stl`, given as assets when compiled)."""
     stand_half = SERVO_HEIGHT_M / 2 - 0.01
-    values = dict(
+    values = dict(**_printed_parts_xml(drawn_parts),
         timestep_s=params.physics_step_ms / 1000.0, gravity=GRAVITY_M_S2,
         energy_flag='energy="enable"' if energy else "",
         servo_height=SERVO_HEIGHT_M, stand_half=stand_half, stand_centre=stand_half + 0.02,
@@ -132,15 +139,24 @@ def model_xml(params: RigParams, *, lock_arm: bool = False, energy: bool = False
     return xml
 
 
+def build_model(params: RigParams, *, assets: dict[str, bytes] | None = None, lock_arm: bool = False,
+                energy: bool = False) -> mujoco.MjModel:
+    """Compile the twin for `params` (cached without `assets`: RigParams is frozen and hashable; do not
+    mutate the result). `assets`: STL bytes per printed part ("<part>.stl"), to draw them."""
+    if assets is None:
+        return _physics_model(params, lock_arm, energy)
+    xml = model_xml(params, lock_arm=lock_arm, energy=energy, drawn_parts=True)
+    return mujoco.MjModel.from_xml_string(xml, assets)
+
+
 @functools.lru_cache(maxsize=16)
-def build_model(params: RigParams, *, lock_arm: bool = False, energy: bool = False) -> mujoco.MjModel:
-    """Compile the twin for `params` (cached: RigParams is frozen and hashable). Do not mutate the result."""
-    return mujoco.MjModel.from_xml_string(model_xml(params, lock_arm=lock_arm, energy=energy), twin_meshes(params))
+def _physics_model(params: RigParams, lock_arm: bool, energy: bool) -> mujoco.MjModel:
+    return mujoco.MjModel.from_xml_string(model_xml(params, lock_arm=lock_arm, energy=energy))
 
 
 def fresh_model(params: RigParams, **kwargs) -> mujoco.MjModel:
     """An uncached model that callers may modify (tests, system identification)."""
-    return mujoco.MjModel.from_xml_string(model_xml(params, **kwargs), twin_meshes(params))
+    return mujoco.MjModel.from_xml_string(model_xml(params, **kwargs))
 
 
 def small_oscillation_period_s(params: RigParams) -> float:

@@ -12,7 +12,7 @@ mean = task("02.firmware_mean", function="firmware_mean", title="The firmware's 
 
 @velocity.test(points=2, hidden=True, hint="Check against the shared firmware test vectors.")
 def matches_the_firmware_on_a_twin_log(fn, rng):
-    from pendkit.sim.sampling import free_swing_readings
+    from pendkit.sim.lab_readings import free_swing_readings
 
     readings = free_swing_readings(period_ms=25.0, duration_s=2.0, offset_counts=int(rng.integers(0, 1024)))
     expected = encoder.finite_difference_rev_s(readings.raw_counts, readings.times_ms)

@@ -7,7 +7,7 @@ import numpy as np
 from pendkit.grading import expect, task
 from pendkit.grading.prelab import prelab_answers
 from pendkit.rig import RigParams
-from pendkit.sim.sampling import free_swing_readings
+from pendkit.sim.lab_readings import free_swing_readings
 
 frequency = task("03.natural_frequency", function="natural_frequency", title="Compound-pendulum frequency")
 period = task("03.period_from_crossings", function="period_from_crossings", title="Period from zero crossings")
@@ -62,7 +62,7 @@ def random_ramps(fn, rng):
 @slew.test(points=1, hidden=True, hint="Check it on the twin's own servo.")
 def the_twins_servo(fn, rng):
     from pendkit.control.sysid import identify_servo_steps
-    from pendkit.sim.sampling import servo_step_readings
+    from pendkit.sim.lab_readings import servo_step_readings
 
     readings = servo_step_readings(steps_rad=(0.6,), hold_s=0.6)
     t, command, arm = readings.times_s, readings.commanded_rad, readings.arm_rad

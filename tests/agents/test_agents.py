@@ -11,6 +11,7 @@ torch = pytest.importorskip("torch")
 import pendkit  # noqa: E402
 from pendkit.agents.dqn import DqnAgent, DqnConfig  # noqa: E402
 from pendkit.agents.gru_encoder import GruEncoder  # noqa: E402
+from pendkit.agents.inputs import StepInputs  # noqa: E402
 from pendkit.agents.replay import ReplayBuffer  # noqa: E402
 from pendkit.agents.train import train_sync  # noqa: E402
 from pendkit.errors import ConfigError  # noqa: E402
@@ -99,7 +100,7 @@ def test_trainer_runs_on_the_twin_with_and_without_the_encoder(tmp_path):
         env = pendkit.make(fidelity="ideal", max_episode_steps=40)
         input_dim = encoder.output_dim if encoder else 7 + 5
         agent = DqnAgent(input_dim, 5, DqnConfig(learning_starts=50, batch_size=16))
-        returns = train_sync(env, agent, episodes=3, encoder=encoder, progress=False,
+        returns = train_sync(env, agent, episodes=3, inputs=StepInputs.for_env(env, 1, encoder), progress=False,
                              csv_path=tmp_path / "returns.csv")
         assert len(returns) == 3 and all(np.isfinite(returns)) and agent.updates == 3 * 40 - 49
         rows = list(csv.DictReader((tmp_path / "returns.csv").open()))

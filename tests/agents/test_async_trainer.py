@@ -9,13 +9,13 @@ torch = pytest.importorskip("torch")
 import pendkit  # noqa: E402
 from pendkit.agents.async_trainer import AsyncTrainer  # noqa: E402
 from pendkit.agents.dqn import DqnAgent, DqnConfig  # noqa: E402
-from pendkit.agents.train import step_dim  # noqa: E402
+from pendkit.agents.inputs import StepInputs  # noqa: E402
 from pendkit.link.virtual_rig import LocalRig  # noqa: E402
 
 
 def test_two_twin_actors_feed_one_learner():
     envs = [pendkit.make(fidelity="ideal", max_episode_steps=50) for _ in range(2)]
-    agent = DqnAgent(step_dim(envs[0]), 5, DqnConfig(learning_starts=100, batch_size=32))
+    agent = DqnAgent(StepInputs.for_env(envs[0]).dim, 5, DqnConfig(learning_starts=100, batch_size=32))
     trainer = AsyncTrainer(agent, envs, publish_every=5)
     stats = trainer.run(seconds=3.0)
     assert all(steps > 100 for steps in stats.actor_steps)
@@ -28,7 +28,7 @@ def test_two_twin_actors_feed_one_learner():
 
 
 def test_a_trained_recurrent_learner_gets_whole_stretches_from_interleaved_actors():
-    from pendkit.agents.variants import build_learner
+    from pendkit.agents.learners import build_learner
 
     envs = [pendkit.make(fidelity="realistic", max_episode_steps=60) for _ in range(2)]
     agent, inputs = build_learner("r-dqn", envs[0], learning_starts=64, batch_size=16, update_every=1)
@@ -52,7 +52,8 @@ def test_a_rig_actor_and_the_learner_both_run_on_a_virtual_rig():
     try:
         env = pendkit.make(backend="rig", broker=rig.url, rig=rig.rig, max_episode_steps=40,
                            rig_options={"reset_stop_s": 0.2, "observation_timeout_s": 5.0})
-        agent = DqnAgent(step_dim(env), 5, DqnConfig(learning_starts=32, batch_size=128, hidden=(256, 256)))
+        config = DqnConfig(learning_starts=32, batch_size=128, hidden=(256, 256))
+        agent = DqnAgent(StepInputs.for_env(env).dim, 5, config)
         trainer = AsyncTrainer(agent, [env], publish_every=5)  # the learner trains flat out meanwhile
         stats = trainer.run(seconds=4.0)
         errors_s = np.array(env.unwrapped.backend.step_period_errors_s)

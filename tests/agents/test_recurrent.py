@@ -13,7 +13,7 @@ from pendkit.agents.normalizer import RunningNormalizer  # noqa: E402
 from pendkit.agents.recurrent_dqn import RecurrentDqnAgent, RecurrentDqnConfig  # noqa: E402
 from pendkit.agents.recurrent_td3 import RecurrentTd3Agent, RecurrentTd3Config  # noqa: E402
 from pendkit.agents.sequence_replay import SequenceReplay  # noqa: E402
-from pendkit.agents.train import run_episode, train_sync  # noqa: E402
+from pendkit.agents.train import agent_episode, train_sync  # noqa: E402
 
 
 class CueRecall(gym.Env):
@@ -48,7 +48,7 @@ class CueRecall(gym.Env):
 def recall_rate(env, agent, inputs, episodes=40):
     right = 0
     for k in range(episodes):
-        _, infos = run_episode(env, agent, inputs, seed=10_000 + k, explore=False)
+        _, infos = agent_episode(env, agent, inputs, seed=10_000 + k, explore=False)
         right += infos[-1]["correct"]
     return right / episodes
 
@@ -145,7 +145,7 @@ def test_recurrent_checkpoint_keeps_weights_normalisation_and_replay(tmp_path):
 
 def test_r_dqn_resumed_from_a_checkpoint_is_the_uninterrupted_run(tmp_path):
     import pendkit
-    from pendkit.agents.variants import build_learner
+    from pendkit.agents.learners import build_learner
 
     def fresh():
         env = pendkit.make(fidelity="realistic", max_episode_steps=40)

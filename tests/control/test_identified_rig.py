@@ -7,7 +7,7 @@ from pendkit.control.sysid import identify_servo_steps, match_servo_speed
 from pendkit.errors import ConfigError
 from pendkit.labs.identified_rig import lab_rig
 from pendkit.rig import RigParams
-from pendkit.sim.sampling import servo_step_readings
+from pendkit.sim.lab_readings import servo_step_readings
 
 
 @pytest.mark.parametrize("s_per_60deg", [0.14, 0.26, 0.4])

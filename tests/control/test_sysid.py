@@ -8,11 +8,11 @@ import pytest
 import pendkit
 from pendkit.control.model import FurutaModel
 from pendkit.control.sysid import identify_free_swing, identify_servo_steps
+from pendkit.device.log import readings_from_log
 from pendkit.encoder import counts_to_rad
 from pendkit.errors import ConfigError
-from pendkit.link.log import readings_from_log
 from pendkit.rig import RigParams
-from pendkit.sim.sampling import free_swing_readings, servo_step_readings
+from pendkit.sim.lab_readings import free_swing_readings, servo_step_readings
 
 
 def hanging_mode(params):

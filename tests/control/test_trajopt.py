@@ -14,9 +14,9 @@ from pendkit.control.model import FurutaModel, filtered_model
 from pendkit.control.swingup import SwingUpController
 from pendkit.control.tracking import TrajectoryController, time_varying_lqr
 from pendkit.control.trajopt import (
-    approach_problem,
     StepModel,
     SwingUpLimits,
+    approach_problem,
     fastest_bang_bang,
     initial_state,
     polish_approach,

@@ -7,10 +7,10 @@ import nbformat
 import pytest
 
 from pendkit.grading import TASKS, run_task
-from pendkit.labs.build import strip_solutions
+from pendkit.labs.build import lab_files, strip_solutions
 
 ROOT = Path(__file__).resolve().parents[2]
-LABS = [f"{n:02d}" for n in range(10)]
+LABS = [lab.number for lab in lab_files(ROOT / "solutions", ROOT / "labs")]
 
 
 def solution_prelab(lab: str):

@@ -10,6 +10,7 @@ import nbformat
 
 from pendkit.grading.report import grade_folder
 from pendkit.grading.written import ANSWER_PROMPT, collect_answers, questions_of
+from pendkit.labs.build import lab_files
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -17,7 +18,7 @@ ROOT = Path(__file__).resolve().parents[2]
 def test_every_lab_asks_for_a_written_answer_and_its_student_copy_has_the_prompt():
     from pendkit.grading.core import load_lab
 
-    for lab in [f"{n:02d}" for n in range(10)]:
+    for lab in [lab.number for lab in lab_files(ROOT / "solutions", ROOT / "labs")]:
         load_lab(lab)
         questions = questions_of(lab)
         assert questions, lab

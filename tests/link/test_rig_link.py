@@ -7,9 +7,9 @@ import time
 import pytest
 
 import pendkit
+from pendkit.device.log import readings_from_log
 from pendkit.link.broker import MosquittoBroker, free_port
 from pendkit.link.driver import RigLink, RigLinkError
-from pendkit.link.log import readings_from_log
 from pendkit.link.virtual_rig import VirtualRig, VirtualRigGroup
 
 FAST_RESET = {"reset_stop_s": 0.3}

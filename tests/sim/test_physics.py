@@ -6,10 +6,10 @@ import mujoco
 import numpy as np
 import pytest
 
+from pendkit.backend_contract import ServoCommand
 from pendkit.rig import RigParams
 from pendkit.sim.backend import SimBackend
 from pendkit.sim.model import ARM_JOINT, PENDULUM_JOINT, build_model, fresh_model, small_oscillation_period_s
-from pendkit.state import ServoCommand
 
 
 def zero_crossing_period_s(model, data, joint, seconds):

@@ -1,6 +1,7 @@
-"""Students' own DQN pieces inside the kit's agent (lab 07): their exploration schedule chooses when to
-explore, their target is what the network regresses to, and their loss gives the gradient. A wrong piece
-changes what the agent learns, which is the point.
+"""Students' own learning pieces inside the kit's agents, with their contract checks. Lab 07: their
+exploration schedule chooses when to explore, their target is what the network regresses to, and their
+loss gives the gradient (`DqnAgent` takes all three as callables). Lab 08: their augmented state is what
+the delay-aware agent sees. A wrong piece changes what the agent learns, which is the point.
 
 The pieces are plain numpy functions, as the lab asks for them:
 - `epsilon(step, start, end, decay_steps) -> float`
@@ -14,10 +15,13 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 import torch
 
+from pendkit.agents.dqn import DqnAgent, DqnConfig
+from pendkit.agents.inputs import StepInputs
 from pendkit.errors import ConfigError
 
 DERIVATIVE_STEP = 1e-4
@@ -29,9 +33,28 @@ class StudentCodeError(ConfigError):
 
 @dataclass(frozen=True)
 class StudentParts:
+    """A student's functions; None keeps the kit's own."""
+
     epsilon: Callable | None = None
     td_target: Callable | None = None
     loss: Callable | None = None
+
+    def hooks(self) -> dict:
+        """`DqnAgent`'s keyword arguments: each given piece behind its contract check."""
+        hooks = {}
+        if self.epsilon is not None:
+            hooks["epsilon"] = partial(call_epsilon, self.epsilon)
+        if self.td_target is not None:
+            hooks["target"] = partial(call_td_target, self.td_target)
+        if self.loss is not None:
+            hooks["loss"] = partial(student_loss, self.loss)
+        return hooks
+
+
+def student_dqn(observation_dim: int, n_actions: int, config: DqnConfig | None = None,
+                parts: StudentParts | None = None) -> DqnAgent:
+    """The kit's DQN with a student's pieces in place of its own."""
+    return DqnAgent(observation_dim, n_actions, config, **(parts or StudentParts()).hooks())
 
 
 def call_epsilon(fn: Callable, step: int, start: float, end: float, decay_steps: int) -> float:
@@ -132,18 +155,14 @@ def train_with_parts(env, parts: StudentParts, episodes: int, seed: int = 0, lea
     one-line note when a piece is not written yet or breaks (the note says which and how). Torch runs on one
     thread here: as fast for these small networks, and the same run gives the same curve on any laptop
     (several threads sum in a varying order, and a 50-episode run is chaotic enough to show it)."""
-    import torch
-
-    from pendkit.agents.dqn import DqnAgent, DqnConfig
-    from pendkit.agents.inputs import StepInputs
     from pendkit.agents.train import train_sync
 
     inputs = inputs or StepInputs.for_env(env)
     threads = torch.get_num_threads()
     torch.set_num_threads(1)
     try:
-        agent = DqnAgent(inputs.dim, env.action_space.n, DqnConfig(seed=seed, learning_starts=learning_starts),
-                         parts)
+        agent = student_dqn(inputs.dim, env.action_space.n, DqnConfig(seed=seed, learning_starts=learning_starts),
+                            parts)
         returns = run_or_note(train_sync, env, agent, episodes, inputs, seed=seed, progress=False)
     finally:
         torch.set_num_threads(threads)

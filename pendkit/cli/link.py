@@ -1,4 +1,4 @@
-"""The rig-link commands of `pendkit`: broker, broker-config, virtual-rig."""
+"""`pendkit broker`, `broker-config`, `virtual-rig`: the rig link's commands."""
 
 from __future__ import annotations
 
@@ -84,3 +84,6 @@ def virtual_rig(rig_ids, broker_url, speed, impairment, username, password, enco
     click.echo(f"virtual rig(s) {', '.join(rig_ids)} on {broker_url} at {speed:g}x; Ctrl-C to stop")
     stop.wait()
     group.stop()
+
+
+COMMANDS = (broker, broker_config, virtual_rig)

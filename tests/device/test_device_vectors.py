@@ -24,7 +24,8 @@ def test_device_vectors_are_not_stale():
 
 def test_firmware_constants_header_matches_rig_params():
     header = ROOT / "firmware" / "lib" / "pendcore" / "src" / "rig_constants.h"
-    assert header.read_text() == render_header(), "regenerate with: python -m pendkit.firmware_constants"
+    regenerate = "regenerate: pendkit firmware-header > firmware/lib/pendcore/src/rig_constants.h"
+    assert header.read_text() == render_header(), regenerate
 
 
 @given(st.text(max_size=80) | st.binary(max_size=80).map(lambda b: b.decode("latin-1")))

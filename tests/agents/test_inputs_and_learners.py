@@ -38,7 +38,8 @@ def test_actions_for_delay_counts_the_steps_a_reading_has_missed():
 
 def test_delay_aware_learner_sees_as_many_actions_as_the_delay_hides():
     pytest.importorskip("torch")
-    from pendkit.agents.variants import VARIANT_NAMES, build_learner, env_delay_s
+    from pendkit.agents.base import Agent
+    from pendkit.agents.learners import LEARNERS, build_learner, env_delay_s
 
     delayed = ObservationDelay(pendkit.make(fidelity="ideal"), 2)
     assert env_delay_s(delayed) == pytest.approx(0.12)
@@ -46,15 +47,16 @@ def test_delay_aware_learner_sees_as_many_actions_as_the_delay_hides():
     assert inputs.actions_seen == 3
     _, plain = build_learner("dqn", delayed)
     assert plain.actions_seen == 1
-    for name in VARIANT_NAMES:  # every named learner builds on its env and acts
-        from pendkit.agents.variants import variant
-
-        env = pendkit.make(fidelity="realistic", **variant(name).env_kwargs())
+    for name, learner in LEARNERS.items():  # every named learner builds on its env, keeps the contract and acts
+        env = pendkit.make(fidelity="realistic", **learner.env_kwargs())
         agent, inputs = build_learner(name, env, seed=1)
+        assert isinstance(agent, Agent) and agent.input_dim == inputs.dim, name
         x = inputs.reset(env.reset(seed=0)[0])
-        if getattr(agent, "recurrent", False):
-            agent.reset()
+        agent.reset()
         assert env.action_space.contains(agent.act(x, explore=True))
+        buffer = agent.new_buffer(0)
+        buffer.add(x, agent.act(x), 0.0, x, False, episode=0, step=0, **agent.step_extras())
+        assert len(buffer) == 1
     with pytest.raises(ConfigError, match="unknown learner"):
         build_learner("dqn+magic", delayed)
     with pytest.raises(ConfigError, match="action_mode"):

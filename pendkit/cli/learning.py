@@ -1,5 +1,6 @@
-"""`pendkit train`, `pendkit eval`, `pendkit plot`: DQN and R-DQN on the twin. Torch is imported only
-when a command runs, so the rest of pendkit works without the rl extra."""
+"""`pendkit train`, `eval`, `plot`, `policies`: learners on the twin or a rig. Torch is imported only when a
+command runs, so the rest of pendkit works without the rl extra. Runs are built, saved and loaded through
+`pendkit.agents.runs`, as the shipped policies and the benchmarks are."""
 
 from __future__ import annotations
 
@@ -16,9 +17,9 @@ SOLVED_TAIL_STEPS = 200
 
 
 def _algorithms() -> tuple[str, ...]:
-    from pendkit.agents.variants import VARIANT_NAMES
+    from pendkit.agents.learners import LEARNER_NAMES
 
-    return VARIANT_NAMES
+    return LEARNER_NAMES
 
 
 def _torch_or_exit() -> None:
@@ -27,24 +28,6 @@ def _torch_or_exit() -> None:
     except ImportError:
         raise click.ClickException('the RL commands need PyTorch: pip install -e ".[rl]" (install the CPU build '
                                    "of torch first, see the README)") from None
-
-
-def _build(algo: str, fidelity: str, seed: int, max_steps: int, rig: dict | None = None, randomize: str = "",
-           preset: str | None = None):
-    """(env, agent, inputs) for a named learner; the env randomised per episode when `randomize` names any."""
-    import pendkit
-    from pendkit.agents.variants import build_learner, variant
-    from pendkit.rig import RigParams
-
-    params = RigParams.preset(preset) if preset else None
-    env = pendkit.make(fidelity=fidelity, max_episode_steps=max_steps, params=params, **(rig or {}),
-                       **variant(algo).env_kwargs())
-    if randomize:
-        from pendkit.sim.randomize import DomainRandomization
-
-        env = DomainRandomization(env, randomize, seed)
-    agent, inputs = build_learner(algo, env, seed)
-    return env, agent, inputs
 
 
 def _check_randomize(ctx, param, value: str) -> str:
@@ -89,40 +72,36 @@ def train(algo, fidelity, seed, episodes, max_steps, out_dir, checkpoint_every, 
     """Train a learner (DQN, R-DQN, TD3, R-TD3 and their variants) on the twin (or a rig); checkpoints,
     returns and config in --out."""
     _torch_or_exit()
+    from pendkit.agents.runs import RunSpec, build_run, save_weights
     from pendkit.agents.train import train_sync
 
+    spec = RunSpec(algo, "realistic" if backend == "rig" else fidelity, seed, max_steps, preset, randomize)
     if backend == "rig":
-        _train_on_rig(algo, seed, max_steps, out_dir, rig_id, broker, seconds)
+        _train_on_rig(spec, out_dir, rig_id, broker, seconds)
         return
-    env, agent, inputs = _build(algo, fidelity, seed, max_steps, randomize=randomize, preset=preset)
+    env, agent, inputs = build_run(spec)
     out_dir.mkdir(parents=True, exist_ok=True)
-    config = {"algo": algo, "fidelity": fidelity, "seed": seed, "episodes": episodes, "max_steps": max_steps,
-              "randomize": randomize, "preset": preset, "actions_seen": inputs.actions_seen,
-              "agent": {k: v for k, v in vars(agent.config).items()}}
+    config = {**spec.to_dict(), "episodes": episodes, "actions_seen": inputs.actions_seen,
+              "agent_config": dict(vars(agent.config))}
     (out_dir / "config.json").write_text(json.dumps(config, indent=2))
     returns = train_sync(env, agent, episodes, inputs, seed=seed, progress=not quiet,
                          csv_path=out_dir / "returns.csv", checkpoint_path=out_dir / "checkpoint.pt",
                          checkpoint_every=checkpoint_every, resume=resume)
-    from pendkit.agents.checkpoint import save_checkpoint
-    from pendkit.agents.replay import ReplayBuffer
-
-    save_checkpoint(out_dir / "final.pt", agent, ReplayBuffer(1, 1), len(returns), returns, {"seed": seed})
+    save_weights(out_dir / "final.pt", agent, spec, {"episodes": len(returns)})
     click.echo(f"{len(returns)} episodes; last 10 mean return {sum(returns[-10:]) / min(10, len(returns)):.1f}; "
                f"outputs in {out_dir}")
 
 
-def _train_on_rig(algo, seed, max_steps, out_dir, rig_id, broker, seconds) -> None:
+def _train_on_rig(spec, out_dir, rig_id, broker, seconds) -> None:
     import csv
 
     from pendkit.agents.async_trainer import AsyncTrainer
-    from pendkit.agents.checkpoint import save_checkpoint
+    from pendkit.agents.runs import build_run, make_env, save_weights
 
-    env, agent, inputs = _build(algo, "realistic", seed, max_steps, {"backend": "rig", "rig": rig_id,
-                                                                      "broker": broker})
+    env, agent, inputs = build_run(spec, make_env(spec, backend="rig", rig=rig_id, broker=broker))
     out_dir.mkdir(parents=True, exist_ok=True)
-    (out_dir / "config.json").write_text(json.dumps({"algo": algo, "fidelity": "realistic", "backend": "rig",
-                                                     "rig": rig_id, "seed": seed, "max_steps": max_steps}))
-    trainer = AsyncTrainer(agent, [env], [inputs], seed=seed)
+    (out_dir / "config.json").write_text(json.dumps({**spec.to_dict(), "backend": "rig", "rig": rig_id}))
+    trainer = AsyncTrainer(agent, [env], [inputs], seed=spec.seed)
     stats = trainer.run(seconds)
     env.close()
     returns = stats.episodes[0]
@@ -130,7 +109,7 @@ def _train_on_rig(algo, seed, max_steps, out_dir, rig_id, broker, seconds) -> No
         writer = csv.writer(handle)
         writer.writerow(["episode", "return"])
         writer.writerows([k, f"{r:.4f}"] for k, r in enumerate(returns))
-    save_checkpoint(out_dir / "final.pt", agent, trainer.buffer, len(returns), returns, {"seed": seed})
+    save_weights(out_dir / "final.pt", agent, spec, {"episodes": len(returns), "backend": "rig"})
     click.echo(f"{len(returns)} episodes, {stats.actor_steps[0]} steps, {stats.learner_updates} learner updates, "
                f"{stats.dropped_transitions} transitions dropped; outputs in {out_dir}")
 
@@ -143,24 +122,23 @@ def _train_on_rig(algo, seed, max_steps, out_dir, rig_id, broker, seconds) -> No
 def evaluate(run_dir: Path, episodes: int, preset: str | None) -> None:
     """Greedy episodes of a trained run; "solved" = within 0.3 rad of upright for the last 200 steps."""
     _torch_or_exit()
+    import dataclasses
+
     import numpy as np
-    import torch
 
-    from pendkit.agents.train import run_episode
-    from pendkit.features import holds_upright
+    from pendkit.agents.runs import build_run, greedy_episode, load_weights, solved
 
-    config = json.loads((run_dir / "config.json").read_text())
-    env, agent, inputs = _build(config["algo"], config["fidelity"], config["seed"], config["max_steps"],
-                                preset=preset or config.get("preset"))
     weights = run_dir / "final.pt" if (run_dir / "final.pt").exists() else run_dir / "checkpoint.pt"
-    agent.load_state_dict(torch.load(weights, weights_only=False)["agent"])
-    solved, returns = 0, []
+    spec, state = load_weights(weights)
+    spec = dataclasses.replace(spec, preset=preset or spec.preset, randomize="")
+    env, agent, inputs = build_run(spec)
+    agent.load_state_dict(state)
+    held, returns = 0, []
     for episode in range(episodes):
-        total, infos = run_episode(env, agent, inputs, seed=10_000 + episode, explore=False)
-        angles = [abs(info["angle_from_upright_rad"]) for info in infos]
+        total, infos = greedy_episode(env, agent, inputs, seed=10_000 + episode, start=None)
         returns.append(total)
-        solved += holds_upright(angles, SOLVED_TAIL_STEPS)
-    click.echo(f"mean return {np.mean(returns):.1f} over {episodes} episodes; solved {solved}/{episodes}")
+        held += solved(infos)
+    click.echo(f"mean return {np.mean(returns):.1f} over {episodes} episodes; solved {held}/{episodes}")
 
 
 @click.command()
@@ -191,3 +169,34 @@ def plot(run_dir: Path) -> None:
     alt = f"Learning curve of {len(returns)} episodes; the last {window}-episode mean return is {mean[-1]:.1f}."
     figure.savefig(path, dpi=100, metadata={"Description": alt})
     click.echo(f"learning curve: {path}")
+
+
+@click.group()
+def policies() -> None:
+    """The policies shipped with the kit (pendkit.agents.pretrained)."""
+
+
+@policies.command("list")
+def policies_list() -> None:
+    """Name, learner, twin and training episodes of each shipped policy."""
+    from pendkit.agents.pretrained import POLICIES
+
+    for name, spec in POLICIES.items():
+        click.echo(f"{name:<18} {spec.run.learner:<8} {spec.run.fidelity:<10} {spec.episodes} episodes")
+
+
+@policies.command("build")
+@click.argument("names", nargs=-1)
+def policies_build(names: tuple[str, ...]) -> None:
+    """Train the named shipped policies again (all by default) into pendkit/data/policies."""
+    _torch_or_exit()
+    from pendkit.agents.pretrained import build
+    from pendkit.errors import ConfigError
+
+    try:
+        build(list(names) or None)
+    except ConfigError as error:
+        raise click.ClickException(str(error)) from None
+
+
+COMMANDS = (train, evaluate, plot, policies)

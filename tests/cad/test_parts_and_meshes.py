@@ -13,11 +13,12 @@ from click.testing import CliRunner
 from pendkit.bom import read_bom
 from pendkit.cad.assembly import ASSEMBLY_ORDER, export, overlaps_mm3, part_masses_g, to_stl_bytes
 from pendkit.cad.parts import PRINTED_PARTS, PrintSettings, bore_diameter_mm, tip_weight_mass_g
+from pendkit.cad.twin_meshes import visual_twin_model
 from pendkit.cli import main
 from pendkit.rig import RigParams
 from pendkit.sim.model import build_model
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PARAMS = RigParams()
 
 
@@ -57,8 +58,16 @@ def test_an_encoder_where_the_mount_does_not_expect_it_is_caught():
     assert clashes[("encoder_mount", "encoder_body")] > 100
 
 
+def test_the_twins_physics_compiles_without_cad_and_drawing_adds_no_mass():
+    physics, drawn = build_model(PARAMS), visual_twin_model(PARAMS)
+    assert physics.nmesh == 0 and drawn.nmesh == len(PRINTED_PARTS)
+    np.testing.assert_allclose(drawn.body_mass, physics.body_mass)
+    np.testing.assert_allclose(drawn.body_inertia, physics.body_inertia)
+    assert [drawn.joint(k).name for k in range(drawn.njnt)] == [physics.joint(k).name for k in range(physics.njnt)]
+
+
 def test_the_twin_draws_the_printed_parts_with_the_same_meshes_and_no_extra_mass():
-    model = build_model(RigParams(tip_diameter_m=0.05))
+    model = visual_twin_model(RigParams(tip_diameter_m=0.05))
     vertices = model.mesh_vert[model.mesh_vertadr[model.mesh("tip_weight").id]:][:model.mesh_vertnum[
         model.mesh("tip_weight").id]]
     # MuJoCo turns a mesh to its principal axes: the extents, sorted, are height, diameter, diameter (m).
@@ -72,7 +81,7 @@ def test_the_twin_draws_the_printed_parts_with_the_same_meshes_and_no_extra_mass
 
 
 def test_the_twins_tip_weight_sits_where_the_print_does():
-    model = build_model(PARAMS)
+    model = visual_twin_model(PARAMS)
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     drawn = data.geom_xpos[model.geom("tip_weight_print").id]

@@ -1,5 +1,6 @@
-"""Lab 07's hooks: a student's epsilon, TD target and loss run inside the kit's DQN; right ones reproduce the
-built-in agent, wrong ones change what it learns, broken ones give a message that says what is wrong."""
+"""Labs 07 and 08's hooks (`pendkit.labs.agent_parts`): a student's epsilon, TD target and loss run inside
+the kit's DQN; right ones reproduce the built-in agent, wrong ones change what it learns, broken ones give
+a message that says what is wrong."""
 
 import numpy as np
 import pytest
@@ -7,8 +8,8 @@ import pytest
 torch = pytest.importorskip("torch")
 
 from pendkit.agents.dqn import DqnAgent, DqnConfig  # noqa: E402
-from pendkit.agents.lab_parts import StudentCodeError, StudentParts  # noqa: E402
 from pendkit.agents.replay import ReplayBuffer  # noqa: E402
+from pendkit.labs.agent_parts import StudentCodeError, StudentParts, student_dqn  # noqa: E402
 
 
 def epsilon(step, start, end, decay_steps):
@@ -40,7 +41,7 @@ def batch_of(size=64, seed=0):
 @pytest.mark.parametrize("double", [True, False])
 def test_right_parts_train_exactly_like_the_built_in_agent(double):
     config = DqnConfig(seed=5, double=double, huber_delta=0.5)
-    built_in, student = DqnAgent(4, 3, config), DqnAgent(4, 3, config, StudentParts(epsilon, td_target, huber))
+    built_in, student = DqnAgent(4, 3, config), student_dqn(4, 3, config, StudentParts(epsilon, td_target, huber))
     for k in range(20):
         batch = batch_of(seed=k)
         a, b = built_in.update(batch), student.update(batch)
@@ -57,8 +58,8 @@ def test_a_wrong_target_changes_the_learning():
         return rewards + (1 - dones) * next_q_target.max(axis=1)
 
     config = DqnConfig(seed=5)
-    right, wrong = DqnAgent(4, 3, config, StudentParts(td_target=td_target)), \
-        DqnAgent(4, 3, config, StudentParts(td_target=forgets_gamma))
+    right, wrong = student_dqn(4, 3, config, StudentParts(td_target=td_target)), \
+        student_dqn(4, 3, config, StudentParts(td_target=forgets_gamma))
     for k in range(20):
         right.update(batch_of(seed=k)), wrong.update(batch_of(seed=k))
     gap = max(float((p - q).detach().abs().max()) for p, q in zip(right.q.parameters(), wrong.q.parameters()))
@@ -68,16 +69,16 @@ def test_a_wrong_target_changes_the_learning():
 def test_broken_parts_say_what_is_wrong():
     batch = batch_of()
     with pytest.raises(StudentCodeError, match=r"shape \(64, 1\)"):
-        DqnAgent(4, 3, parts=StudentParts(td_target=lambda r, d, o, t, g, dbl: r[:, None])).update(batch)
+        student_dqn(4, 3, parts=StudentParts(td_target=lambda r, d, o, t, g, dbl: r[:, None])).update(batch)
     with pytest.raises(StudentCodeError, match="non-finite"):
         with np.errstate(divide="ignore"):
-            DqnAgent(4, 3, parts=StudentParts(td_target=lambda r, d, o, t, g, dbl: r / 0.0)).update(batch)
+            student_dqn(4, 3, parts=StudentParts(td_target=lambda r, d, o, t, g, dbl: r / 0.0)).update(batch)
     with pytest.raises(StudentCodeError, match="elementwise"):
-        DqnAgent(4, 3, parts=StudentParts(loss=lambda e, delta: float(np.mean(e**2)))).update(batch)
+        student_dqn(4, 3, parts=StudentParts(loss=lambda e, delta: float(np.mean(e**2)))).update(batch)
     with pytest.raises(StudentCodeError, match=r"\[0, 1\]"):
-        DqnAgent(4, 3, parts=StudentParts(epsilon=lambda s, a, b, n: 2.0)).act(np.zeros(4))
+        student_dqn(4, 3, parts=StudentParts(epsilon=lambda s, a, b, n: 2.0)).act(np.zeros(4))
     with pytest.raises(StudentCodeError, match="raised"):
-        DqnAgent(4, 3, parts=StudentParts(loss=lambda e, delta: undefined_name)).update(batch)  # noqa: F821
+        student_dqn(4, 3, parts=StudentParts(loss=lambda e, delta: undefined_name)).update(batch)  # noqa: F821
 
 
 @pytest.mark.expensive
@@ -87,7 +88,7 @@ def test_in_the_labs_budget_a_wrong_target_visibly_fails_to_learn():
     reward alone, no future) stays where a random policy is. (A target that forgets gamma still learns
     something in 50 episodes: measured -1454 against -1367 for the right one, so it is not asserted.)"""
     import pendkit
-    from pendkit.agents.lab_parts import train_with_parts
+    from pendkit.labs.agent_parts import train_with_parts
 
     def myopic(rewards, dones, next_q_online, next_q_target, gamma, double):
         return rewards
@@ -107,7 +108,7 @@ def test_a_students_augmented_state_is_what_the_delay_aware_agent_sees():
     import gymnasium as gym
 
     from pendkit.agents.inputs import StepInputs
-    from pendkit.agents.lab_parts import StudentInputs
+    from pendkit.labs.agent_parts import StudentInputs
 
     def right(observation, recent, n):
         return np.concatenate([observation, np.eye(n)[recent].ravel()])

@@ -1,10 +1,9 @@
-"""The `pendkit` command: thin subcommands over library calls."""
+"""`pendkit demo`, `info`, `bom`, `cad`, `wiring`, `firmware-header`: the twin, the rig's facts, its parts."""
 
 from __future__ import annotations
 
 import json
 import platform
-import sys
 from pathlib import Path
 
 import click
@@ -14,13 +13,7 @@ from pendkit.sim.fidelity import FIDELITY_PRESETS
 FIDELITIES = tuple(FIDELITY_PRESETS)
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
-@click.version_option(package_name="pendkit", message="pendkit %(version)s")
-def main() -> None:
-    """pendkit: the swing-up pendulum teaching kit (twin, rig link, labs, grader)."""
-
-
-@main.command()
+@click.command()
 @click.option("--fidelity", type=click.Choice(FIDELITIES), default="realistic", show_default=True,
               help="How closely the twin imitates the real rig.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the episode's start state.")
@@ -53,7 +46,7 @@ def demo(fidelity: str, seed: int, start: str, out_dir: Path, no_animation: bool
         click.echo(f"animation: {result.animation_path}")
 
 
-@main.command()
+@click.command()
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable output.")
 @click.option("--preset", default="hitec-d645mw", show_default=True, help="Rig preset to show.")
 def info(as_json: bool, preset: str) -> None:
@@ -93,102 +86,7 @@ def info(as_json: bool, preset: str) -> None:
         click.echo(f"  {name:<34} {value}")
 
 
-@main.group()
-def labs() -> None:
-    """Build the student labs from solutions/ and check they are current."""
-
-
-@labs.command("build")
-@click.option("--solutions", "solutions_dir", type=click.Path(file_okay=False, path_type=Path),
-              default=Path("solutions"), show_default=True, help="Solution notebooks (the single source).")
-@click.option("--out", "labs_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("labs"),
-              show_default=True, help="Where to write the student copies.")
-def labs_build(solutions_dir: Path, labs_dir: Path) -> None:
-    """Write labs/NN_name.ipynb from solutions/ (stubs for solutions, no instructor cells)."""
-    from pendkit.errors import ConfigError
-    from pendkit.labs.build import build
-
-    try:
-        written = build(solutions_dir, labs_dir)
-    except ConfigError as error:
-        raise click.ClickException(str(error)) from None
-    for path in written:
-        click.echo(f"wrote {path}")
-
-
-@labs.command("check")
-@click.option("--solutions", "solutions_dir", type=click.Path(file_okay=False, path_type=Path),
-              default=Path("solutions"), show_default=True)
-@click.option("--labs", "labs_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("labs"),
-              show_default=True)
-def labs_check(solutions_dir: Path, labs_dir: Path) -> None:
-    """Fail if labs/ differs from what `pendkit labs build` would write."""
-    from pendkit.errors import ConfigError
-    from pendkit.labs.build import stale
-
-    try:
-        problems = stale(solutions_dir, labs_dir)
-    except ConfigError as error:
-        raise click.ClickException(str(error)) from None
-    if problems:
-        for problem in problems:
-            click.echo(problem, err=True)
-        raise click.ClickException("labs/ is stale: run `pendkit labs build`")
-    click.echo("labs/ is up to date")
-
-
-@main.command()
-@click.argument("submissions", type=click.Path(exists=True, file_okay=False, path_type=Path), required=False)
-@click.option("--lab", default=None, help="Grade only this lab (NN); default: from each notebook.")
-@click.option("--gradescope-autograder", "autograder_zip", type=click.Path(dir_okay=False, path_type=Path),
-              default=None, help="Instead of grading: write Gradescope's autograder zip for --lab NN.")
-@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("grades"),
-              show_default=True, help="Where results.json files and grades.csv go.")
-@click.option("--hidden", "hidden_dir", type=click.Path(file_okay=False, path_type=Path),
-              default=Path("solutions/tests"), show_default=True, help="Hidden tests (labNN_*.py).")
-@click.option("--cell-timeout", type=float, default=120.0, show_default=True, help="Seconds per cell.")
-@click.option("--notebook-timeout", type=float, default=600.0, show_default=True, help="Seconds per notebook.")
-@click.option("--check-timeout", type=float, default=None,
-              help="Cap on each test's own time limit, in seconds (default: the test's, usually 10).")
-@click.option("--jobs", type=click.IntRange(1, 64), default=1, show_default=True,
-              help="Notebooks graded at once (each runs its own kernel: about one core each).")
-@click.option("--quiet", is_flag=True, help="No progress bar.")
-def grade(submissions: Path | None, lab: str | None, autograder_zip: Path | None, out_dir: Path, hidden_dir: Path,
-          cell_timeout: float, notebook_timeout: float, check_timeout: float | None, jobs: int, quiet: bool) -> None:
-    """Run and grade every submitted notebook; write Gradescope results.json files and a CSV."""
-    from pendkit.grading.report import grade_folder
-    from pendkit.grading.sandbox import isolation_problem
-
-    if lab is not None and not (len(lab) == 2 and lab.isdigit()):
-        raise click.BadParameter(f"expected two digits such as 01, got {lab!r}", param_hint="--lab")
-    hidden = hidden_dir if hidden_dir.exists() else None
-    if hidden is None:
-        click.echo(f"no hidden tests at {hidden_dir}: grading with public tests only", err=True)
-    if autograder_zip is not None:
-        from pendkit.grading.gradescope import build_autograder
-
-        if lab is None:
-            raise click.BadParameter("say which lab the autograder is for", param_hint="--lab")
-        click.echo(f"wrote {build_autograder(autograder_zip, lab, hidden)}: upload it as the assignment's "
-                   "autograder (docs/labs-and-grading.md)")
-        return
-    if submissions is None:
-        raise click.BadParameter("give the folder of submitted notebooks", param_hint="SUBMISSIONS")
-    problem = isolation_problem()
-    if problem is not None:
-        click.echo(f"WARNING: isolation is off ({problem}): student code runs as you, with your files and "
-                   "network. Grade on Linux with bubblewrap for a class.", err=True)
-    grades = grade_folder(submissions, out_dir, lab, hidden, cell_timeout, notebook_timeout, check_timeout,
-                          progress=not quiet, jobs=jobs)
-    if not grades:
-        raise click.ClickException(f"no notebooks found in {submissions}")
-    for result in grades:
-        click.echo(f"{result.student:<24} lab {result.lab}  {result.score:g}/{result.max_score:g}"
-                   + (f"  ({len(result.notes)} notes)" if result.notes else ""))
-    click.echo(f"reports: {out_dir / 'grades.csv'} and {out_dir}/<student>/results.json")
-
-
-@main.command()
+@click.command()
 @click.argument("csv_path", type=click.Path(exists=True, dir_okay=False, path_type=Path),
                 default=Path("hardware_bom/bom.csv"))
 @click.option("--rigs", type=click.IntRange(1, 1000), default=10, show_default=True, help="Rigs in the class.")
@@ -203,7 +101,7 @@ def bom(csv_path: Path, rigs: int) -> None:
         raise click.ClickException(str(error)) from None
 
 
-@main.command()
+@click.command()
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("pendkit-cad"),
               show_default=True, help="Where to write the STL files and parts.json.")
 @click.option("--preset", default=None, help="A RigParams preset (see `pendkit info`); default the paper's rig.")
@@ -238,7 +136,7 @@ def cad(out_dir: Path, preset: str | None, render_dir: Path | None) -> None:
             raise click.ClickException(str(error)) from None
 
 
-@main.command()
+@click.command()
 @click.option("--pins", "pins_path", type=click.Path(exists=True, dir_okay=False, path_type=Path),
               default=Path("firmware/include/pins.h"), show_default=True, help="The firmware's pin map.")
 @click.option("--out", "out_path", type=click.Path(dir_okay=False, path_type=Path),
@@ -280,15 +178,19 @@ def _gl_status() -> str:
     return f"MuJoCo offscreen ({backend})"
 
 
-def _register_commands() -> None:
-    from pendkit.agents.cli import evaluate, plot, train
-    from pendkit.link.cli import broker, broker_config, virtual_rig
+@click.command("firmware-header")
+@click.option("--preset", default=None, help="A servo preset (default: RigParams' defaults, the paper's D645MW).")
+def firmware_header(preset: str | None) -> None:
+    """Print the firmware's rig_constants.h, generated from RigParams (firmware/lib/pendcore/src)."""
+    from pendkit.errors import ConfigError
+    from pendkit.firmware_constants import render_header
+    from pendkit.rig import RigParams
 
-    for command in (broker, broker_config, virtual_rig, train, evaluate, plot):
-        main.add_command(command)
+    try:
+        params = RigParams.preset(preset) if preset else None
+    except ConfigError as error:
+        raise click.BadParameter(str(error), param_hint="--preset") from None
+    click.echo(render_header(params), nl=False)
 
 
-_register_commands()
-
-if __name__ == "__main__":
-    sys.exit(main())
+COMMANDS = (demo, info, bom, cad, wiring, firmware_header)

@@ -64,3 +64,8 @@ class BackendTiming:
     command_delay_s: float = 0.0
     reading_delay_s: float = 0.0
     firmware_readings: bool = False
+
+    @property
+    def loop_delay_s(self) -> float:
+        """From a reading's moment to the servo acting on the command it led to: both ways together."""
+        return self.command_delay_s + self.reading_delay_s

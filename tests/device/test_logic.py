@@ -3,9 +3,9 @@
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from pendkit.backend_contract import ServoCommand
 from pendkit.device.logic import McuLogic, calibrate_position
 from pendkit.rig import RigParams
-from pendkit.state import ServoCommand
 
 P = RigParams()
 

@@ -1,0 +1,145 @@
+"""The learner registry: each learner the kit names is an algorithm plus what it sees, in one table
+(`LEARNERS`) that the CLI, the shipped policies, the benchmarks and the labs read.
+
+| name              | agent                   | input each step                                         |
+|-------------------|-------------------------|---------------------------------------------------------|
+| dqn               | DQN                     | observation + last action                               |
+| dqn+actions       | DQN                     | observation + the actions it has not seen (delay-aware) |
+| dqn+estimated     | DQN                     | the observer's estimate of the present state + action   |
+| r-dqn             | R-DQN, trained GRU      | observation + last action, through the GRU              |
+| r-dqn-reservoir   | DQN on a fixed GRU      | the ablation: an untrained random GRU's encoding        |
+| td3, td3+actions, td3+estimated, r-td3, r-td3-reservoir: the same for TD3's continuous actions |
+
+A new agent is one module with a class that keeps the contract (`pendkit.agents.base.Agent`) and one
+`Algorithm` row here; a new learner on an existing algorithm is one `Learner` row.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from pendkit.agents.base import Agent
+from pendkit.agents.inputs import StepInputs, actions_for_delay
+from pendkit.errors import ConfigError
+
+RESERVOIR_SIZE = 32
+
+
+def _dqn(input_dim: int, env, seed: int, config: dict) -> Agent:
+    from pendkit.agents.dqn import DqnAgent, DqnConfig
+
+    return DqnAgent(input_dim, env.action_space.n, DqnConfig(seed=seed, **config))
+
+
+def _r_dqn(input_dim: int, env, seed: int, config: dict) -> Agent:
+    from pendkit.agents.recurrent_dqn import RecurrentDqnAgent, RecurrentDqnConfig
+
+    return RecurrentDqnAgent(input_dim, env.action_space.n, RecurrentDqnConfig(seed=seed, **config))
+
+
+def _td3(input_dim: int, env, seed: int, config: dict) -> Agent:
+    from pendkit.agents.td3 import Td3Agent, Td3Config
+
+    return Td3Agent(input_dim, math.prod(env.action_space.shape), Td3Config(seed=seed, **config))
+
+
+def _r_td3(input_dim: int, env, seed: int, config: dict) -> Agent:
+    from pendkit.agents.recurrent_td3 import RecurrentTd3Agent, RecurrentTd3Config
+
+    return RecurrentTd3Agent(input_dim, math.prod(env.action_space.shape), RecurrentTd3Config(seed=seed, **config))
+
+
+@dataclass(frozen=True)
+class Algorithm:
+    """How to make the agent (`make(input_dim, env, seed, config overrides)`), which action mode it needs,
+    and whether its inputs pass through a fixed random GRU first (the reservoir ablation)."""
+
+    make: Callable[[int, object, int, dict], Agent]
+    continuous: bool
+    reservoir: bool = False
+
+
+ALGORITHMS: dict[str, Algorithm] = {
+    "dqn": Algorithm(_dqn, continuous=False),
+    "r-dqn": Algorithm(_r_dqn, continuous=False),
+    "r-dqn-reservoir": Algorithm(_dqn, continuous=False, reservoir=True),
+    "td3": Algorithm(_td3, continuous=True),
+    "r-td3": Algorithm(_r_td3, continuous=True),
+    "r-td3-reservoir": Algorithm(_td3, continuous=True, reservoir=True),
+}
+
+
+@dataclass(frozen=True)
+class Learner:
+    """`algorithm` (a key of ALGORITHMS); `actions_seen` (an int, or "delay": from the env's delay);
+    `features` of the env ("measured", or "estimated": the observer's present state)."""
+
+    name: str
+    algorithm: str
+    actions_seen: int | str = 1
+    features: str = "measured"
+
+    @property
+    def continuous(self) -> bool:
+        return ALGORITHMS[self.algorithm].continuous
+
+    @property
+    def action_mode(self) -> str:
+        return "continuous" if self.continuous else "discrete"
+
+    def env_kwargs(self) -> dict:
+        """What `pendkit.make` needs for this learner (beyond the fidelity)."""
+        return {"action_mode": self.action_mode, "features": self.features}
+
+
+def _family(algorithm: str) -> list[Learner]:
+    return [Learner(algorithm, algorithm), Learner(f"{algorithm}+actions", algorithm, actions_seen="delay"),
+            Learner(f"{algorithm}+estimated", algorithm, features="estimated")]
+
+
+LEARNERS: dict[str, Learner] = {learner.name: learner for learner in [
+    *_family("dqn"), Learner("r-dqn", "r-dqn"), Learner("r-dqn-reservoir", "r-dqn-reservoir"),
+    *_family("td3"), Learner("r-td3", "r-td3"), Learner("r-td3-reservoir", "r-td3-reservoir"),
+]}
+LEARNER_NAMES = tuple(LEARNERS)
+
+
+def learner(name: str) -> Learner:
+    if name not in LEARNERS:
+        raise ConfigError(f"unknown learner {name!r}; choose from {', '.join(LEARNER_NAMES)}")
+    return LEARNERS[name]
+
+
+def env_delay_s(env) -> float:
+    """Age of what the agent sees, in seconds: whole-step observation delays (wrappers with `delay_steps`)
+    plus the backend's own command and reading delays (`BackendTiming`)."""
+    delay, layer = 0.0, env
+    while hasattr(layer, "env"):
+        delay += getattr(layer, "delay_steps", 0) * env.unwrapped.dt
+        layer = layer.env
+    return delay + env.unwrapped.backend.timing.loop_delay_s
+
+
+def inputs_for(name: str, env, seed: int = 0) -> StepInputs:
+    """What learner `name` sees on `env`, each step."""
+    chosen = learner(name)
+    seen = (actions_for_delay(env_delay_s(env), env.unwrapped.dt) if chosen.actions_seen == "delay"
+            else chosen.actions_seen)
+    encoder = None
+    if ALGORITHMS[chosen.algorithm].reservoir:
+        from pendkit.agents.gru_encoder import GruEncoder
+
+        encoder = GruEncoder(StepInputs.for_env(env, seen).step_dim, RESERVOIR_SIZE, seed)
+    return StepInputs.for_env(env, seen, encoder)
+
+
+def build_learner(name: str, env, seed: int = 0, **config) -> tuple[Agent, StepInputs]:
+    """(agent, inputs) for learner `name` on `env`; `config` overrides the agent's config fields."""
+    chosen = learner(name)
+    if env.unwrapped.action_mode != chosen.action_mode:
+        raise ConfigError(f"{name} needs action_mode={chosen.action_mode!r}, the env has "
+                          f"{env.unwrapped.action_mode!r}")
+    inputs = inputs_for(name, env, seed)
+    return ALGORITHMS[chosen.algorithm].make(inputs.dim, env, seed, config), inputs

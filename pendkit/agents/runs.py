@@ -1,0 +1,125 @@
+"""A learning run: what it is made of (`RunSpec`), the one place its env and learner are built (`build_run`),
+the one weights format a trained agent is saved in, and the kit's "solved" test of a greedy episode.
+
+The CLI (`pendkit train/eval`), the shipped policies (`pendkit.agents.pretrained`) and the benchmarks all go
+through here, so a run trained by one is loaded by the others.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
+
+from pendkit.agents.base import Agent
+from pendkit.agents.inputs import StepInputs
+from pendkit.agents.learners import build_learner, learner
+from pendkit.errors import ConfigError
+
+WEIGHTS_FORMAT = "pendkit-weights/1"
+SOLVED_TAIL_STEPS = 200
+SOLVED_SEED = 123
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """Everything a run is built from. `preset`: a servo preset of RigParams (None: the default rig);
+    `randomize`: domain randomisation per episode (`pendkit.sim.randomize`); `delay_steps`: whole 60 ms
+    steps of pure observation delay on top (`ObservationDelay`); `agent`: overrides of the agent's config."""
+
+    learner: str = "dqn"
+    fidelity: str = "ideal"  # a preset's name (a Fidelity object also serves, in runs that are not saved)
+    seed: int = 0
+    max_steps: int = 500
+    preset: str | None = None
+    randomize: str = ""
+    delay_steps: int = 0
+    agent: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        learner(self.learner)  # a clear error for an unknown name
+        if self.delay_steps < 0:
+            raise ConfigError(f"delay_steps must be >= 0, got {self.delay_steps}")
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, record: dict) -> RunSpec:
+        """From `to_dict`'s output (or a run's config.json, whose older form said "algo")."""
+        known = {f.name for f in fields(cls)}
+        values = {key: value for key, value in record.items() if key in known}
+        if "learner" not in values and "algo" in record:
+            values["learner"] = record["algo"]
+        return cls(**values)
+
+
+def make_env(spec: RunSpec, **env_options):
+    """The env `spec` learns on; `env_options` go to `pendkit.make` (a rig backend, a start, ...)."""
+    import pendkit
+    from pendkit.rig import RigParams
+
+    params = RigParams.preset(spec.preset) if spec.preset else env_options.pop("params", None)
+    env = pendkit.make(fidelity=spec.fidelity, max_episode_steps=spec.max_steps, params=params,
+                       **learner(spec.learner).env_kwargs(), **env_options)
+    if spec.delay_steps:
+        from pendkit.sim.observation_delay import ObservationDelay
+
+        env = ObservationDelay(env, spec.delay_steps)
+    if spec.randomize:
+        from pendkit.sim.randomize import DomainRandomization
+
+        env = DomainRandomization(env, spec.randomize, spec.seed)
+    return env
+
+
+def build_run(spec: RunSpec, env=None) -> tuple[object, Agent, StepInputs]:
+    """(env, agent, inputs) for `spec`; on `env` if one is given (the same learner on another rig)."""
+    env = env if env is not None else make_env(spec)
+    agent, inputs = build_learner(spec.learner, env, spec.seed, **spec.agent)
+    return env, agent, inputs
+
+
+def save_weights(path: str | Path, agent: Agent, spec: RunSpec, notes: dict | None = None) -> Path:
+    """The agent's state with the spec that rebuilds it: what `load_weights` and `pendkit eval` read."""
+    import torch
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    torch.save({"format": WEIGHTS_FORMAT, "spec": spec.to_dict(), "agent": agent.state_dict(),
+                "notes": notes or {}}, path)
+    return path
+
+
+def load_weights(path: str | Path) -> tuple[RunSpec, dict]:
+    """(spec, agent state) from a weights file, or from a training checkpoint (its agent state; the spec
+    from the run's config.json beside it)."""
+    import json
+
+    import torch
+
+    path = Path(path)
+    if not path.exists():
+        raise ConfigError(f"no weights at {path}")
+    record = torch.load(path, weights_only=False)
+    if isinstance(record, dict) and record.get("format") == WEIGHTS_FORMAT:
+        return RunSpec.from_dict(record["spec"]), record["agent"]
+    config = path.parent / "config.json"
+    if isinstance(record, dict) and "agent" in record and config.exists():
+        return RunSpec.from_dict(json.loads(config.read_text())), record["agent"]
+    raise ConfigError(f"{path} is neither a weights file ({WEIGHTS_FORMAT}) nor a checkpoint beside its config.json")
+
+
+def greedy_episode(env, agent: Agent, inputs: StepInputs, seed: int = SOLVED_SEED, start: str | None = "rest",
+                   options: dict | None = None) -> tuple[float, list[dict]]:
+    """One episode without exploration (from `start`); (return, infos)."""
+    from pendkit.agents.train import agent_episode
+
+    options = {**({"start": start} if start else {}), **(options or {})}
+    return agent_episode(env, agent, inputs, seed=seed, explore=False, options=options)
+
+
+def solved(infos: list[dict], tail_steps: int = SOLVED_TAIL_STEPS) -> bool:
+    """The kit's "solved": within 0.3 rad of upright for the episode's last `tail_steps` steps."""
+    from pendkit.features import holds_upright
+
+    return holds_upright([info["angle_from_upright_rad"] for info in infos], tail_steps)

@@ -1,0 +1,26 @@
+"""The `pendkit` command: thin subcommands over library calls, one module per area.
+
+| module      | commands                                                        |
+|-------------|-----------------------------------------------------------------|
+| kit.py      | demo, info, bom, cad, wiring, firmware-header                   |
+| labs.py     | labs build/check, grade, autograder-run                         |
+| learning.py | train, eval, plot, policies list/build                          |
+| link.py     | broker, broker-config, virtual-rig                              |
+"""
+
+from __future__ import annotations
+
+import click
+
+from pendkit.cli import kit, labs, learning, link
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="pendkit", message="pendkit %(version)s")
+def main() -> None:
+    """pendkit: the swing-up pendulum teaching kit (twin, rig link, labs, grader)."""
+
+
+for _module in (kit, labs, learning, link):
+    for _command in _module.COMMANDS:
+        main.add_command(_command)
