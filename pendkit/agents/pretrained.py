@@ -48,14 +48,19 @@ class GreedyPolicy:
         return self._last
 
 
-def load_policy(name: str, env) -> GreedyPolicy:
-    """The shipped policy `name` for `env` (an env of the policy's action mode: twin or rig)."""
+def policy_weights(name: str) -> tuple[RunSpec, dict]:
+    """(spec, agent state) of the shipped policy `name`."""
     if name not in POLICIES:
         raise ConfigError(f"unknown policy {name!r}; the kit ships {sorted(POLICIES)}")
     path = POLICY_DIR / f"{name}.pt"
     if not path.exists():
         raise ConfigError(f"{path} is missing: run `pendkit policies build {name}` to train it")
-    spec, state = load_weights(path)
+    return load_weights(path)
+
+
+def load_policy(name: str, env) -> GreedyPolicy:
+    """The shipped policy `name` for `env` (an env of the policy's action mode: twin or rig)."""
+    spec, state = policy_weights(name)
     _, agent, inputs = build_run(spec, env)
     agent.load_state_dict(state)
     return GreedyPolicy(agent, inputs)

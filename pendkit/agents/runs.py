@@ -123,3 +123,44 @@ def solved(infos: list[dict], tail_steps: int = SOLVED_TAIL_STEPS) -> bool:
     from pendkit.features import holds_upright
 
     return holds_upright([info["angle_from_upright_rad"] for info in infos], tail_steps)
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """Greedy episodes' outcomes: solved or not (the kit's rule), time to upright (s, None if it never
+    stayed up to the end) and return, one entry per episode."""
+
+    solved: list[bool]
+    upright_s: list[float | None]
+    returns: list[float]
+
+    @property
+    def mean_return(self) -> float:
+        return sum(self.returns) / len(self.returns)
+
+    @property
+    def median_upright_s(self) -> float | None:
+        import numpy as np
+
+        times = [t for t, held in zip(self.upright_s, self.solved) if held and t is not None]
+        return float(np.median(times)) if times else None
+
+    def summary(self) -> str:
+        """`solved=K/N median_upright_s=X` (X over the solved episodes; `-` when none)."""
+        median = self.median_upright_s
+        shown = "-" if median is None else f"{median:.2f}"
+        return f"solved={sum(self.solved)}/{len(self.solved)} median_upright_s={shown}"
+
+
+def evaluate_agent(env, agent: Agent, inputs: StepInputs, episodes: int, seed: int = 10_000,
+                   start: str | None = "random") -> Evaluation:
+    """`episodes` greedy episodes from seeds `seed`, `seed + 1`, ...; `start` None leaves the env's own."""
+    from pendkit.episode import time_to_upright_s
+
+    held, upright, returns = [], [], []
+    for k in range(episodes):
+        total, infos = greedy_episode(env, agent, inputs, seed=seed + k, start=start)
+        held.append(solved(infos))
+        upright.append(time_to_upright_s([info["angle_from_upright_rad"] for info in infos], env.unwrapped.dt))
+        returns.append(total)
+    return Evaluation(held, upright, returns)

@@ -115,30 +115,56 @@ def _train_on_rig(spec, out_dir, rig_id, broker, seconds) -> None:
 
 
 @click.command("eval")
-@click.argument("run_dir", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.argument("run_dir", type=click.Path(exists=True, file_okay=False, path_type=Path), required=False)
+@click.option("--policy", "policy_name", default=None, help="A shipped policy (`pendkit policies list`).")
 @click.option("--episodes", type=click.IntRange(1), default=20, show_default=True)
+@click.option("--backend", type=click.Choice(("sim", "rig")), default="sim", show_default=True,
+              help="sim: the run's own twin; rig: a (virtual) rig over MQTT.")
+@click.option("--rig", "rig_id", default="r01", show_default=True, help="With --backend rig.")
+@click.option("--broker", default=None, help=f"With --backend rig (default {DEFAULT_BROKER}).")
 @click.option("--preset", type=click.Choice(_preset_names()), default=None,
-              help="Evaluate on this servo preset instead of the one trained on (no randomisation).")
-def evaluate(run_dir: Path, episodes: int, preset: str | None) -> None:
-    """Greedy episodes of a trained run; "solved" = within 0.3 rad of upright for the last 200 steps."""
+              help="On the twin: this servo preset instead of the one trained on.")
+@click.option("--params", "params_path", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
+              help="On the twin: a rig saved by RigParams.save (e.g. identified by pendkit adapt).")
+@click.option("--start", type=click.Choice(("random", "rest")), default="random", show_default=True,
+              help="On the twin: the authors' random start, or hanging still (a rig starts as it is).")
+@click.option("--seed", type=int, default=10_000, show_default=True, help="Seed of the first episode's start.")
+def evaluate(run_dir: Path | None, policy_name: str | None, episodes: int, backend: str, rig_id: str,
+             broker: str | None, preset: str | None, params_path: Path | None, start: str, seed: int) -> None:
+    """Greedy episodes of a trained run or a shipped policy, on the twin or a rig. The last line is
+    `solved=K/N median_upright_s=X`: solved = within 0.3 rad of upright for the last 200 steps."""
     _torch_or_exit()
     import dataclasses
 
-    import numpy as np
+    from pendkit.agents.runs import build_run, evaluate_agent, load_weights, make_env
+    from pendkit.errors import ConfigError
 
-    from pendkit.agents.runs import build_run, greedy_episode, load_weights, solved
+    if (run_dir is None) == (policy_name is None):
+        raise click.UsageError("give a RUN_DIR or --policy NAME (one of them)")
+    try:
+        if policy_name is not None:
+            from pendkit.agents.pretrained import policy_weights
 
-    weights = run_dir / "final.pt" if (run_dir / "final.pt").exists() else run_dir / "checkpoint.pt"
-    spec, state = load_weights(weights)
-    spec = dataclasses.replace(spec, preset=preset or spec.preset, randomize="")
-    env, agent, inputs = build_run(spec)
+            spec, state = policy_weights(policy_name)
+        else:
+            weights = run_dir / "final.pt" if (run_dir / "final.pt").exists() else run_dir / "checkpoint.pt"
+            spec, state = load_weights(weights)
+        spec = dataclasses.replace(spec, preset=preset or spec.preset, randomize="")
+        options = {"backend": "rig", "rig": rig_id, "broker": broker} if backend == "rig" else {}
+        if params_path is not None:
+            from pendkit.rig import RigParams
+
+            spec = dataclasses.replace(spec, preset=None)
+            options["params"] = RigParams.load(params_path)
+        env = make_env(spec, **options)
+    except ConfigError as error:
+        raise click.ClickException(str(error)) from None
+    _, agent, inputs = build_run(spec, env)
     agent.load_state_dict(state)
-    held, returns = 0, []
-    for episode in range(episodes):
-        total, infos = greedy_episode(env, agent, inputs, seed=10_000 + episode, start=None)
-        returns.append(total)
-        held += solved(infos)
-    click.echo(f"mean return {np.mean(returns):.1f} over {episodes} episodes; solved {held}/{episodes}")
+    outcome = evaluate_agent(env, agent, inputs, episodes, seed, start if backend == "sim" else None)
+    env.close()
+    click.echo(f"mean return {outcome.mean_return:.1f} over {episodes} episodes")
+    click.echo(outcome.summary())
 
 
 @click.command()

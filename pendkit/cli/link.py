@@ -64,14 +64,21 @@ def broker_config(rig_ids: tuple[str, ...], out_dir: Path, port: int, bind: str)
               help="v1: behave like a rig flashed with the authors' firmware.")
 @click.option("--preset", type=click.Choice(sorted(SERVO_PRESETS)), default="hitec-d645mw", show_default=True,
               help="The servo (and its counts range) of the simulated rig.")
+@click.option("--params", "params_path", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
+              help="The whole rig from a RigParams.save file (servo, masses, pendulum, pulses); replaces --preset.")
 def virtual_rig(rig_ids, broker_url, speed, impairment, username, password, encoder_fault, protocol,
-                preset) -> None:
+                preset, params_path) -> None:
     """Run virtual rigs: the twin with the firmware's logic, speaking the rig protocol over MQTT."""
+    from pendkit.errors import ConfigError
     from pendkit.link.driver import RigLinkError
     from pendkit.link.virtual_rig import VirtualRig, VirtualRigGroup
     from pendkit.rig import RigParams
 
-    rigs = [VirtualRig(rig, broker_url, params=RigParams.preset(preset), impairment=impairment,
+    try:
+        params = RigParams.load(params_path) if params_path is not None else RigParams.preset(preset)
+    except ConfigError as error:
+        raise click.BadParameter(str(error), param_hint="--params") from None
+    rigs = [VirtualRig(rig, broker_url, params=params, impairment=impairment,
                        encoder_fault=encoder_fault, username=username or (rig if password else None),
                        password=password, protocol=int(protocol[1])) for rig in rig_ids]
     stop = threading.Event()

@@ -67,6 +67,11 @@ class VirtualRig:
         self._last_arrival_ms = 0.0
         self._last_delivery_s = 0.0
         self.lost_observations = self.lost_commands = self.published = 0
+        # Rig time as the rig sees it: messages that reached it on its command topic, and when the first
+        # and the last arrived (host bookkeeping never enters this count).
+        self.commands_received = 0
+        self.first_command_s: float | None = None
+        self.last_command_s: float | None = None
         self._t0 = 0.0
         self.speed = 1.0
         self._connected = threading.Event()
@@ -97,7 +102,18 @@ class VirtualRig:
         self.publish_status()
 
     def _on_message(self, client, userdata, message) -> None:
-        self._inbox.put((time.monotonic(), message.payload))  # parsed by the device when it arrives there
+        now = time.monotonic()
+        self.commands_received += 1
+        self.first_command_s = now if self.first_command_s is None else self.first_command_s
+        self.last_command_s = now
+        self._inbox.put((now, message.payload))  # parsed by the device when it arrives there
+
+    @property
+    def busy_s(self) -> float:
+        """Wall seconds from the first command this rig received to the last: the rig time used."""
+        if self.first_command_s is None:
+            return 0.0
+        return self.last_command_s - self.first_command_s
 
     @property
     def rejected_commands(self) -> int:

@@ -53,7 +53,8 @@ def test_eval_and_plot_of_a_run(tmp_path, algo):
                                        "--out", str(run), "--quiet"])
     assert result.exit_code == 0, result.output
     result = CliRunner().invoke(main, ["eval", str(run), "--episodes", "2"])
-    assert result.exit_code == 0 and "solved 0/2" in result.output  # 30-step episodes cannot hold 200 steps
+    assert result.exit_code == 0, result.output
+    assert result.output.splitlines()[-1] == "solved=0/2 median_upright_s=-"  # 30 steps cannot hold 200
     result = CliRunner().invoke(main, ["plot", str(run)])
     assert result.exit_code == 0 and (run / "learning-curve.png").read_bytes()[:4] == b"\x89PNG"
 
@@ -65,8 +66,24 @@ def test_train_on_a_virtual_rig_with_the_non_blocking_trainer(tmp_path):
     try:
         result = CliRunner().invoke(main, ["train", "--backend", "rig", "--broker", rig.url, "--rig", rig.rig,
                                            "--seconds", "3", "--max-steps", "20", "--out", str(tmp_path / "rig")])
+        assert result.exit_code == 0, result.output
+        assert "learner updates" in result.output and (tmp_path / "rig" / "final.pt").exists()
+        assert len(returns_of(tmp_path / "rig")) >= 1
+        # ...and evaluated on the same rig: its 20-step episodes run there, and cannot hold 200 steps
+        result = CliRunner().invoke(main, ["eval", str(tmp_path / "rig"), "--backend", "rig", "--broker", rig.url,
+                                           "--rig", rig.rig, "--episodes", "2"])
     finally:
         rig.stop()
     assert result.exit_code == 0, result.output
-    assert "learner updates" in result.output and (tmp_path / "rig" / "final.pt").exists()
-    assert len(returns_of(tmp_path / "rig")) >= 1
+    assert result.output.splitlines()[-1] == "solved=0/2 median_upright_s=-"
+    assert rig.virtual.commands_received >= 2 * 20 and rig.virtual.busy_s > 2 * 20 * 0.06  # counted by the rig
+
+
+def test_eval_of_a_shipped_policy_on_its_twin_and_bad_requests():
+    result = CliRunner().invoke(main, ["eval", "--policy", "dqn-ideal", "--episodes", "3", "--start", "rest"])
+    assert result.exit_code == 0, result.output
+    last = result.output.splitlines()[-1]
+    assert last.startswith("solved=3/3 median_upright_s=") and 0.5 < float(last.split("=")[-1]) < 6, last
+    assert CliRunner().invoke(main, ["eval", "--episodes", "1"]).exit_code == 2  # neither a run nor a policy
+    unknown = CliRunner().invoke(main, ["eval", "--policy", "no-such-policy"])
+    assert unknown.exit_code == 1 and "the kit ships" in unknown.output

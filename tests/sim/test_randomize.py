@@ -62,6 +62,6 @@ def test_train_command_randomises_and_eval_runs_on_another_preset(tmp_path):
                                        "--out", str(out)])
     assert result.exit_code == 0, result.output
     result = CliRunner().invoke(main, ["eval", str(out), "--episodes", "2", "--preset", "turnigy-tgy-wp23"])
-    assert result.exit_code == 0 and "solved 0/2" in result.output, result.output
+    assert result.exit_code == 0 and "solved=0/2 median_upright_s=-" in result.output, result.output
     result = CliRunner().invoke(main, ["train", "--randomize", "wind", "--out", str(out)])
     assert result.exit_code != 0 and "servo, latency, masses" in result.output
