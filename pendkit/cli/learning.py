@@ -58,7 +58,8 @@ def _preset_names() -> list[str]:
 @click.option("--checkpoint-every", type=click.IntRange(1), default=10, show_default=True, help="Episodes.")
 @click.option("--resume", is_flag=True, help="Continue from the run's last checkpoint.")
 @click.option("--randomize", default="", callback=_check_randomize,
-              help="Domain randomisation per episode: any of servo,latency,masses (comma-separated).")
+              help="Domain randomisation per episode: any of servo,latency,masses,pendulum,pulses,encoder,network "
+                   "(comma-separated), or robust for all (docs/rl.md).")
 @click.option("--preset", type=click.Choice(_preset_names()), default=None, help="The servo preset of the twin.")
 @click.option("--backend", type=click.Choice(("sim", "rig")), default="sim", show_default=True,
               help="rig: train on a rig over MQTT with the non-blocking trainer (for --seconds).")

@@ -27,13 +27,14 @@ class TwinDevice:
     """One simulated device: `deliver` commands, `run` ticks, observations to `emit(ms, observation)`."""
 
     def __init__(self, params: RigParams, model: mujoco.MjModel, data: mujoco.MjData, pendulum_qpos: int,
-                 mount_offset_counts: int = 0, protocol: int = 2) -> None:
+                 mount_offset_counts: int = 0, protocol: int = 2, residual_offset_counts: int = 0) -> None:
+        """`residual_offset_counts`: what the calibration missed (a hanging pendulum reads this many counts)."""
         self.params, self.model, self.data = params, model, data
         self._pendulum_qpos = pendulum_qpos
         self.mount_offset_counts = mount_offset_counts
         self.scheduler = DeviceScheduler(params, protocol)
         self.mcu = self.scheduler.logic
-        self.mcu.offset_counts = mount_offset_counts  # a calibrated device
+        self.mcu.offset_counts = (mount_offset_counts - residual_offset_counts) % params.encoder_counts
         self._tick_ms = params.physics_step_ms
         self._pwm_ticks = round(params.pwm_period_ms / self._tick_ms)
         self.encoder_fault: str | None = None

@@ -59,7 +59,8 @@ class SimBackend:
         self._rate_per_increment = (self.params.servo_rad_per_count * 1000.0 / self.params.acting_period_ms)
         self._rng = np.random.default_rng(0)
         self._device = (TwinDevice(self.params, self.model, self.data, self._pend_q,
-                                   self.fidelity.encoder_mount_offset_counts)
+                                   self.fidelity.encoder_mount_offset_counts,
+                                   residual_offset_counts=self.fidelity.encoder_residual_offset_counts)
                         if self.fidelity.mcu_pipeline else None)
         self._tick = 0
 

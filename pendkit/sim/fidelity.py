@@ -25,6 +25,7 @@ class Fidelity:
     mcu_pipeline: run the firmware's loop (acting and streaming ticks, counts, quantised encoder,
         estimated velocities, PWM frames, safety stops) instead of reading the true state.
     encoder_mount_offset_counts: raw encoder reading when the pendulum hangs (calibrated away by the MCU).
+    encoder_residual_offset_counts: what that calibration missed: a hanging pendulum reads this many counts.
     network: latency and loss between device and host (only with `mcu_pipeline`), the same settings a
         virtual rig takes. `replace(latency=...)` is a shortcut for the network's latency.
     """
@@ -34,6 +35,7 @@ class Fidelity:
     post_observation_substeps_max: int = 0
     mcu_pipeline: bool = False
     encoder_mount_offset_counts: int = 0
+    encoder_residual_offset_counts: int = 0
     network: NetworkImpairment = PERFECT_NETWORK
 
     def __post_init__(self) -> None:
@@ -47,6 +49,9 @@ class Fidelity:
         if not 0 <= self.post_observation_substeps_max <= 100:
             raise ConfigError(f"post_observation_substeps_max must be in [0, 100], got "
                               f"{self.post_observation_substeps_max}")
+        if not _is_int(self.encoder_residual_offset_counts) or abs(self.encoder_residual_offset_counts) > 64:
+            raise ConfigError(f"encoder_residual_offset_counts must be a whole number in [-64, 64], got "
+                              f"{self.encoder_residual_offset_counts!r}")
         if not isinstance(self.network, NetworkImpairment):
             raise ConfigError(f"network must be a NetworkImpairment, got {self.network!r}")
         if not self.mcu_pipeline and not self.network.is_perfect:

@@ -1,86 +1,183 @@
-"""Domain randomisation for sim-to-real: a new servo, network and set of masses every episode.
+"""Domain randomisation for sim-to-real: a new rig (servo, masses, pendulum, pulses, encoder calibration,
+network) every episode.
 
 The paper's authors found that a policy trained on one servo did not transfer to another. Training over a
-spread of servos makes the policy one that works for any of them. The ranges come from what the kit
-already knows: the servo presets in `RigParams` (each servo field uniform between the presets' smallest
-and largest value, the pulse range and step sizes of one preset), the network impairments of the virtual
-rig (latency between none and poor WiFi), and +-10% on every mass (a heavier tip weight, another dowel).
+spread of rigs makes a policy that works for any of them, and a policy with a memory (R-DQN's GRU) can
+infer the rig it is on from what it has seen (rapid motor adaptation: a history-conditioned policy trained
+over many dynamics). What varies, and why (`TRAINING_RANGES`; docs/rl.md has the table):
+
+- servo: speed and stall torque between the kit's presets (MKS X5 0.12 s/60 deg to the D645MW at 4.8 V,
+  0.28; 6 to 25.5 kg cm), its loop's stiffness and damping between the presets' (1-5 deg, 0.2-0.7);
+- masses: each +-20% (another aluminium tube, a heavier encoder), the tip weight 0.6-1.8x (reprinted at
+  another infill, or with a nut inside);
+- pendulum: the dowel 0.30-0.45 m long (cut short, or a longer stock piece; its mass follows its length),
+  the bearing's damping 0.5-3x the default (a dry or a stiff encoder shaft);
+- pulses: the servo's end counts 150-200 and 400-450 (the D645MW's and the Turnigy's ranges: a worn horn
+  or a servo that needs a narrower range) and one preset's step sizes;
+- encoder: a residual calibration error of up to 6 counts (2 degrees) after `o<offset>`;
+- network: from none to the virtual rig's poor WiFi (latency floor 0-4 ms, median 0-15 ms above it,
+  spread 0-0.8, 0-3% of messages lost each way).
+
+`held_out_rigs(n, seed)` draws rigs from ranges 20% wider (`widened(1.2)`), for evaluation only.
 """
 
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
 
 import gymnasium as gym
 import numpy as np
 
 from pendkit.errors import ConfigError
 from pendkit.rig import SERVO_PRESETS, RigParams
-from pendkit.sim.fidelity import resolve_fidelity
-from pendkit.sim.latency import LatencyModel
+from pendkit.sim.fidelity import Fidelity, resolve_fidelity
+from pendkit.sim.latency import LatencyModel, NetworkImpairment
 
-RANDOMIZABLE = ("servo", "latency", "masses")
+RANDOMIZABLE = ("servo", "latency", "masses", "pendulum", "pulses", "encoder", "network")
+# "robust": everything at once (the r-dqn-robust policy's training); "network" is latency and loss.
+ALIASES = {"robust": ("servo", "masses", "pendulum", "pulses", "encoder", "network")}
 SERVO_FIELDS = ("servo_speed_s_per_60deg", "servo_stall_torque_kg_cm", "servo_full_torque_error_deg",
                 "servo_damping_ratio")
-PULSE_FIELDS = ("servo_min_counts", "servo_max_counts", "discrete_slow_step_counts", "discrete_fast_step_counts")
+STEP_FIELDS = ("discrete_slow_step_counts", "discrete_fast_step_counts")
 MASS_FIELDS = tuple(f.name for f in dataclasses.fields(RigParams) if f.name.endswith("_mass_kg"))
-MASS_SPREAD = 0.10
-# Latency (ms) from none to the virtual rig's poor WiFi (floor 4, median 15 above it, spread 0.8).
-LATENCY_FLOOR_MS = (0.0, 4.0)
-LATENCY_MEDIAN_MS = (0.0, 15.0)
-LATENCY_SPREAD = (0.0, 0.8)
+Range = tuple[float, float]
+
+
+@dataclass(frozen=True)
+class RigRanges:
+    """Uniform ranges of what differs from rig to rig (scales multiply the base rig's value)."""
+
+    servo_speed_s_per_60deg: Range = (0.12, 0.28)
+    servo_stall_torque_kg_cm: Range = (6.0, 25.5)
+    servo_full_torque_error_deg: Range = (1.0, 5.0)
+    servo_damping_ratio: Range = (0.2, 0.7)
+    mass_scale: Range = (0.8, 1.2)
+    tip_mass_scale: Range = (0.6, 1.8)
+    dowel_length_m: Range = (0.30, 0.45)
+    pendulum_damping_scale: Range = (0.5, 3.0)
+    servo_min_counts: Range = (150, 200)
+    servo_max_counts: Range = (400, 450)
+    residual_offset_counts: Range = (-6, 6)
+    latency_floor_ms: Range = (0.0, 4.0)
+    latency_median_ms: Range = (0.0, 15.0)
+    latency_spread: Range = (0.0, 0.8)
+    loss_pct: Range = (0.0, 3.0)
+
+    def widened(self, factor: float) -> RigRanges:
+        """Every range `factor` times as wide about its centre, kept physical (positive, counts ordered)."""
+        floors = {"servo_speed_s_per_60deg": 0.05, "servo_stall_torque_kg_cm": 1.0,
+                  "servo_full_torque_error_deg": 0.2, "servo_damping_ratio": 0.05, "mass_scale": 0.1,
+                  "tip_mass_scale": 0.1, "dowel_length_m": 0.15, "pendulum_damping_scale": 0.1,
+                  "servo_min_counts": 100, "servo_max_counts": 301, "residual_offset_counts": -64,
+                  "latency_floor_ms": 0.0, "latency_median_ms": 0.0, "latency_spread": 0.0, "loss_pct": 0.0}
+        ceilings = {"servo_min_counts": 299, "servo_max_counts": 500, "residual_offset_counts": 64, "loss_pct": 50.0}
+        changes = {}
+        for field in dataclasses.fields(self):
+            low, high = getattr(self, field.name)
+            centre, half = (low + high) / 2, (high - low) / 2 * factor
+            changes[field.name] = (max(floors[field.name], centre - half),
+                                   min(ceilings.get(field.name, float("inf")), centre + half))
+        return RigRanges(**changes)
+
+
+TRAINING_RANGES = RigRanges()
+HELD_OUT_WIDENING = 1.2
 
 
 def parse_randomize(text: str) -> tuple[str, ...]:
-    """'servo,latency' -> ('servo', 'latency'); '' -> ()."""
-    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    """'servo,latency' -> ('servo', 'latency'); 'robust' -> everything; '' -> ()."""
+    names: list[str] = []
+    for name in (n.strip() for n in text.split(",") if n.strip()):
+        names += ALIASES.get(name, (name,))
     unknown = [n for n in names if n not in RANDOMIZABLE]
     if unknown:
-        raise ConfigError(f"cannot randomise {unknown}; choose from {', '.join(RANDOMIZABLE)}")
-    return names
+        raise ConfigError(f"cannot randomise {unknown}; choose from {', '.join(RANDOMIZABLE)} (or robust: all)")
+    return tuple(dict.fromkeys(names))
 
 
-def _preset_range(field: str) -> tuple[float, float]:
-    values = [getattr(RigParams.preset(name), field) for name in SERVO_PRESETS]
-    return min(values), max(values)
+def _uniform(rng: np.random.Generator, bounds: Range) -> float:
+    return float(rng.uniform(*bounds))
 
 
-def sample_rig(base: RigParams, what: tuple[str, ...], rng: np.random.Generator) -> RigParams:
+@dataclass(frozen=True)
+class RandomRig:
+    """One drawn rig: its parameters and what the twin's fidelity adds (network, calibration error)."""
+
+    params: RigParams
+    network: NetworkImpairment | None = None
+    residual_offset_counts: int = 0
+
+    def fidelity(self, base: Fidelity) -> Fidelity:
+        changes = {"name": "randomised", "encoder_residual_offset_counts": self.residual_offset_counts}
+        if self.network is not None:
+            changes["network"] = self.network
+        return dataclasses.replace(base, **changes)
+
+
+def sample_rig(base: RigParams, what: tuple[str, ...], rng: np.random.Generator,
+               ranges: RigRanges = TRAINING_RANGES) -> RandomRig:
+    """A rig with the fields `what` names drawn from `ranges`, the rest as `base`."""
     changes: dict = {}
     if "servo" in what:
-        changes.update({f: float(rng.uniform(*_preset_range(f))) for f in SERVO_FIELDS})
-        pulses = RigParams.preset(sorted(SERVO_PRESETS)[int(rng.integers(len(SERVO_PRESETS)))])
-        changes.update({f: getattr(pulses, f) for f in PULSE_FIELDS})
+        changes.update({f: _uniform(rng, getattr(ranges, f)) for f in SERVO_FIELDS})
         changes["servo_name"] = "randomised"
+    if "pulses" in what:
+        steps = RigParams.preset(sorted(SERVO_PRESETS)[int(rng.integers(len(SERVO_PRESETS)))])
+        changes.update({f: getattr(steps, f) for f in STEP_FIELDS})
+        changes["servo_min_counts"] = round(_uniform(rng, ranges.servo_min_counts))
+        changes["servo_max_counts"] = round(_uniform(rng, ranges.servo_max_counts))
+    elif "servo" in what:  # the servo presets' own pulses, as before "pulses" existed
+        pulses = RigParams.preset(sorted(SERVO_PRESETS)[int(rng.integers(len(SERVO_PRESETS)))])
+        changes.update({f: getattr(pulses, f) for f in (*STEP_FIELDS, "servo_min_counts", "servo_max_counts")})
     if "masses" in what:
-        changes.update({f: getattr(base, f) * float(rng.uniform(1 - MASS_SPREAD, 1 + MASS_SPREAD))
-                        for f in MASS_FIELDS})
-    return dataclasses.replace(base, **changes)
+        changes.update({f: getattr(base, f) * _uniform(rng, ranges.mass_scale) for f in MASS_FIELDS})
+        changes["tip_mass_kg"] = base.tip_mass_kg * _uniform(rng, ranges.tip_mass_scale)
+    if "pendulum" in what:
+        length = _uniform(rng, ranges.dowel_length_m)
+        dowel_mass = changes.get("dowel_mass_kg", base.dowel_mass_kg)
+        changes["dowel_length_m"], changes["dowel_mass_kg"] = length, dowel_mass * length / base.dowel_length_m
+        changes["pendulum_damping_n_m_s_per_rad"] = (base.pendulum_damping_n_m_s_per_rad
+                                                     * _uniform(rng, ranges.pendulum_damping_scale))
+    network = None
+    if "latency" in what or "network" in what:
+        latency = LatencyModel(floor_ms=_uniform(rng, ranges.latency_floor_ms),
+                               median_ms=_uniform(rng, ranges.latency_median_ms),
+                               spread=_uniform(rng, ranges.latency_spread))
+        loss = (_uniform(rng, ranges.loss_pct), _uniform(rng, ranges.loss_pct)) if "network" in what else (0.0, 0.0)
+        network = NetworkImpairment(latency, *loss)
+    residual = round(_uniform(rng, ranges.residual_offset_counts)) if "encoder" in what else 0
+    return RandomRig(dataclasses.replace(base, **changes), network, residual)
 
 
-def sample_latency(rng: np.random.Generator) -> LatencyModel:
-    return LatencyModel(floor_ms=float(rng.uniform(*LATENCY_FLOOR_MS)),
-                        median_ms=float(rng.uniform(*LATENCY_MEDIAN_MS)), spread=float(rng.uniform(*LATENCY_SPREAD)))
+def held_out_rigs(count: int, seed: int = 2026, base: RigParams | None = None,
+                  widening: float = HELD_OUT_WIDENING) -> list[RandomRig]:
+    """Rigs for evaluation only: every field drawn from the training ranges widened by `widening`."""
+    rng = np.random.default_rng(seed)
+    ranges = TRAINING_RANGES.widened(widening)
+    return [sample_rig(base or RigParams(), ALIASES["robust"], rng, ranges) for _ in range(count)]
 
 
 class DomainRandomization(gym.Wrapper):
-    """Before every reset, a new rig: `what` is a subset of RANDOMIZABLE. Latency needs a fidelity with the
-    MCU pipeline (it is what the network delays)."""
+    """Before every reset, a new rig: `what` is a subset of RANDOMIZABLE (or "robust"). The network and
+    the encoder's calibration need a fidelity with the MCU pipeline (it is what they act on)."""
 
-    def __init__(self, env: gym.Env, what: tuple[str, ...] | str, seed: int = 0) -> None:
+    def __init__(self, env: gym.Env, what: tuple[str, ...] | str, seed: int = 0,
+                 ranges: RigRanges = TRAINING_RANGES) -> None:
         super().__init__(env)
-        self.what = parse_randomize(what) if isinstance(what, str) else tuple(what)
-        parse_randomize(",".join(self.what))
+        self.what = parse_randomize(what if isinstance(what, str) else ",".join(what))
         base = env.unwrapped
         self.base_params, self.base_fidelity = base.params, resolve_fidelity(base.backend.fidelity)
-        if "latency" in self.what and not self.base_fidelity.mcu_pipeline:
-            raise ConfigError("randomising latency needs a fidelity with the MCU pipeline (e.g. 'realistic')")
+        needs_mcu = {"latency", "network", "encoder"} & set(self.what)
+        if needs_mcu and not self.base_fidelity.mcu_pipeline:
+            raise ConfigError(f"randomising {', '.join(sorted(needs_mcu))} needs a fidelity with the MCU pipeline "
+                              "(e.g. 'realistic')")
+        self.ranges = ranges
         self.rng = np.random.default_rng(seed)
+        self.rig: RandomRig | None = None
 
     def reset(self, **kwargs):
-        params = sample_rig(self.base_params, self.what, self.rng)
-        fidelity = self.base_fidelity
-        if "latency" in self.what:
-            fidelity = fidelity.replace(name="randomised", latency=sample_latency(self.rng))
-        self.env.unwrapped.set_rig(params, fidelity)
+        self.rig = sample_rig(self.base_params, self.what, self.rng, self.ranges)
+        fidelity = self.rig.fidelity(self.base_fidelity) if self.base_fidelity.mcu_pipeline else self.base_fidelity
+        self.env.unwrapped.set_rig(self.rig.params, fidelity)
         return self.env.reset(**kwargs)

@@ -1,4 +1,5 @@
-"""Domain randomisation: every episode a new servo, network and masses, within the kit's own ranges."""
+"""Domain randomisation: every episode a new rig (servo, masses, pendulum, pulses, calibration, network)
+within the documented ranges; held-out rigs from ranges 20% wider."""
 
 import numpy as np
 import pytest
@@ -7,10 +8,14 @@ from click.testing import CliRunner
 import pendkit
 from pendkit.errors import ConfigError
 from pendkit.rig import SERVO_PRESETS, RigParams
+from pendkit.sim.fidelity import FIDELITY_PRESETS
+from pendkit.sim.latency import PERFECT_NETWORK
 from pendkit.sim.randomize import (
     MASS_FIELDS,
     SERVO_FIELDS,
+    TRAINING_RANGES,
     DomainRandomization,
+    held_out_rigs,
     parse_randomize,
     sample_rig,
 )
@@ -21,15 +26,55 @@ def test_samples_stay_within_the_presets_and_mass_spread():
     base = RigParams()
     presets = [RigParams.preset(name) for name in SERVO_PRESETS]
     for _ in range(50):
-        rig = sample_rig(base, ("servo", "masses"), rng)
+        rig = sample_rig(base, ("servo", "masses"), rng).params
         for field in SERVO_FIELDS:
             values = [getattr(p, field) for p in presets]
             assert min(values) <= getattr(rig, field) <= max(values)
         for field in MASS_FIELDS:
-            assert 0.9 * getattr(base, field) <= getattr(rig, field) <= 1.1 * getattr(base, field)
+            low, high = TRAINING_RANGES.tip_mass_scale if field == "tip_mass_kg" else TRAINING_RANGES.mass_scale
+            assert low * getattr(base, field) <= getattr(rig, field) <= high * getattr(base, field)
         assert (rig.servo_min_counts, rig.servo_max_counts) in {(p.servo_min_counts, p.servo_max_counts)
                                                                 for p in presets}
-    assert sample_rig(base, (), rng) == base
+    assert sample_rig(base, (), rng).params == base
+
+
+def test_robust_training_covers_the_pendulum_pulses_calibration_and_network():
+    rng = np.random.default_rng(3)
+    base = RigParams()
+    rigs = [sample_rig(base, parse_randomize("robust"), rng) for _ in range(200)]
+    damping = [r.params.pendulum_damping_n_m_s_per_rad / base.pendulum_damping_n_m_s_per_rad for r in rigs]
+    assert min(damping) < 0.7 and max(damping) > 2.5  # up to (at least) 2.5x the default bearing
+    lengths = [r.params.dowel_length_m for r in rigs]
+    assert min(lengths) < 0.32 and max(lengths) > 0.43
+    for r in rigs:  # the dowel's mass follows its length; the network and calibration come with the rig
+        per_metre = (r.params.dowel_mass_kg / r.params.dowel_length_m) / (base.dowel_mass_kg / base.dowel_length_m)
+        assert TRAINING_RANGES.mass_scale[0] <= per_metre <= TRAINING_RANGES.mass_scale[1]
+        assert 150 <= r.params.servo_min_counts <= 200 and 400 <= r.params.servo_max_counts <= 450
+        assert abs(r.residual_offset_counts) <= 6 and 0 <= r.network.observation_loss_pct <= 3
+    assert len({r.residual_offset_counts for r in rigs}) > 5 and max(r.network.latency.median_ms for r in rigs) > 12
+
+
+def test_held_out_rigs_come_from_wider_ranges_and_are_reproducible():
+    rigs, again = held_out_rigs(10, seed=7), held_out_rigs(10, seed=7)
+    assert [r.params for r in rigs] == [r.params for r in again]
+    wide = TRAINING_RANGES.widened(1.2)
+    low, high = TRAINING_RANGES.servo_speed_s_per_60deg
+    assert wide.servo_speed_s_per_60deg == pytest.approx((low - 0.1 * (high - low), high + 0.1 * (high - low)))
+    assert wide.loss_pct[0] == 0.0 and wide.latency_floor_ms[0] == 0.0  # nothing below physical zero
+    many = held_out_rigs(300, seed=1)
+    speeds = [r.params.servo_speed_s_per_60deg for r in many]
+    assert min(speeds) < low and max(speeds) > high  # some lie outside what training saw
+
+
+def test_a_residual_calibration_error_shifts_the_hanging_reading():
+    readings = {}
+    for residual in (0, 5):
+        fidelity = FIDELITY_PRESETS["realistic"].replace(encoder_residual_offset_counts=residual,
+                                                         network=PERFECT_NETWORK)
+        env = pendkit.make(fidelity=fidelity, start="rest")
+        env.reset(seed=0)
+        readings[residual] = env.unwrapped._state.encoder_counts
+    assert (readings[5] - readings[0]) % 1024 == 5
 
 
 def test_each_episode_runs_on_a_new_rig_and_the_physics_follows():
@@ -46,7 +91,7 @@ def test_each_episode_runs_on_a_new_rig_and_the_physics_follows():
 
 
 def test_bad_requests_are_refused_with_the_choices():
-    with pytest.raises(ConfigError, match="servo, latency, masses"):
+    with pytest.raises(ConfigError, match="servo, latency, masses, pendulum"):
         parse_randomize("servo,wind")
     with pytest.raises(ConfigError, match="MCU pipeline"):
         DomainRandomization(pendkit.make(fidelity="ideal"), "latency")
@@ -64,4 +109,4 @@ def test_train_command_randomises_and_eval_runs_on_another_preset(tmp_path):
     result = CliRunner().invoke(main, ["eval", str(out), "--episodes", "2", "--preset", "turnigy-tgy-wp23"])
     assert result.exit_code == 0 and "solved=0/2 median_upright_s=-" in result.output, result.output
     result = CliRunner().invoke(main, ["train", "--randomize", "wind", "--out", str(out)])
-    assert result.exit_code != 0 and "servo, latency, masses" in result.output
+    assert result.exit_code != 0 and "servo, latency, masses" in result.output and "robust" in result.output
