@@ -45,8 +45,14 @@ class AsyncTrainer:
         self.stats = AsyncStats(actor_steps=[0] * len(envs), episodes=[[] for _ in envs],
                                 versions_used=[set() for _ in envs])
         self._threads: list[threading.Thread] = []
+        self.max_episodes: int | None = None
+        self._started_episodes = 0
+        self._episode_lock = threading.Lock()
 
-    def run(self, seconds: float) -> AsyncStats:
+    def run(self, seconds: float, episodes: int | None = None) -> AsyncStats:
+        """Train for `seconds` of wall time, or until the actors have finished `episodes` episodes together
+        (a rig's budget: each actor then starts no episode beyond it)."""
+        self.max_episodes = episodes
         # Python hands the interpreter between threads every 5 ms by default: long enough to make an
         # actor that wakes for its deadline wait behind the learner. 1 ms keeps the actors on time.
         switch_interval = sys.getswitchinterval()
@@ -62,9 +68,23 @@ class AsyncTrainer:
                           for k in range(len(self.envs))]
         for thread in self._threads:
             thread.start()
-        self.stop.wait(seconds)
+        deadline = time.monotonic() + seconds
+        while not self.stop.wait(min(0.05, max(0.0, deadline - time.monotonic()))):
+            if time.monotonic() >= deadline or self._budget_spent():
+                break
         self.close()
         return self.stats
+
+    def _start_episode(self) -> bool:
+        """Whether the episode budget allows one more episode (counted when it starts)."""
+        with self._episode_lock:
+            if self.max_episodes is not None and self._started_episodes >= self.max_episodes:
+                return False
+            self._started_episodes += 1
+            return True
+
+    def _budget_spent(self) -> bool:
+        return self.max_episodes is not None and sum(map(len, self.stats.episodes)) >= self.max_episodes
 
     def close(self) -> None:
         self.stop.set()
@@ -108,7 +128,7 @@ class AsyncTrainer:
         env, inputs = self.envs[k], self.inputs[k]
         actor = copy.deepcopy(self.agent)  # its own policy copy: the learner's updates never race its forward pass
         version, episode = 0, 0
-        while not self.stop.is_set():
+        while not self.stop.is_set() and self._start_episode():
             observation, _ = env.reset(seed=self.seed + 1000 * k + episode)
             x = inputs.reset(observation)
             actor.reset()

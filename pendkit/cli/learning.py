@@ -226,4 +226,50 @@ def policies_build(names: tuple[str, ...]) -> None:
         raise click.ClickException(str(error)) from None
 
 
-COMMANDS = (train, evaluate, plot, policies)
+@click.command()
+@click.option("--backend", type=click.Choice(("rig", "sim")), default="rig", show_default=True,
+              help="rig: a (virtual) rig over MQTT; sim: a hidden twin from --params (tests, rehearsals).")
+@click.option("--rig", "rig_id", default="r01", show_default=True)
+@click.option("--broker", default=None, help=f"With --backend rig (default {DEFAULT_BROKER}).")
+@click.option("--params", "params_path", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
+              help="With --backend sim: the hidden rig (RigParams.save's format).")
+@click.option("--impairment", type=click.Choice(("none", "classroom-wifi", "poor-wifi")), default="classroom-wifi",
+              show_default=True, help="With --backend sim: the hidden rig's network.")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), required=True)
+@click.option("--episodes", type=click.IntRange(1, 100), default=10, show_default=True,
+              help="Episodes of the rig's time adaptation may use (excitation + fine-tuning).")
+@click.option("--twin-episodes", type=click.IntRange(0), default=60, show_default=True,
+              help="Training episodes on the identified twin (laptop time).")
+@click.option("--evaluate", "evaluation_episodes", type=click.IntRange(0), default=3, show_default=True,
+              help="Greedy episodes on the rig afterwards, for the policy and for the classical controllers.")
+@click.option("--policy", "policy_name", default="r-dqn-robust", show_default=True, help="The policy to start from.")
+@click.option("--seed", type=int, default=0, show_default=True)
+def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, twin_episodes, evaluation_episodes,
+          policy_name, seed) -> None:
+    """Fit the kit to one rig in a few of its episodes: excite it, identify its twin from the encoder,
+    train on that twin, fine-tune on the rig; design the classical controllers on the same twin; report."""
+    _torch_or_exit()
+    from pendkit.adapt.rigs import mqtt_rig, twin_rig
+    from pendkit.adapt.session import AdaptConfig
+    from pendkit.adapt.session import adapt as run_adaptation
+    from pendkit.errors import ConfigError
+    from pendkit.rig import RigParams
+
+    try:
+        if backend == "sim":
+            if params_path is None:
+                raise click.UsageError("--backend sim needs --params RIG.json (the hidden rig)")
+            rig = twin_rig(RigParams.load(params_path), impairment, seed)
+        else:
+            rig = mqtt_rig(rig_id, broker)
+        config = AdaptConfig(episodes=episodes, excitation_episodes=min(6, episodes), twin_episodes=twin_episodes,
+                             evaluation_episodes=evaluation_episodes, policy=policy_name, seed=seed)
+        report = run_adaptation(rig, out_dir, config, say=click.echo)
+    except ConfigError as error:
+        raise click.ClickException(str(error)) from None
+    click.echo(f"rig time {report['rig_s_adaptation']:.0f} s to adapt, wall clock {report['wall_s_adaptation']:.0f} s; "
+               f"report in {out_dir / 'report.md'}")
+    click.echo(f"policy: {report['policy_on_rig']['summary']}")
+
+
+COMMANDS = (train, evaluate, plot, policies, adapt)

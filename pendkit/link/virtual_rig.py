@@ -122,7 +122,9 @@ class VirtualRig:
     def publish_status(self) -> None:
         status = {"firmware": FIRMWARE_VERSION, "rig": self.rig, **self.device.scheduler.status(),
                   # the device clock's origin on this machine's monotonic clock: one-way latency measurements
-                  "clock_origin_s": self._t0, "speed": self.speed}
+                  "clock_origin_s": self._t0, "speed": self.speed,
+                  # what this rig received, counted here: a host measures rig time with it (`pendkit adapt`)
+                  "commands_received": self.commands_received, "busy_s": round(self.busy_s, 3)}
         self.client.publish(self.status_topic, json.dumps(status), qos=1, retain=True)
 
     # --- simulation (the group's thread) ---

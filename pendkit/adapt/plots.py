@@ -1,0 +1,42 @@
+"""The report's figure: what the rig's encoder recorded beside what the prior and the identified twins
+do with the same actions."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from pendkit.adapt.excitation import Recording
+from pendkit.adapt.identify import PRIOR_LATENCY_MS, Identification, simulate
+from pendkit.rig import RigParams
+
+SHOWN = 3
+
+
+def plot_identification(recordings: list[Recording], identification: Identification, path: str | Path) -> Path:
+    from matplotlib.figure import Figure
+
+    from pendkit.episode import PALETTE
+
+    shown = recordings[:SHOWN]
+    figure = Figure(figsize=(9, 2.2 * len(shown)), layout="constrained")
+    axes = np.atleast_1d(figure.subplots(len(shown), 1))
+    for axis, recording in zip(axes, shown):
+        t = np.arange(1, len(recording.actions) + 1) * RigParams().control_step_ms / 1000
+        wrap = lambda a: np.degrees(np.angle(np.exp(1j * np.asarray(a))))  # noqa: E731
+        axis.plot(t, wrap(recording.pendulum_rad), color="black", lw=2, label="rig (encoder)")
+        axis.plot(t, wrap(simulate(RigParams(), PRIOR_LATENCY_MS, recording)), color=PALETTE["limit"], lw=1,
+                  linestyle="--", label="prior twin")
+        axis.plot(t, wrap(simulate(identification.params, identification.latency_ms, recording)),
+                  color=PALETTE["pendulum"], lw=1.2, label="identified twin")
+        axis.set_ylabel("pendulum (deg)")
+    axes[0].legend(loc="upper right")
+    axes[-1].set_xlabel("time (s)")
+    figure.suptitle(f"Excitation episodes: matching cost {identification.prior_cost:.3f} (prior) -> "
+                    f"{identification.cost:.3f} (identified)")
+    path = Path(path)
+    alt = (f"Pendulum angle of {len(shown)} excitation episodes on the rig, with the prior and the identified "
+           f"twins given the same actions; the identified twin follows the rig more closely.")
+    figure.savefig(path, dpi=90, metadata={"Description": alt})
+    return path

@@ -1,0 +1,82 @@
+"""The rigs `pendkit adapt` works on: a (virtual) rig over MQTT, or a twin from a parameter file for tests.
+Each counts its own time: the rig reports the commands it received (status `busy_s`); the twin counts the
+steps that reached it. Neither hands its parameters to the adaptation."""
+
+from __future__ import annotations
+
+import json
+import time
+
+import gymnasium as gym
+
+from pendkit.adapt.session import Rig
+
+
+class _CountedSteps(gym.Wrapper):
+    """Counts the commands that reached the twin (its rig time: one control step each)."""
+
+    def __init__(self, env, counter: list[int]) -> None:
+        super().__init__(env)
+        self.counter = counter
+
+    def step(self, action):
+        result = self.env.step(action)
+        self.counter[0] += 1
+        return result
+
+
+def twin_rig(params, impairment: str = "classroom-wifi", seed: int = 0) -> Rig:
+    """A hidden rig: the realistic twin of `params` behind the given network."""
+    import pendkit
+    from pendkit.sim.fidelity import FIDELITY_PRESETS
+    from pendkit.sim.latency import IMPAIRMENTS
+
+    fidelity = FIDELITY_PRESETS["realistic"].replace(name="hidden-rig", network=IMPAIRMENTS[impairment])
+    steps = [0]
+
+    def make_env(**env_kwargs):
+        return _CountedSteps(pendkit.make(fidelity=fidelity, params=params, start="rest", **env_kwargs), steps)
+
+    return Rig(make_env, lambda: steps[0] * params.control_step_ms / 1000, name=f"twin ({impairment})")
+
+
+def mqtt_rig(rig_id: str, broker: str | None) -> Rig:
+    """A rig over MQTT; its time is what it reports having received (a rig that does not report it is
+    measured from the host's first command to its last instead, and says so in the name)."""
+    import pendkit
+
+    first: list[float] = []
+
+    def make_env(**env_kwargs):
+        if not first:
+            first.append(time.monotonic())
+        return pendkit.make(backend="rig", rig=rig_id, broker=broker, rig_options={"settle": True}, **env_kwargs)
+
+    def seconds() -> float:
+        reported = rig_status(rig_id, broker).get("busy_s")
+        if reported is not None:
+            return float(reported)
+        return time.monotonic() - first[0] if first else 0.0
+
+    return Rig(make_env, seconds, name=f"rig {rig_id}")
+
+
+def rig_status(rig_id: str, broker: str | None, wait_s: float = 1.0) -> dict:
+    """The rig's status after asking it for a fresh one (command `r`)."""
+    from pendkit.device.commands import frame_command
+    from pendkit.link import DEFAULT_BROKER
+    from pendkit.link.driver import RigLink
+
+    link = RigLink(rig_id, broker or DEFAULT_BROKER)
+    try:
+        link.connect()
+        before = link.status
+        link.publish(frame_command("r", 2, 1, int(time.monotonic() * 1000)))
+        deadline = time.monotonic() + wait_s
+        while time.monotonic() < deadline and link.status == before:
+            time.sleep(0.02)
+        return json.loads(link.status) if link.status else {}
+    except (ValueError, OSError):
+        return {}
+    finally:
+        link.close()

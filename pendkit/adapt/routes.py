@@ -1,0 +1,115 @@
+"""The two routes from an identified twin to a rig: the learned one (train on the twin from the shipped
+robust policy, then fine-tune on the rig with the non-blocking trainer) and the classical one (energy
+swing-up + LQR designed on the twin). Both are judged on the rig by the kit's "solved" rule."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from pendkit.adapt.identify import Identification
+from pendkit.agents.runs import Evaluation, RunSpec, build_run, evaluate_agent, save_weights
+from pendkit.sim.fidelity import FIDELITY_PRESETS
+from pendkit.sim.latency import LatencyModel, NetworkImpairment
+
+
+def identified_twin(identification: Identification, **env_kwargs):
+    """The realistic twin of the identified rig (its latency as a fixed floor, no loss)."""
+    import pendkit
+
+    network = NetworkImpairment(LatencyModel(floor_ms=identification.latency_ms))
+    fidelity = FIDELITY_PRESETS["realistic"].replace(name="identified", network=network)
+    return pendkit.make(fidelity=fidelity, params=identification.params, **env_kwargs)
+
+
+def starting_weights(name: str) -> tuple[RunSpec, dict | None]:
+    """The shipped policy to start from, or (its learner, None) when it is not there: trained afresh."""
+    from pendkit.agents.pretrained import POLICIES, policy_weights
+    from pendkit.errors import ConfigError
+
+    try:
+        return policy_weights(name)
+    except ConfigError:
+        spec = POLICIES[name].run if name in POLICIES else RunSpec("r-dqn", "realistic")
+        return dataclasses.replace(spec, randomize=""), None
+
+
+@dataclass
+class AgentRun:
+    spec: RunSpec
+    agent: object
+    inputs: object
+
+    def evaluate(self, rig, episodes: int) -> dict:
+        if episodes == 0:
+            return {"summary": "not evaluated"}
+        from pendkit.agents.learners import learner
+
+        env = rig.make_env(**learner(self.spec.learner).env_kwargs())
+        outcome = evaluate_agent(env, self.agent, self.inputs, episodes, start=None)
+        env.close()
+        return _as_report(outcome)
+
+
+def _as_report(outcome: Evaluation) -> dict:
+    return {"solved": outcome.solved, "upright_s": outcome.upright_s, "summary": outcome.summary()}
+
+
+def train_on_twin(identification: Identification, config, weights_path: Path,
+                  say: Callable[[str], None]) -> AgentRun:
+    """(c): the starting policy trained further on the identified twin (laptop time)."""
+    from pendkit.agents.learners import learner
+    from pendkit.agents.train import train_sync
+
+    spec, state = starting_weights(config.policy)
+    spec = dataclasses.replace(spec, randomize="", seed=config.seed)
+    env = identified_twin(identification, **learner(spec.learner).env_kwargs())
+    _, agent, inputs = build_run(spec, env)
+    if state is not None:
+        agent.load_state_dict(state)
+    returns = train_sync(env, agent, config.twin_episodes, inputs, seed=config.seed, progress=False) \
+        if config.twin_episodes else []
+    save_weights(weights_path, agent, spec, {"identified_rig": identification.values(), "twin_episodes": len(returns)})
+    say(f"(c) {config.policy if state is not None else spec.learner + ' (afresh)'} trained "
+        f"{len(returns)} episodes on the identified twin")
+    return AgentRun(spec, agent, inputs)
+
+
+def fine_tune_on_rig(rig, run: AgentRun, episodes: int, config, weights_path: Path,
+                     say: Callable[[str], None]) -> None:
+    """(d): the episodes left on the rig, acting greedily-ish while the non-blocking trainer learns."""
+    if episodes <= 0:
+        return
+    from pendkit.agents.async_trainer import AsyncTrainer
+    from pendkit.agents.learners import learner
+
+    env = rig.make_env(**learner(run.spec.learner).env_kwargs())
+    trainer = AsyncTrainer(run.agent, [env], [run.inputs], seed=config.seed)
+    stats = trainer.run(seconds=episodes * 60.0, episodes=episodes)
+    env.close()
+    save_weights(weights_path, run.agent, run.spec, {"rig_episodes": len(stats.episodes[0])})
+    say(f"(d) {len(stats.episodes[0])} episodes on the rig, {stats.learner_updates} learner updates")
+
+
+def classical_on_rig(rig, identification: Identification, episodes: int) -> dict:
+    """Energy swing-up + LQR designed on the identified twin, run on the rig."""
+    if episodes == 0:
+        return {"summary": "not evaluated"}
+    from pendkit.agents.runs import SOLVED_TAIL_STEPS
+    from pendkit.control.swingup import SwingUpController
+    from pendkit.episode import run_episode, time_to_upright_s
+    from pendkit.features import holds_upright
+
+    design = identified_twin(identification, action_mode="continuous", filter_coefficient=0.0)
+    controller = SwingUpController.for_env(design)
+    env = rig.make_env(action_mode="continuous", filter_coefficient=0.0)
+    solved, upright = [], []
+    for k in range(episodes):
+        trace = run_episode(env, controller, seed=10_000 + k)
+        angles = trace.pendulum_from_upright_rad
+        solved.append(holds_upright(angles, SOLVED_TAIL_STEPS))
+        upright.append(time_to_upright_s(angles, env.unwrapped.dt))
+    env.close()
+    return _as_report(Evaluation(solved, upright, [0.0] * episodes))

@@ -1,0 +1,66 @@
+"""`pendkit adapt`'s pieces on hidden twins: excitation that stays short of a swing-up and reads only what a
+rig reports, a matching cost that singles out the rig's own parameters, a first stage that reads the
+pendulum from its free swings, and the whole session writing its report with rig time counted by the rig."""
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+from pendkit.adapt.excitation import record, schedule
+from pendkit.adapt.identify import matching_cost, swing_estimates
+from pendkit.adapt.rigs import twin_rig
+from pendkit.rig import RigParams
+
+HIDDEN = dataclasses.replace(RigParams.preset("hitec-d645mw-4v8"), dowel_length_m=0.34,
+                             dowel_mass_kg=RigParams().dowel_mass_kg * 0.34 / 0.4)
+
+
+def recordings(params, episodes=3, impairment="none"):
+    rig = twin_rig(params, impairment)
+    env = rig.make_env(action_mode="discrete")
+    return [record(env, e, seed=k) for k, e in enumerate(schedule(episodes))], rig
+
+
+def test_excitation_swings_the_pendulum_clearly_but_short_of_the_top_and_counts_rig_time():
+    recs, rig = recordings(RigParams(), episodes=4)
+    for r in recs:
+        swing = np.abs(np.angle(np.exp(1j * np.asarray(r.pendulum_rad))))
+        assert 0.2 < swing.max() < 2.0  # visible, and well below horizontal-and-over
+    assert rig.seconds() == pytest.approx(sum(len(r.actions) for r in recs) * 0.06)
+    assert len({tuple(r.actions) for r in recs}) == 4  # every episode excites differently
+
+
+def test_the_matching_cost_singles_out_the_rigs_own_parameters():
+    recs, _ = recordings(HIDDEN)
+    own = matching_cost(HIDDEN, 0.0, recs)
+    prior = matching_cost(RigParams(), 10.0, recs)
+    slower = matching_cost(dataclasses.replace(HIDDEN, servo_speed_s_per_60deg=0.4), 0.0, recs)
+    assert own < 0.02 and prior > 5 * own and slower > 5 * own
+
+
+def test_free_swings_read_a_shorter_pendulums_higher_frequency():
+    short, _ = recordings(HIDDEN)
+    default, _ = recordings(RigParams())
+    ratio = swing_estimates(short, 0.06)[0] / swing_estimates(default, 0.06)[0]
+    expected = HIDDEN.pendulum_natural_frequency_rad_s / RigParams().pendulum_natural_frequency_rad_s
+    assert ratio == pytest.approx(expected, rel=0.05)
+
+
+def test_an_adaptation_session_writes_rig_policy_and_report(tmp_path):
+    pytest.importorskip("torch")
+    from pendkit.adapt.session import AdaptConfig, adapt
+
+    rig = twin_rig(HIDDEN, "none")
+    config = AdaptConfig(episodes=3, excitation_episodes=2, twin_episodes=1, evaluation_episodes=1,
+                         policy="r-dqn-realistic", identification_evaluations=30)
+    report = adapt(rig, tmp_path, config, say=lambda text: None)
+    assert RigParams.load(tmp_path / "rig.json") != RigParams()  # something was identified
+    assert (tmp_path / "policy.pt").exists() and (tmp_path / "identification.png").read_bytes()[:4] == b"\x89PNG"
+    saved = json.loads((tmp_path / "report.json").read_text())
+    # rig time as the rig counted it: 2 excitation episodes of 102 steps and 1 fine-tuning episode of 500
+    assert saved["rig_s_adaptation"] == pytest.approx((2 * 102 + 500) * 0.06)
+    assert saved["rig_s_total"] > saved["rig_s_adaptation"]  # the evaluation came after, on the same rig
+    assert report["policy_on_rig"]["summary"].startswith("solved=")
+    assert "| servo_speed_s_per_60deg |" in (tmp_path / "report.md").read_text()
