@@ -26,7 +26,6 @@ from pendkit.rig import SERVO_PRESETS
 
 RANDOMIZED = "servo,latency,masses"
 CHECK_EVERY = 20
-TAIL_STEPS = 200
 GOAL_PRESETS = 4
 
 

@@ -255,6 +255,11 @@ class RigParams:
         except KeyError:
             raise ConfigError(f"unknown rig preset {name!r}; choose one of {sorted(SERVO_PRESETS)}") from None
 
+    def with_dowel_length(self, length_m: float) -> RigParams:
+        """This rig with its dowel cut (or replaced) to `length_m` from the same stock: its mass follows."""
+        return dataclasses.replace(self, dowel_length_m=length_m,
+                                   dowel_mass_kg=self.dowel_mass_kg * length_m / self.dowel_length_m)
+
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
 

@@ -65,7 +65,7 @@ class Recording:
 def record(env, excitation: Excitation, seed: int = 0) -> Recording:
     """Run one excitation episode on `env` (a discrete-action env: twin or rig), reading only what a rig
     reports (the state record: encoder angle and its rate, the servo target the host sent)."""
-    _, info = env.reset(seed=seed, options={"start": "rest"} if _is_twin(env) else None)
+    _, info = env.reset(seed=seed, options={"start": "rest"})  # a rig starts as it is, settled
     state = info["state"]
     recording = Recording(excitation.actions(), float(state.servo_target_rad), float(state.pendulum_angle_rad))
     for action in recording.actions:
@@ -73,12 +73,6 @@ def record(env, excitation: Excitation, seed: int = 0) -> Recording:
         recording.pendulum_rad.append(float(info["state"].pendulum_angle_rad))
         recording.pendulum_velocity_rad_s.append(float(info["state"].pendulum_velocity_rad_s))
     return recording
-
-
-def _is_twin(env) -> bool:
-    from pendkit.sim.backend import SimBackend
-
-    return isinstance(env.unwrapped.backend, SimBackend)
 
 
 def angle_error_rad2(simulated: np.ndarray, recorded: np.ndarray) -> float:

@@ -55,17 +55,20 @@ class Identification:
     seconds: float
 
     def values(self) -> dict[str, float]:
-        p = self.params
-        return {**{name: getattr(p, name) for name in FITTED if name != "latency_ms"},
-                "latency_ms": self.latency_ms,
-                "pendulum_natural_frequency_rad_s": p.pendulum_natural_frequency_rad_s}
+        return rig_values(self.params, self.latency_ms)
+
+
+def rig_values(params: RigParams, latency_ms: float) -> dict[str, float]:
+    """What identification fits, and the pendulum's natural frequency that follows, as a table row."""
+    return {**{name: getattr(params, name) for name in FITTED if name != "latency_ms"}, "latency_ms": latency_ms,
+            "pendulum_natural_frequency_rad_s": params.pendulum_natural_frequency_rad_s}
 
 
 def candidate(base: RigParams, x: np.ndarray) -> tuple[RigParams, float]:
     """(params, latency_ms) for a point `x` of the servo search box (log scales of `base`, latency in ms)."""
     changes = {name: getattr(base, name) * math.exp(value) for name, value in zip(SERVO_BOUNDS, x[:-1])}
-    changes["dowel_mass_kg"] = base.dowel_mass_kg * changes["dowel_length_m"] / base.dowel_length_m
-    return dataclasses.replace(base, **changes), float(x[-1])
+    length_m = changes.pop("dowel_length_m")
+    return dataclasses.replace(base, **changes).with_dowel_length(length_m), float(x[-1])
 
 
 def search_box() -> list[tuple[float, float]]:
@@ -110,15 +113,11 @@ def length_for_frequency(prior: RigParams, omega_rad_s: float) -> RigParams:
     """`prior` with the dowel length (and its mass, the same stock) that gives `omega_rad_s`."""
     from scipy.optimize import brentq
 
-    def rig(length_m: float) -> RigParams:
-        return dataclasses.replace(prior, dowel_length_m=length_m,
-                                   dowel_mass_kg=prior.dowel_mass_kg * length_m / prior.dowel_length_m)
-
     low, high = 0.1, 1.5
-    gap = lambda length: rig(length).pendulum_natural_frequency_rad_s - omega_rad_s  # noqa: E731
+    gap = lambda length: prior.with_dowel_length(length).pendulum_natural_frequency_rad_s - omega_rad_s  # noqa: E731
     if gap(low) * gap(high) > 0:
-        return rig(low if abs(gap(low)) < abs(gap(high)) else high)
-    return rig(brentq(gap, low, high, xtol=1e-5))
+        return prior.with_dowel_length(low if abs(gap(low)) < abs(gap(high)) else high)
+    return prior.with_dowel_length(brentq(gap, low, high, xtol=1e-5))
 
 
 def fit_pendulum(recordings: list[Recording], prior: RigParams) -> RigParams:

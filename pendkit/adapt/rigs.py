@@ -25,7 +25,7 @@ class _CountedSteps(gym.Wrapper):
         return result
 
 
-def twin_rig(params, impairment: str = "classroom-wifi", seed: int = 0) -> Rig:
+def twin_rig(params, impairment: str = "classroom-wifi") -> Rig:
     """A hidden rig: the realistic twin of `params` behind the given network."""
     import pendkit
     from pendkit.sim.fidelity import FIDELITY_PRESETS

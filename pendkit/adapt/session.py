@@ -17,7 +17,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pendkit.adapt.excitation import record, schedule
-from pendkit.adapt.identify import Identification, identify
+from pendkit.adapt.identify import PRIOR_LATENCY_MS, identify, rig_values
+from pendkit.adapt.plots import plot_identification
+from pendkit.adapt.routes import classical_on_rig, fine_tune_on_rig, train_on_twin
 from pendkit.errors import ConfigError
 from pendkit.rig import RigParams
 
@@ -25,12 +27,11 @@ from pendkit.rig import RigParams
 @dataclass
 class Rig:
     """A rig to adapt to: `make_env(**env_kwargs)` makes an env on it; `seconds()` is the rig time it has
-    counted itself (commands received); `close()` ends it."""
+    counted itself (commands received)."""
 
     make_env: Callable[..., object]
     seconds: Callable[[], float]
     name: str = "rig"
-    close: Callable[[], None] = lambda: None
 
 
 @dataclass(frozen=True)
@@ -42,7 +43,7 @@ class AdaptConfig:
     excitation_episodes: int = 6
     twin_episodes: int = 60
     evaluation_episodes: int = 3
-    policy: str = "r-dqn-robust"
+    policy: str = "r-dqn-realistic"  # until r-dqn-robust ships (docs/rl.md)
     identification_evaluations: int = 800
     seed: int = 0
 
@@ -74,14 +75,12 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     identification = identify(recordings, max_evaluations=config.identification_evaluations, seed=config.seed)
     identification.params.save(out / "rig.json")
     report["identified"] = identification.values()
-    report["prior"] = Identification(RigParams(), 10.0, 0, 0, 0, 0).values()
+    report["prior"] = rig_values(RigParams(), PRIOR_LATENCY_MS)
     report["matching_cost"] = {"prior": identification.prior_cost, "identified": identification.cost}
     say(f"(b) identified in {identification.seconds:.0f} s: servo {identification.params.servo_speed_s_per_60deg:.3f} "
         f"s/60 deg, pendulum {identification.params.pendulum_natural_frequency_rad_s:.2f} rad/s, latency "
         f"{identification.latency_ms:.0f} ms (matching cost {identification.prior_cost:.3f} -> "
         f"{identification.cost:.3f})")
-
-    from pendkit.adapt.routes import classical_on_rig, fine_tune_on_rig, train_on_twin
 
     agent_run = train_on_twin(identification, config, out / "policy.pt", say)
     fine_tune_on_rig(rig, agent_run, config.episodes - config.excitation_episodes, config, out / "policy.pt", say)
@@ -92,8 +91,6 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     report["rig_s_total"] = rig.seconds()
     say(f"(d) on the rig: policy {report['policy_on_rig']['summary']}; classical "
         f"{report['classical_on_rig']['summary']}")
-
-    from pendkit.adapt.plots import plot_identification
 
     report["plots"] = [str(plot_identification(recordings, identification, out / "identification.png"))]
     (out / "report.json").write_text(json.dumps(report, indent=1, default=float))

@@ -8,12 +8,7 @@ through the same code; `bench_transfer.py` and `pendkit adapt` use it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
-import numpy as np
-
-from pendkit.agents.runs import RunSpec, build_run, greedy_episode, solved
-from pendkit.features import UPRIGHT_RAD
+from pendkit.agents.runs import Evaluation, RunSpec, build_run, evaluate_agent
 from pendkit.rig import SERVO_PRESETS, RigParams
 from pendkit.sim.fidelity import FIDELITY_PRESETS
 from pendkit.sim.randomize import RandomRig, held_out_rigs
@@ -40,48 +35,22 @@ def rig_env(rig: RandomRig, spec: RunSpec | None = None, **env_options):
     return pendkit.make(fidelity=fidelity, params=rig.params, **kwargs, **env_options)
 
 
-def held_fraction(angles_from_upright_rad) -> float | None:
-    """Of the steps after the pendulum first comes within UPRIGHT_RAD, the fraction that stay within it
-    (the balance holds, not wobbles); None if it never comes up."""
-    angles = np.abs(np.asarray(angles_from_upright_rad))
-    up = np.nonzero(angles < UPRIGHT_RAD)[0]
-    if len(up) == 0:
-        return None
-    return float(np.mean(angles[up[0]:] < UPRIGHT_RAD))
-
-
-@dataclass(frozen=True)
-class Episode:
-    rig: str
-    start: str
-    solved: bool
-    upright_s: float | None
-    held_fraction: float | None
-
-
 def policy_on_rigs(spec: RunSpec, state: dict, rigs: dict[str, RandomRig], starts: int = 5,
-                   seed: int = 10_000) -> list[Episode]:
-    """Greedy episodes of a trained agent on each rig: one from rest and `starts` random starts."""
-    from pendkit.episode import time_to_upright_s
-
-    episodes = []
+                   seed: int = 10_000) -> dict[str, Evaluation]:
+    """Greedy episodes of a trained agent on each rig: one from rest, then `starts` random starts."""
+    outcomes = {}
     for name, rig in rigs.items():
         env = rig_env(rig, spec)
         _, agent, inputs = build_run(spec, env)
         agent.load_state_dict(state)
-        for k, start in enumerate(["rest"] + ["random"] * starts):
-            _, infos = greedy_episode(env, agent, inputs, seed=seed + k, start=start)
-            angles = [info["angle_from_upright_rad"] for info in infos]
-            episodes.append(Episode(name, start, solved(infos), time_to_upright_s(angles, env.unwrapped.dt),
-                                    held_fraction(angles)))
+        outcomes[name] = evaluate_agent(env, agent, inputs, 1 + starts, seed, ["rest"] + ["random"] * starts)
         env.close()
-    return episodes
+    return outcomes
 
 
-def summary(episodes: list[Episode]) -> dict:
-    """Solved share, median time to upright over solved episodes, and the worst held fraction of them."""
-    held = [e for e in episodes if e.solved]
-    times = [e.upright_s for e in held if e.upright_s is not None]
-    return {"episodes": len(episodes), "solved": len(held), "solved_share": len(held) / max(1, len(episodes)),
-            "median_upright_s": float(np.median(times)) if times else None,
-            "min_held_fraction": min((e.held_fraction for e in held), default=None)}
+def summary(outcomes: dict[str, Evaluation]) -> dict:
+    """All rigs together: solved share, median time to upright of the solved, their worst held fraction."""
+    together = sum(outcomes.values(), Evaluation([], [], [], []))
+    return {"episodes": len(together.solved), "solved": sum(together.solved),
+            "solved_share": sum(together.solved) / max(1, len(together.solved)),
+            "median_upright_s": together.median_upright_s, "min_held_fraction": together.min_held_fraction}

@@ -125,14 +125,36 @@ def solved(infos: list[dict], tail_steps: int = SOLVED_TAIL_STEPS) -> bool:
     return holds_upright([info["angle_from_upright_rad"] for info in infos], tail_steps)
 
 
+def held_fraction(angles_from_upright_rad) -> float | None:
+    """Of the steps after the pendulum first comes within 0.3 rad of upright, the fraction that stay within
+    it (the balance holds, not wobbles); None if it never comes up."""
+    import numpy as np
+
+    from pendkit.features import UPRIGHT_RAD
+
+    angles = np.abs(np.asarray(angles_from_upright_rad))
+    up = np.nonzero(angles < UPRIGHT_RAD)[0]
+    return float(np.mean(angles[up[0]:] < UPRIGHT_RAD)) if len(up) else None
+
+
 @dataclass(frozen=True)
 class Evaluation:
     """Greedy episodes' outcomes: solved or not (the kit's rule), time to upright (s, None if it never
-    stayed up to the end) and return, one entry per episode."""
+    stayed up to the end), return and held fraction, one entry per episode."""
 
     solved: list[bool]
     upright_s: list[float | None]
     returns: list[float]
+    held_fractions: list[float | None] = field(default_factory=list)
+
+    def __add__(self, other: Evaluation) -> Evaluation:
+        return Evaluation(self.solved + other.solved, self.upright_s + other.upright_s,
+                          self.returns + other.returns, self.held_fractions + other.held_fractions)
+
+    @property
+    def min_held_fraction(self) -> float | None:
+        """The worst held fraction among the solved episodes."""
+        return min((f for f, ok in zip(self.held_fractions, self.solved) if ok and f is not None), default=None)
 
     @property
     def mean_return(self) -> float:
@@ -153,14 +175,16 @@ class Evaluation:
 
 
 def evaluate_agent(env, agent: Agent, inputs: StepInputs, episodes: int, seed: int = 10_000,
-                   start: str | None = "random") -> Evaluation:
-    """`episodes` greedy episodes from seeds `seed`, `seed + 1`, ...; `start` None leaves the env's own."""
+                   start: str | None | list[str] = "random") -> Evaluation:
+    """`episodes` greedy episodes from seeds `seed`, `seed + 1`, ...; `start` for all of them or one per
+    episode (None leaves the env's own)."""
     from pendkit.episode import time_to_upright_s
 
-    held, upright, returns = [], [], []
-    for k in range(episodes):
-        total, infos = greedy_episode(env, agent, inputs, seed=seed + k, start=start)
-        held.append(solved(infos))
-        upright.append(time_to_upright_s([info["angle_from_upright_rad"] for info in infos], env.unwrapped.dt))
-        returns.append(total)
-    return Evaluation(held, upright, returns)
+    starts = start if isinstance(start, list) else [start] * episodes
+    outcome = Evaluation([], [], [], [])
+    for k, first in enumerate(starts[:episodes]):
+        total, infos = greedy_episode(env, agent, inputs, seed=seed + k, start=first)
+        angles = [info["angle_from_upright_rad"] for info in infos]
+        outcome += Evaluation([solved(infos)], [time_to_upright_s(angles, env.unwrapped.dt)], [total],
+                              [held_fraction(angles)])
+    return outcome

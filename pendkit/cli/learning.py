@@ -13,7 +13,6 @@ from pendkit.link import DEFAULT_BROKER
 from pendkit.sim.fidelity import FIDELITY_PRESETS
 
 FIDELITIES = tuple(FIDELITY_PRESETS)
-SOLVED_TAIL_STEPS = 200
 
 
 def _algorithms() -> tuple[str, ...]:
@@ -242,7 +241,8 @@ def policies_build(names: tuple[str, ...]) -> None:
               help="Training episodes on the identified twin (laptop time).")
 @click.option("--evaluate", "evaluation_episodes", type=click.IntRange(0), default=3, show_default=True,
               help="Greedy episodes on the rig afterwards, for the policy and for the classical controllers.")
-@click.option("--policy", "policy_name", default="r-dqn-robust", show_default=True, help="The policy to start from.")
+@click.option("--policy", "policy_name", default="r-dqn-realistic", show_default=True,
+              help="The shipped policy to start from.")
 @click.option("--seed", type=int, default=0, show_default=True)
 def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, twin_episodes, evaluation_episodes,
           policy_name, seed) -> None:
@@ -259,7 +259,7 @@ def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, t
         if backend == "sim":
             if params_path is None:
                 raise click.UsageError("--backend sim needs --params RIG.json (the hidden rig)")
-            rig = twin_rig(RigParams.load(params_path), impairment, seed)
+            rig = twin_rig(RigParams.load(params_path), impairment)
         else:
             rig = mqtt_rig(rig_id, broker)
         config = AdaptConfig(episodes=episodes, excitation_episodes=min(6, episodes), twin_episodes=twin_episodes,

@@ -49,6 +49,3 @@ class EstimatedStateFeed:
         x = self.observer.estimate
         _, pendulum_acceleration = self.model.accelerations(x, self.observer.target_in_force_rad)
         return estimated._replace(pendulum_acceleration_rad_s2=float(pendulum_acceleration))
-
-
-

@@ -103,9 +103,10 @@ class VirtualRig:
 
     def _on_message(self, client, userdata, message) -> None:
         now = time.monotonic()
-        self.commands_received += 1
-        self.first_command_s = now if self.first_command_s is None else self.first_command_s
-        self.last_command_s = now
+        if _body(message.payload) != b"r":  # a request for this status is no use of the rig
+            self.commands_received += 1
+            self.first_command_s = now if self.first_command_s is None else self.first_command_s
+            self.last_command_s = now
         self._inbox.put((now, message.payload))  # parsed by the device when it arrives there
 
     @property
@@ -288,3 +289,8 @@ def virtual_rig_process(broker_url: str, rig: str = "r01", settle_s: float = 1.5
     finally:
         process.terminate()
         process.wait(timeout=10)
+
+
+def _body(payload: bytes) -> bytes:
+    """A command's body: v2 frames it as `#<seq>:<body>@<host ms>`, v1 sends it bare."""
+    return payload.split(b":", 1)[-1].split(b"@", 1)[0].strip()

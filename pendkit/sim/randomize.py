@@ -133,10 +133,9 @@ def sample_rig(base: RigParams, what: tuple[str, ...], rng: np.random.Generator,
     if "masses" in what:
         changes.update({f: getattr(base, f) * _uniform(rng, ranges.mass_scale) for f in MASS_FIELDS})
         changes["tip_mass_kg"] = base.tip_mass_kg * _uniform(rng, ranges.tip_mass_scale)
+    length_m = None
     if "pendulum" in what:
-        length = _uniform(rng, ranges.dowel_length_m)
-        dowel_mass = changes.get("dowel_mass_kg", base.dowel_mass_kg)
-        changes["dowel_length_m"], changes["dowel_mass_kg"] = length, dowel_mass * length / base.dowel_length_m
+        length_m = _uniform(rng, ranges.dowel_length_m)
         changes["pendulum_damping_n_m_s_per_rad"] = (base.pendulum_damping_n_m_s_per_rad
                                                      * _uniform(rng, ranges.pendulum_damping_scale))
     network = None
@@ -147,7 +146,8 @@ def sample_rig(base: RigParams, what: tuple[str, ...], rng: np.random.Generator,
         loss = (_uniform(rng, ranges.loss_pct), _uniform(rng, ranges.loss_pct)) if "network" in what else (0.0, 0.0)
         network = NetworkImpairment(latency, *loss)
     residual = round(_uniform(rng, ranges.residual_offset_counts)) if "encoder" in what else 0
-    return RandomRig(dataclasses.replace(base, **changes), network, residual)
+    params = dataclasses.replace(base, **changes)
+    return RandomRig(params if length_m is None else params.with_dowel_length(length_m), network, residual)
 
 
 def held_out_rigs(count: int, seed: int = 2026, base: RigParams | None = None,

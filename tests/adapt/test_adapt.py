@@ -64,3 +64,23 @@ def test_an_adaptation_session_writes_rig_policy_and_report(tmp_path):
     assert saved["rig_s_total"] > saved["rig_s_adaptation"]  # the evaluation came after, on the same rig
     assert report["policy_on_rig"]["summary"].startswith("solved=")
     assert "| servo_speed_s_per_60deg |" in (tmp_path / "report.md").read_text()
+
+
+def test_a_rig_over_mqtt_reports_the_commands_it_received():
+    import pendkit
+    from pendkit.adapt.rigs import mqtt_rig, rig_status
+    from pendkit.link.virtual_rig import LocalRig
+
+    local = LocalRig()
+    try:
+        assert rig_status(local.rig, local.url).get("commands_received") == 0  # nothing sent yet
+        env = pendkit.make(backend="rig", broker=local.url, rig=local.rig, rig_options={"reset_stop_s": 0.2})
+        env.reset(seed=0)
+        for _ in range(10):
+            env.step(0)
+        env.close()
+        status = rig_status(local.rig, local.url)
+        assert status["commands_received"] >= 10 and status["commands_received"] == local.virtual.commands_received
+        assert mqtt_rig(local.rig, local.url).seconds() == pytest.approx(local.virtual.busy_s, abs=0.5)
+    finally:
+        local.stop()

@@ -76,13 +76,14 @@ def test_train_on_a_virtual_rig_with_the_non_blocking_trainer(tmp_path):
         rig.stop()
     assert result.exit_code == 0, result.output
     assert result.output.splitlines()[-1] == "solved=0/2 median_upright_s=-"
-    assert rig.virtual.commands_received >= 2 * 20 and rig.virtual.busy_s > 2 * 20 * 0.06  # counted by the rig
+    assert rig.virtual.commands_received >= 2 * 20  # counted by the rig itself, beside the host's bookkeeping
 
 
 def test_eval_of_a_shipped_policy_on_its_twin_and_bad_requests():
     result = CliRunner().invoke(main, ["eval", "--policy", "dqn-ideal", "--episodes", "3", "--start", "rest"])
     assert result.exit_code == 0, result.output
     last = result.output.splitlines()[-1]
+    # the time to upright is simulated seconds of the seeded twin, not wall time
     assert last.startswith("solved=3/3 median_upright_s=") and 0.5 < float(last.split("=")[-1]) < 6, last
     assert CliRunner().invoke(main, ["eval", "--episodes", "1"]).exit_code == 2  # neither a run nor a policy
     unknown = CliRunner().invoke(main, ["eval", "--policy", "no-such-policy"])

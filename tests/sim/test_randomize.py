@@ -51,7 +51,8 @@ def test_robust_training_covers_the_pendulum_pulses_calibration_and_network():
         assert TRAINING_RANGES.mass_scale[0] <= per_metre <= TRAINING_RANGES.mass_scale[1]
         assert 150 <= r.params.servo_min_counts <= 200 and 400 <= r.params.servo_max_counts <= 450
         assert abs(r.residual_offset_counts) <= 6 and 0 <= r.network.observation_loss_pct <= 3
-    assert len({r.residual_offset_counts for r in rigs}) > 5 and max(r.network.latency.median_ms for r in rigs) > 12
+    assert len({r.residual_offset_counts for r in rigs}) > 5  # calibration errors of many sizes
+    assert max(r.network.latency.median_ms for r in rigs) > 12  # drawn latency parameters reach poor WiFi's
 
 
 def test_held_out_rigs_come_from_wider_ranges_and_are_reproducible():
