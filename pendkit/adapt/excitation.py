@@ -1,13 +1,14 @@
-"""Excitation episodes: open-loop action schedules that make a rig's parameters visible in the pendulum's
-encoder (a hobby servo reports nothing of its arm).
+"""Excitation episodes: open-loop schedules of the servo's target that make a rig's parameters visible in
+the pendulum's encoder (a hobby servo reports nothing of its arm).
 
-Each episode starts from rest, drives the arm for 12 steps in a square wave of slow or fast moves, then
-stops and lets the pendulum swing freely for 90 (over 4 of its periods). The half-periods differ from
-episode to episode and stay off the pendulum's own (about 10 steps), and fast and slow moves alternate,
-so the recorded swings carry
-the servo's speed and torque (how fast the arm follows a fast ramp), the loop delay (the phase of the
-response), the pendulum's natural frequency and its damping (the free swing). Amplitudes stay within about
-1 rad, well short of a swing-up: the response stays smooth enough for a twin to follow it step by step.
+Each episode starts from rest and sends the target itself (continuous actions, no filter), jumping it
+between +A and -A every few steps for 12 steps, then back to the centre, and lets the pendulum swing freely
+for 90 steps (over 4 of its periods). A jump of a whole 70-140 degrees takes the servo 0.2-0.8 s at its rated
+speed, so how long the arm ramps (the servo's speed), how it stops (its torque and loop), when it starts (the
+latency) and the free swing (the pendulum's frequency and damping) all shape what the encoder records.
+The discrete actions would not do: their fastest ramp (about 4 rad/s) is slower than most servos, which
+then never show their speed. Half-periods and amplitudes vary from episode to episode and stay off the
+pendulum's own (about 10 steps), so the pendulum is pushed, not pumped over the top.
 """
 
 from __future__ import annotations
@@ -16,37 +17,51 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-STOP, LEFT_SLOW, LEFT_FAST, RIGHT_SLOW, RIGHT_FAST = range(5)
-# (half-period in steps, fast moves), one per episode, cycled
-EPISODES = ((3, True), (5, False), (4, True), (12, False), (3, False), (6, True), (5, True), (14, False),
-            (4, False), (7, True))
+CENTRE = 0.0
+# (half-period in steps, amplitude as a fraction of the arm's half range), one per episode, cycled
+EPISODES = ((2, 0.9), (6, 0.3), (3, 0.9), (5, 0.45), (2, 0.8), (8, 0.4), (3, 0.7), (12, 0.35), (4, 0.5),
+            (7, 0.3))
+SETTLE_STEPS = 8  # after the last jump back to the centre, before the swing counts as free
 
 
 @dataclass(frozen=True)
 class Excitation:
-    """One episode's schedule: `drive_steps` of a square wave with `half_period_steps`, then stops."""
+    """One episode's schedule: `drive_steps` of a square wave of the target (+-`amplitude_unit` of the arm's
+    half range, `half_period_steps`), then the target at the centre for `free_steps`."""
 
     half_period_steps: int
-    fast: bool = True
+    amplitude_unit: float
     drive_steps: int = 12
     free_steps: int = 90
 
-    def actions(self) -> list[int]:
-        right, left = (RIGHT_FAST, LEFT_FAST) if self.fast else (RIGHT_SLOW, LEFT_SLOW)
-        drive = [right if (k // self.half_period_steps) % 2 == 0 else left for k in range(self.drive_steps)]
-        return drive + [STOP] * self.free_steps
+    def actions(self) -> list[float]:
+        drive = [self.amplitude_unit if (k // self.half_period_steps) % 2 == 0 else -self.amplitude_unit
+                 for k in range(self.drive_steps)]
+        return drive + [CENTRE] * self.free_steps
+
+    @staticmethod
+    def env_kwargs() -> dict:
+        """How an env must be made to take these actions as targets: continuous, unfiltered."""
+        return {"action_mode": "continuous", "filter_coefficient": 0.0}
 
 
 def schedule(episodes: int) -> list[Excitation]:
     return [Excitation(*EPISODES[k % len(EPISODES)]) for k in range(episodes)]
 
 
+def free_from(actions: list[float]) -> int | None:
+    """The first step of the free swing: `SETTLE_STEPS` after the target last moved (None if it never rests)."""
+    moves = [k for k in range(1, len(actions)) if actions[k] != actions[k - 1]]
+    first = (moves[-1] if moves else 0) + SETTLE_STEPS
+    return first if first < len(actions) and actions[-1] == CENTRE else None
+
+
 @dataclass
 class Recording:
-    """What one excitation episode gave: the actions sent, the servo target the host knows at the start,
-    and per step the pendulum's encoder angle (rad from the bottom) and the reading's rate (rad/s)."""
+    """What one excitation episode gave: the targets sent (arm half-range units), the servo target the host
+    knows at the start, and per step the pendulum's encoder angle (rad from the bottom) and its rate (rad/s)."""
 
-    actions: list[int]
+    actions: list[float]
     start_servo_target_rad: float
     start_pendulum_rad: float
     pendulum_rad: list[float] = field(default_factory=list)
@@ -63,13 +78,13 @@ class Recording:
 
 
 def record(env, excitation: Excitation, seed: int = 0) -> Recording:
-    """Run one excitation episode on `env` (a discrete-action env: twin or rig), reading only what a rig
-    reports (the state record: encoder angle and its rate, the servo target the host sent)."""
+    """Run one excitation episode on `env` (made with `Excitation.env_kwargs()`: twin or rig), reading only
+    what a rig reports (the state record: encoder angle and its rate, the servo target the host sent)."""
     _, info = env.reset(seed=seed, options={"start": "rest"})  # a rig starts as it is, settled
     state = info["state"]
     recording = Recording(excitation.actions(), float(state.servo_target_rad), float(state.pendulum_angle_rad))
     for action in recording.actions:
-        _, _, _, _, info = env.step(action)
+        _, _, _, _, info = env.step(np.array([action], dtype=np.float32))
         recording.pendulum_rad.append(float(info["state"].pendulum_angle_rad))
         recording.pendulum_velocity_rad_s.append(float(info["state"].pendulum_velocity_rad_s))
     return recording

@@ -78,13 +78,12 @@ def search_box() -> list[tuple[float, float]]:
 
 def free_swing(recording: Recording, period_s: float):
     """The free swing at the end of an excitation episode as (times, angles), or None if too small."""
-    from pendkit.adapt.excitation import STOP
+    from pendkit.adapt.excitation import free_from
 
-    first_free = next((k for k, a in enumerate(recording.actions) if a == STOP and all(
-        b == STOP for b in recording.actions[k:])), None)
+    first_free = free_from(recording.actions)
     if first_free is None:
         return None
-    angles = np.asarray(recording.pendulum_rad[first_free + 2:])  # the arm's last move settles first
+    angles = np.asarray(recording.pendulum_rad[first_free:])
     return np.arange(len(angles)) * period_s, angles
 
 
@@ -138,34 +137,35 @@ def fit_pendulum(recordings: list[Recording], prior: RigParams) -> RigParams:
 
 
 def simulate(params: RigParams, latency_ms: float, recording: Recording) -> np.ndarray:
-    """The realistic twin of `params` (a fixed latency, no loss) run through `recording`'s actions from its
-    start: the pendulum's encoder angle after each step."""
+    """The realistic twin of `params` (a fixed latency, no loss) run through `recording`'s actions from rest:
+    the pendulum's encoder angle after each step, read with the rig's calibration offset (its reading at rest)."""
     import pendkit
+    from pendkit.adapt.excitation import Excitation
 
     network = NetworkImpairment(LatencyModel(floor_ms=latency_ms))
     fidelity = FIDELITY_PRESETS["realistic"].replace(name="identifying", network=network)
-    env = pendkit.make(fidelity=fidelity, params=params, max_episode_steps=1000)
+    env = pendkit.make(fidelity=fidelity, params=params, max_episode_steps=1000, **Excitation.env_kwargs())
     limit = params.servo_range_rad
-    env.reset(seed=0, options={"start": "rest", "pendulum_angle_rad": recording.start_pendulum_rad,
-                               "arm_angle_rad": max(-limit, min(limit, recording.start_servo_target_rad))})
+    arm_rad = max(-limit, min(limit, recording.start_servo_target_rad))
+    env.reset(seed=0, options={"start": "rest", "arm_angle_rad": arm_rad})
     angles = np.empty(len(recording.actions))
     for k, action in enumerate(recording.actions):
-        _, _, _, _, info = env.step(action)
+        _, _, _, _, info = env.step(np.array([action], dtype=np.float32))
         angles[k] = info["state"].pendulum_angle_rad
     env.close()
-    return angles
+    return angles + recording.start_pendulum_rad  # a pendulum at rest hangs plumb: what it read is the offset
 
 
 def matching_cost(params: RigParams, latency_ms: float, recordings: list[Recording]) -> float:
     return float(np.mean([angle_error_rad2(simulate(params, latency_ms, r), r.pendulum_rad) for r in recordings]))
 
 
-def identify(recordings: list[Recording], prior: RigParams | None = None, max_evaluations: int = 800,
+def identify(recordings: list[Recording], prior: RigParams | None = None, max_evaluations: int = 1200,
              seed: int = 0, cost: Callable[[RigParams, float, list[Recording]], float] = matching_cost,
              progress: Callable[[int, float], None] | None = None) -> Identification:
     """Fit the twin to `recordings`: the pendulum from its free swings, then the servo and latency by
     differential evolution on `cost` (default the kit's `matching_cost`; lab 09 passes the student's)."""
-    from scipy.optimize import differential_evolution
+    from scipy.optimize import differential_evolution, minimize
 
     prior = prior or RigParams()
     started = time.perf_counter()
@@ -186,13 +186,16 @@ def identify(recordings: list[Recording], prior: RigParams | None = None, max_ev
             progress(count, best)
         return value
 
-    dims, population = len(SERVO_BOUNDS), 6
+    dims, population = len(SERVO_BOUNDS), 10
     box = np.array(search_box())
     start = np.random.default_rng(seed).uniform(box[:, 0], box[:, 1], size=(population * dims, dims))
     start[0] = [0.0] * (dims - 1) + [PRIOR_LATENCY_MS]  # the prior is one of the first candidates
-    generations = max(1, max_evaluations // (population * dims) - 1)
+    generations = max(1, (3 * max_evaluations // 4) // (population * dims) - 1)  # a quarter left to polish
     result = differential_evolution(objective, search_box(), popsize=population, maxiter=generations, init=start,
                                     seed=seed, polish=False, tol=1e-6, mutation=(0.5, 1.0), recombination=0.7)
-    params, latency = candidate(pendulum, result.x)
+    polished = minimize(objective, result.x, method="Nelder-Mead", bounds=search_box(),
+                        options={"maxfev": max_evaluations // 4, "xatol": 1e-3, "fatol": 1e-6})
+    best_x, best_cost = (polished.x, polished.fun) if polished.fun < result.fun else (result.x, result.fun)
+    params, latency = candidate(pendulum, best_x)
     prior_cost = float(cost(prior, PRIOR_LATENCY_MS, recordings))
-    return Identification(params, latency, float(result.fun), prior_cost, count, time.perf_counter() - started)
+    return Identification(params, latency, float(best_cost), prior_cost, count, time.perf_counter() - started)

@@ -4,12 +4,14 @@ steps that reached it. Neither hands its parameters to the adaptation."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import time
 
 import gymnasium as gym
 
 from pendkit.adapt.session import Rig
+from pendkit.rig import RigParams
 
 
 class _CountedSteps(gym.Wrapper):
@@ -37,7 +39,13 @@ def twin_rig(params, impairment: str = "classroom-wifi") -> Rig:
     def make_env(**env_kwargs):
         return _CountedSteps(pendkit.make(fidelity=fidelity, params=params, start="rest", **env_kwargs), steps)
 
-    return Rig(make_env, lambda: steps[0] * params.control_step_ms / 1000, name=f"twin ({impairment})")
+    return Rig(make_env, lambda: steps[0] * params.control_step_ms / 1000, name=f"twin ({impairment})",
+               prior=lambda: configured_prior(params.servo_min_counts, params.servo_max_counts))
+
+
+def configured_prior(min_counts: int, max_counts: int) -> RigParams:
+    """The default rig flashed with these servo end counts (what a rig's status reports of its firmware)."""
+    return dataclasses.replace(RigParams(), servo_min_counts=min_counts, servo_max_counts=max_counts)
 
 
 def mqtt_rig(rig_id: str, broker: str | None) -> Rig:
@@ -46,11 +54,20 @@ def mqtt_rig(rig_id: str, broker: str | None) -> Rig:
     import pendkit
 
     first: list[float] = []
+    configured: list[RigParams] = []
+
+    def prior() -> RigParams:
+        if not configured:
+            counts = rig_status(rig_id, broker).get("servo_counts_range")
+            valid = isinstance(counts, list) and len(counts) == 2 and all(isinstance(c, int) for c in counts)
+            configured.append(configured_prior(*counts) if valid else RigParams())
+        return configured[0]
 
     def make_env(**env_kwargs):
         if not first:
             first.append(time.monotonic())
-        return pendkit.make(backend="rig", rig=rig_id, broker=broker, rig_options={"settle": True}, **env_kwargs)
+        return pendkit.make(backend="rig", rig=rig_id, broker=broker, params=prior(), rig_options={"settle": True},
+                            **env_kwargs)
 
     def seconds() -> float:
         reported = rig_status(rig_id, broker).get("busy_s")
@@ -58,7 +75,7 @@ def mqtt_rig(rig_id: str, broker: str | None) -> Rig:
             return float(reported)
         return time.monotonic() - first[0] if first else 0.0
 
-    return Rig(make_env, seconds, name=f"rig {rig_id}")
+    return Rig(make_env, seconds, name=f"rig {rig_id}", prior=prior)
 
 
 def rig_status(rig_id: str, broker: str | None, wait_s: float = 1.0) -> dict:

@@ -16,7 +16,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from pendkit.adapt.excitation import record, schedule
+from pendkit.adapt.excitation import Excitation, record, schedule
 from pendkit.adapt.identify import PRIOR_LATENCY_MS, identify, rig_values
 from pendkit.adapt.plots import plot_identification
 from pendkit.adapt.routes import classical_on_rig, fine_tune_on_rig, train_on_twin
@@ -27,11 +27,14 @@ from pendkit.rig import RigParams
 @dataclass
 class Rig:
     """A rig to adapt to: `make_env(**env_kwargs)` makes an env on it; `seconds()` is the rig time it has
-    counted itself (commands received)."""
+    counted itself (commands received); `prior()` the parameters to start from: the defaults with what the
+    rig's firmware reports of itself (its servo's end counts), nothing it does not."""
 
     make_env: Callable[..., object]
     seconds: Callable[[], float]
     name: str = "rig"
+    prior: Callable[[], RigParams] = RigParams
+
 
 
 @dataclass(frozen=True)
@@ -44,7 +47,7 @@ class AdaptConfig:
     twin_episodes: int = 60
     evaluation_episodes: int = 3
     policy: str = "r-dqn-realistic"  # until r-dqn-robust ships (docs/rl.md)
-    identification_evaluations: int = 800
+    identification_evaluations: int = 1200
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -64,7 +67,7 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     started = time.perf_counter()
     report: dict = {"rig": rig.name, "config": dataclasses.asdict(config)}
 
-    env = rig.make_env(action_mode="discrete")
+    env = rig.make_env(**Excitation.env_kwargs())
     recordings = [record(env, excitation, seed=config.seed + k)
                   for k, excitation in enumerate(schedule(config.excitation_episodes))]
     env.close()
@@ -72,10 +75,11 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     report["rig_s_excitation"] = rig.seconds()
     say(f"(a) {len(recordings)} excitation episodes: {report['rig_s_excitation']:.0f} s of rig time")
 
-    identification = identify(recordings, max_evaluations=config.identification_evaluations, seed=config.seed)
+    prior = rig.prior()
+    identification = identify(recordings, prior, max_evaluations=config.identification_evaluations, seed=config.seed)
     identification.params.save(out / "rig.json")
     report["identified"] = identification.values()
-    report["prior"] = rig_values(RigParams(), PRIOR_LATENCY_MS)
+    report["prior"] = rig_values(prior, PRIOR_LATENCY_MS)
     report["matching_cost"] = {"prior": identification.prior_cost, "identified": identification.cost}
     say(f"(b) identified in {identification.seconds:.0f} s: servo {identification.params.servo_speed_s_per_60deg:.3f} "
         f"s/60 deg, pendulum {identification.params.pendulum_natural_frequency_rad_s:.2f} rad/s, latency "

@@ -8,8 +8,8 @@ import json
 import numpy as np
 import pytest
 
-from pendkit.adapt.excitation import record, schedule
-from pendkit.adapt.identify import matching_cost, swing_estimates
+from pendkit.adapt.excitation import Excitation, record, schedule
+from pendkit.adapt.identify import identify, matching_cost, swing_estimates
 from pendkit.adapt.rigs import twin_rig
 from pendkit.rig import RigParams
 
@@ -19,7 +19,7 @@ HIDDEN = dataclasses.replace(RigParams.preset("hitec-d645mw-4v8"), dowel_length_
 
 def recordings(params, episodes=3, impairment="none"):
     rig = twin_rig(params, impairment)
-    env = rig.make_env(action_mode="discrete")
+    env = rig.make_env(**Excitation.env_kwargs())
     return [record(env, e, seed=k) for k, e in enumerate(schedule(episodes))], rig
 
 
@@ -38,6 +38,26 @@ def test_the_matching_cost_singles_out_the_rigs_own_parameters():
     prior = matching_cost(RigParams(), 10.0, recs)
     slower = matching_cost(dataclasses.replace(HIDDEN, servo_speed_s_per_60deg=0.4), 0.0, recs)
     assert own < 0.02 and prior > 5 * own and slower > 5 * own
+
+
+@pytest.mark.expensive
+@pytest.mark.parametrize("preset", ["mks-x5-hbl550", "hitec-hsb-9380th"])
+def test_identification_finds_a_hidden_rigs_servo_speed_and_pendulum_frequency(preset):
+    hidden = RigParams.preset(preset).with_dowel_length(0.42)
+    recs, rig = recordings(hidden, episodes=6, impairment="classroom-wifi")
+    found = identify(recs, rig.prior(), max_evaluations=600)
+    assert found.params.servo_speed_s_per_60deg == pytest.approx(hidden.servo_speed_s_per_60deg, rel=0.1)
+    assert found.params.pendulum_natural_frequency_rad_s == pytest.approx(
+        hidden.pendulum_natural_frequency_rad_s, rel=0.05)
+    assert found.cost < found.prior_cost / 5
+
+
+def test_the_prior_takes_the_rigs_reported_end_counts_and_nothing_else():
+    narrow = dataclasses.replace(HIDDEN, servo_min_counts=180, servo_max_counts=420)
+    prior = twin_rig(narrow).prior()
+    assert (prior.servo_min_counts, prior.servo_max_counts) == (180, 420)
+    assert prior.servo_speed_s_per_60deg == RigParams().servo_speed_s_per_60deg
+    assert prior.dowel_length_m == RigParams().dowel_length_m
 
 
 def test_free_swings_read_a_shorter_pendulums_higher_frequency():
