@@ -27,19 +27,24 @@ class _CountedSteps(gym.Wrapper):
         return result
 
 
-def twin_rig(params, impairment: str = "classroom-wifi") -> Rig:
-    """A hidden rig: the realistic twin of `params` behind the given network."""
+def twin_rig(params, impairment="classroom-wifi", residual_offset_counts: int = 0) -> Rig:
+    """A hidden rig: the realistic twin of `params` behind the given network (a name of
+    `pendkit.sim.latency.IMPAIRMENTS` or a NetworkImpairment), read through an encoder calibrated
+    `residual_offset_counts` off."""
     import pendkit
     from pendkit.sim.fidelity import FIDELITY_PRESETS
     from pendkit.sim.latency import IMPAIRMENTS
 
-    fidelity = FIDELITY_PRESETS["realistic"].replace(name="hidden-rig", network=IMPAIRMENTS[impairment])
+    network = IMPAIRMENTS[impairment] if isinstance(impairment, str) else impairment
+    fidelity = FIDELITY_PRESETS["realistic"].replace(name="hidden-rig", network=network,
+                                                     encoder_residual_offset_counts=residual_offset_counts)
     steps = [0]
 
     def make_env(**env_kwargs):
         return _CountedSteps(pendkit.make(fidelity=fidelity, params=params, start="rest", **env_kwargs), steps)
 
-    return Rig(make_env, lambda: steps[0] * params.control_step_ms / 1000, name=f"twin ({impairment})",
+    seconds = lambda: steps[0] * params.control_step_ms / 1000  # noqa: E731
+    return Rig(make_env, seconds, name=f"twin ({impairment if isinstance(impairment, str) else 'own network'})",
                prior=lambda: configured_prior(params.servo_min_counts, params.servo_max_counts))
 
 

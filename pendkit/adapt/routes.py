@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pendkit.adapt.identify import Identification
-from pendkit.agents.runs import Evaluation, RunSpec, build_run, evaluate_agent, save_weights
+from pendkit.agents.runs import Evaluation, RunSpec, build_run, evaluate_agent, held_fraction, save_weights
 from pendkit.sim.fidelity import FIDELITY_PRESETS
 from pendkit.sim.latency import LatencyModel, NetworkImpairment
 
@@ -93,23 +93,36 @@ def fine_tune_on_rig(rig, run: AgentRun, episodes: int, config, weights_path: Pa
     say(f"(d) {len(stats.episodes[0])} episodes on the rig, {stats.learner_updates} learner updates")
 
 
-def classical_on_rig(rig, identification: Identification, episodes: int) -> dict:
-    """Energy swing-up + LQR designed on the identified twin, run on the rig."""
-    if episodes == 0:
-        return {"summary": "not evaluated"}
+CLASSICAL = ("energy", "trajopt")  # energy swing-up + LQR; the minimum-time plan tracked by LQR
+
+
+def classical_on_env(design_env, env, controller: str, episodes: int, seed: int = 10_000,
+                     start: str | None = None) -> Evaluation:
+    """A classical controller designed on `design_env` (a twin) run greedy on `env` (a rig, or another
+    twin), both continuous and unfiltered; judged by the kit's "solved" rule."""
     from pendkit.agents.runs import SOLVED_TAIL_STEPS
-    from pendkit.control.swingup import SwingUpController
+    from pendkit.demo import CONTROLLERS
     from pendkit.episode import run_episode, time_to_upright_s
     from pendkit.features import holds_upright
 
-    design = identified_twin(identification, action_mode="continuous", filter_coefficient=0.0)
-    controller = SwingUpController.for_env(design)
-    env = rig.make_env(action_mode="continuous", filter_coefficient=0.0)
-    solved, upright = [], []
+    policy = CONTROLLERS[controller](design_env)
+    outcome = Evaluation([], [], [], [])
     for k in range(episodes):
-        trace = run_episode(env, controller, seed=10_000 + k)
+        trace = run_episode(env, policy, seed=seed + k, options={"start": start} if start else None)
         angles = trace.pendulum_from_upright_rad
-        solved.append(holds_upright(angles, SOLVED_TAIL_STEPS))
-        upright.append(time_to_upright_s(angles, env.unwrapped.dt))
+        outcome += Evaluation([holds_upright(angles, SOLVED_TAIL_STEPS)],
+                              [time_to_upright_s(angles, env.unwrapped.dt)], [trace.episode_return],
+                              [held_fraction(angles)])
+    return outcome
+
+
+def classical_on_rig(rig, identification: Identification, episodes: int) -> dict:
+    """Energy swing-up + LQR and the minimum-time swing-up, designed on the identified twin, run on the rig."""
+    if episodes == 0:
+        return {name: {"summary": "not evaluated"} for name in CLASSICAL}
+    design = identified_twin(identification, action_mode="continuous", filter_coefficient=0.0)
+    env = rig.make_env(action_mode="continuous", filter_coefficient=0.0)
+    outcomes = {name: _as_report(classical_on_env(design, env, name, episodes)) for name in CLASSICAL}
     env.close()
-    return _as_report(Evaluation(solved, upright, [0.0] * episodes))
+    design.close()
+    return outcomes

@@ -93,8 +93,9 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     report["policy_on_rig"] = agent_run.evaluate(rig, config.evaluation_episodes)
     report["classical_on_rig"] = classical_on_rig(rig, identification, config.evaluation_episodes)
     report["rig_s_total"] = rig.seconds()
-    say(f"(d) on the rig: policy {report['policy_on_rig']['summary']}; classical "
-        f"{report['classical_on_rig']['summary']}")
+    classical = report["classical_on_rig"]
+    say(f"(d) on the rig: policy {report['policy_on_rig']['summary']}; energy swing-up "
+        f"{classical['energy']['summary']}; minimum-time {classical['trajopt']['summary']}")
 
     report["plots"] = [str(plot_identification(recordings, identification, out / "identification.png"))]
     (out / "report.json").write_text(json.dumps(report, indent=1, default=float))
@@ -112,6 +113,7 @@ def report_markdown(report: dict) -> str:
             f"| parameter | prior | identified |\n|---|---|---|\n{rows}\n\n"
             f"Matching cost (mean squared angle error, rad^2): prior {report['matching_cost']['prior']:.4f}, "
             f"identified {report['matching_cost']['identified']:.4f}.\n\n"
-            f"On the rig: the adapted policy {report['policy_on_rig']['summary']}; energy swing-up + LQR designed "
-            f"on the identified twin {report['classical_on_rig']['summary']}.\n\n"
+            f"On the rig: the adapted policy {report['policy_on_rig']['summary']}; designed on the identified twin, "
+            f"energy swing-up + LQR {report['classical_on_rig']['energy']['summary']}, minimum-time swing-up "
+            f"{report['classical_on_rig']['trajopt']['summary']}.\n\n"
             "![recorded and simulated swings](identification.png)\n")
