@@ -1,80 +1,150 @@
-"""Sim-to-real across servos: does a policy trained on the twin work on a servo it was not trained on?
+"""Learning and designs that carry to rigs they were not built for: the evidence for issue 23.
 
-The paper's authors found that policies did not transfer between servos. Two trainings of the same learner
-on the realistic twin with the same budget: one on the default servo preset, one with domain randomisation
-(`pendkit.sim.randomize`: servo, latency and masses drawn anew every episode). Every 20 episodes each is
-evaluated greedy from the hanging start on every servo preset (solved: |theta| < 0.3 rad for the last 200
-of 500 steps); a training stops when >= 4 presets are solved or its episodes (or time) are up. One line per training:
+    python benchmarks/bench_transfer.py zero-shot [--starts 5]        # each controller x presets and random rigs
+    python benchmarks/bench_transfer.py adapt [--rigs 6] [--seeds 0 1 2] [--jobs 2]
+    python benchmarks/bench_transfer.py ablations [--rigs 6] [--jobs 2]
 
-    transfer algo=<a> training=<one-preset|randomized> presets_solved=<k>/5 episodes=<e> wall_s=<s> solved=<names>
+zero-shot: the shipped policies and the classical controllers (energy swing-up + LQR, minimum-time swing-up),
+all designed or trained without the rig, on the five servo presets and the 10 held-out rigs
+(`pendkit.agents.rig_suite`, seed 2026), one episode from rest and `--starts` random starts each.
 
-    python benchmarks/bench_transfer.py --algo r-dqn --max-episodes 400 --jobs 2
+adapt: `pendkit adapt` on `--rigs` hidden rigs drawn from the held-out ranges with seed 2027 (another draw
+than zero-shot's, written as RigParams files beside the results; the network and calibration error stay
+with the rig): rig time used, wall time, the identified servo speed and natural frequency against the
+rig's own, and greedy episodes solved on the rig by the adapted policy and both classical controllers.
+
+ablations, one factor at a time on the same rigs: randomisation only (the starting policy as shipped);
+identification only (train on the identified twin, no rig fine-tuning); identification + fine-tuning (the
+whole of `pendkit adapt`); and `dqn+estimated` trained afresh on the identified twin instead of R-DQN.
+Every line ends `solved=K/N median_upright_s=X`.
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
-import time
+import tempfile
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_context
+from pathlib import Path
 
-from pendkit.agents.learners import inputs_for
-from pendkit.agents.runs import RunSpec, build_run, greedy_episode, make_env, solved
-from pendkit.agents.train import train_sync
-from pendkit.rig import SERVO_PRESETS
-
-RANDOMIZED = "servo,latency,masses"
-CHECK_EVERY = 20
-GOAL_PRESETS = 4
+ADAPT_RIG_SEED = 2027
+EVALUATION_EPISODES = 3
 
 
-def presets_solved(algo: str, agent, seed: int) -> list[str]:
-    """The presets on which a greedy episode from hanging meets the kit's solved rule."""
-    held = []
-    for name in sorted(SERVO_PRESETS):
-        env = make_env(RunSpec(algo, "realistic", seed, preset=name))
-        if solved(greedy_episode(env, agent, inputs_for(algo, env, seed))[1]):
-            held.append(name)
-    return held
+def zero_shot(starts: int) -> None:
+    from pendkit.adapt.routes import CLASSICAL, classical_on_env
+    from pendkit.agents.pretrained import POLICIES, policy_weights
+    from pendkit.agents.rig_suite import policy_on_rigs, preset_rigs, random_rigs, rig_env
+    from pendkit.agents.runs import Evaluation
+    from pendkit.errors import ConfigError
+    from pendkit.rig import RigParams
+    from pendkit.sim.randomize import RandomRig
+
+    rigs = {**preset_rigs(), **random_rigs()}
+    starts_list = ["rest"] + ["random"] * starts
+    for name in POLICIES:
+        try:
+            spec, state = policy_weights(name)
+        except ConfigError:
+            print(f"zero-shot controller={name} missing (not built)")
+            continue
+        _report(name, policy_on_rigs(spec, state, rigs, starts))
+    for controller in CLASSICAL:
+        design = rig_env(RandomRig(RigParams(), None, 0), action_mode="continuous", filter_coefficient=0.0)
+        outcomes = {}
+        for rig_name, rig in rigs.items():
+            env = rig_env(rig, action_mode="continuous", filter_coefficient=0.0)
+            outcomes[rig_name] = sum((classical_on_env(design, env, controller, 1, 10_000 + k, start)
+                                      for k, start in enumerate(starts_list)), Evaluation([], [], [], []))
+            env.close()
+        _report(controller, outcomes)
 
 
-def run(algo: str, randomized: bool, seed: int, max_episodes: int, max_wall_s: float, verbose: bool) -> tuple:
+def _report(controller: str, outcomes: dict) -> None:
+    from pendkit.agents.rig_suite import summary
+
+    for rig_name, outcome in outcomes.items():
+        print(f"zero-shot controller={controller} rig={rig_name} {outcome.summary()}", flush=True)
+    for group in ("presets", "random"):
+        chosen = {k: v for k, v in outcomes.items() if k.startswith("random") == (group == "random")}
+        total = summary(chosen)
+        held = total["min_held_fraction"]
+        print(f"zero-shot controller={controller} rigs={group} solved={total['solved']}/{total['episodes']} "
+              f"share={total['solved_share']:.2f} median_upright_s={_shown(total['median_upright_s'])} "
+              f"min_held_fraction={_shown(held)}", flush=True)
+
+
+def _shown(value) -> str:
+    return "-" if value is None else f"{value:.2f}"
+
+
+def adapt_rigs(count: int):
+    from pendkit.sim.randomize import held_out_rigs
+
+    return [(f"hidden-{k:02d}", rig) for k, rig in enumerate(held_out_rigs(count, ADAPT_RIG_SEED))]
+
+
+def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str) -> str:
+    """One adaptation of one rig; `variant` is "full", "identification-only" or a learner trained afresh."""
     import torch
 
     torch.set_num_threads(1)
-    env, agent, inputs = build_run(RunSpec(algo, "realistic", seed, randomize=RANDOMIZED if randomized else ""))
-    buffer = agent.new_buffer(seed)
-    started, episodes, best = time.perf_counter(), 0, []
-    while time.perf_counter() - started < max_wall_s and episodes < max_episodes:
-        train_sync(env, agent, CHECK_EVERY, inputs, buffer, seed=seed + episodes, progress=False)
-        episodes += CHECK_EVERY
-        solved = presets_solved(algo, agent, seed)
-        best = solved if len(solved) > len(best) else best
-        if verbose:
-            print(f"    {algo} randomized={randomized} episodes={episodes} solved={solved} "
-                  f"wall_s={time.perf_counter() - started:.0f}", file=sys.stderr, flush=True)
-        if len(solved) >= GOAL_PRESETS:
-            break
-    return algo, randomized, solved, best, episodes, time.perf_counter() - started
+    from pendkit.adapt.rigs import twin_rig
+    from pendkit.adapt.session import AdaptConfig, adapt
+
+    out = Path(out_root) / f"{rig_name}-{variant}-s{seed}"
+    out.mkdir(parents=True, exist_ok=True)
+    rig.params.save(out / "hidden-rig.json")
+    config = AdaptConfig(seed=seed, evaluation_episodes=EVALUATION_EPISODES)
+    if variant == "identification-only":
+        config = AdaptConfig(seed=seed, evaluation_episodes=EVALUATION_EPISODES, episodes=config.excitation_episodes)
+    elif variant != "full":
+        config = AdaptConfig(seed=seed, evaluation_episodes=EVALUATION_EPISODES, policy=variant, twin_episodes=300)
+    report = adapt(twin_rig(rig.params, rig.network, rig.residual_offset_counts), out, config, say=lambda _: None)
+    found, true = report["identified"], rig.params
+    speed = found["servo_speed_s_per_60deg"] / true.servo_speed_s_per_60deg - 1
+    omega = found["pendulum_natural_frequency_rad_s"] / true.pendulum_natural_frequency_rad_s - 1
+    episode_s = 500 * true.control_step_ms / 1000
+    classical = report["classical_on_rig"]
+    return (f"adapt rig={rig_name} variant={variant} seed={seed} rig_s={report['rig_s_adaptation']:.0f} "
+            f"rig_episodes={report['rig_s_adaptation'] / episode_s:.1f} wall_s={report['wall_s_adaptation']:.0f} "
+            f"speed_error={speed:+.0%} omega_error={omega:+.0%} energy={classical['energy']['summary']} "
+            f"trajopt={classical['trajopt']['summary']} policy: {report['policy_on_rig']['summary']}")
+
+
+def randomisation_only(rig_name: str, rig) -> str:
+    from pendkit.adapt.session import AdaptConfig
+    from pendkit.agents.pretrained import policy_weights
+    from pendkit.agents.rig_suite import policy_on_rigs
+
+    name = AdaptConfig().policy
+    spec, state = policy_weights(name)
+    outcome = policy_on_rigs(spec, state, {rig_name: rig}, starts=EVALUATION_EPISODES - 1)[rig_name]
+    return f"adapt rig={rig_name} variant=randomisation-only ({name}) policy: {outcome.summary()}"
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--algo", default="r-dqn")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--max-episodes", type=int, default=400)
-    parser.add_argument("--max-wall-s", type=float, default=1800.0)
+    parser.add_argument("mode", choices=["zero-shot", "adapt", "ablations"])
+    parser.add_argument("--starts", type=int, default=5)
+    parser.add_argument("--rigs", type=int, default=6)
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0])
     parser.add_argument("--jobs", type=int, default=2)
-    parser.add_argument("--verbose", action="store_true")
+    parser.add_argument("--out", default=None, help="Where the adaptations write (default: a temporary folder).")
     args = parser.parse_args()
-    work = [(args.algo, randomized, args.seed, args.max_episodes, args.max_wall_s, args.verbose)
-            for randomized in (False, True)]
+    if args.mode == "zero-shot":
+        zero_shot(args.starts)
+        return
+    rigs = adapt_rigs(args.rigs)
+    variants = ["full"] if args.mode == "adapt" else ["identification-only", "full", "dqn+estimated"]
+    out_root = args.out or tempfile.mkdtemp(prefix="bench-transfer-")
+    if args.mode == "ablations":
+        for rig_name, rig in rigs:
+            print(randomisation_only(rig_name, rig), flush=True)
+    work = [(name, rig, seed, variant, out_root) for variant in variants for seed in args.seeds for name, rig in rigs]
     with ProcessPoolExecutor(args.jobs, mp_context=get_context("spawn")) as pool:
-        for algo, randomized, solved, best, episodes, wall in pool.map(run, *zip(*work)):
-            print(f"transfer algo={algo} training={'randomized' if randomized else 'one-preset'} "
-                  f"presets_solved={len(solved)}/{len(SERVO_PRESETS)} best_presets_solved={len(best)} "
-                  f"episodes={episodes} wall_s={wall:.0f} solved={','.join(solved) or '-'}", flush=True)
+        for line in pool.map(adapt_one, *zip(*work)):
+            print(line, flush=True)
 
 
 if __name__ == "__main__":

@@ -25,10 +25,14 @@ def identified_twin(identification: Identification, **env_kwargs):
 
 
 def starting_weights(name: str) -> tuple[RunSpec, dict | None]:
-    """The shipped policy to start from, or (its learner, None) when it is not there: trained afresh."""
+    """The shipped policy to start from, or (its learner, None) when it is not there or `name` is a learner's
+    (`pendkit.agents.learners.LEARNER_NAMES`): trained afresh."""
+    from pendkit.agents.learners import LEARNER_NAMES
     from pendkit.agents.pretrained import POLICIES, policy_weights
     from pendkit.errors import ConfigError
 
+    if name in LEARNER_NAMES:  # a learner rather than a policy: trained afresh on the twin
+        return RunSpec(name, "realistic"), None
     try:
         return policy_weights(name)
     except ConfigError:

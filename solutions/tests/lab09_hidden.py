@@ -12,6 +12,7 @@ from pendkit.grading.suites.lab09 import ARM_LIMIT_RAD, SPIN_LIMIT_RAD_S, STALE_
 upright = task("09.time_to_upright_s", function="time_to_upright_s", title="Time to upright from a run")
 balance = task("09.balance_error_deg", function="balance_error_deg", title="Balance error once upright")
 watchdog = task("09.should_stop", function="should_stop", title="The safety watchdog")
+matching = task("09.matching_cost", function="matching_cost", title="The trajectory-matching cost")
 
 
 def random_run(rng, settles: bool):
@@ -65,6 +66,19 @@ def at_the_limits(fn, rng):
         expect(bool(got) == stop and (got is None or isinstance(got, str)),
                f"should_stop{tuple(round(a, 4) for a in args)} should {'stop' if stop else 'return None'}, "
                f"got {got!r}")
+
+
+@matching.test(points=1, hidden=True, hint="Check it on random swings that cross the wrap, of any length.")
+def random_swings(fn, rng):
+    for _ in range(6):
+        n = int(rng.integers(5, 200))
+        recorded = np.mod(rng.uniform(-1.5, 1.5) * np.sin(np.linspace(0, rng.uniform(3, 20), n)), 2 * math.pi)
+        simulated = np.mod(recorded + rng.normal(0, rng.uniform(0.01, 0.8), n), 2 * math.pi)
+        gap = np.angle(np.exp(1j * (simulated - recorded)))
+        expected = float(np.mean(gap ** 2))
+        got = fn(simulated.copy(), recorded.copy())
+        expect(got is not None and abs(float(got) - expected) < 1e-9 * max(1.0, expected),
+               f"{n} steps of a random swing: expected {expected:.6g}, got {got!r}")
 
 
 prelab_answers("09", {"speed_ratio": 1.4, "stale_steps": 5.0})

@@ -103,3 +103,20 @@ def test_lab05_the_students_problem_plans_a_swing_up_faster_than_pumping_and_a_w
     assert upright_at_s(right, "tracked plan") < 0.6 * upright_at_s(right, "your pumping law"), right
     assert "found no solution" in wrong, wrong
     assert upright_at_s(wrong, "tracked plan") > upright_at_s(right, "tracked plan") + 1.0, (right, wrong)
+
+
+SIGNED_COST = '''
+def matching_cost(simulated_rad, recorded_rad):
+    return float(np.mean(np.asarray(simulated_rad) - np.asarray(recorded_rad)))  # gaps cancel
+'''
+
+
+def mean_squared_gap(text: str) -> float:
+    return float(re.search(r"follows the rig with a mean squared gap of ([\d.]+) rad\^2", text).group(1))
+
+
+@pytest.mark.expensive
+def test_lab09_the_students_cost_identifies_a_twin_that_follows_the_rig_and_a_signed_one_does_not():
+    right = printed_by_lab("09_deploy.ipynb", "your_cost(params, latency_ms")
+    wrong = printed_by_lab("09_deploy.ipynb", "your_cost(params, latency_ms", {"matching_cost": SIGNED_COST})
+    assert mean_squared_gap(right) < mean_squared_gap(wrong), (right, wrong)

@@ -13,6 +13,7 @@ from pendkit.grading.written import written
 upright = task("09.time_to_upright_s", function="time_to_upright_s", title="Time to upright from a run")
 balance = task("09.balance_error_deg", function="balance_error_deg", title="Balance error once upright")
 watchdog = task("09.should_stop", function="should_stop", title="The safety watchdog")
+matching = task("09.matching_cost", function="matching_cost", title="The trajectory-matching cost")
 written("09.gap_report", "Sim-to-real report", points=6)
 written("09.safety_checklist", "Safety checklist", points=4)
 
@@ -91,6 +92,48 @@ def each_limit_stops_the_rig(fn, rng):
                        ((0.0, float("nan"), 0.05), "a reading that is not a number")]:
         call = f"should_stop{args}"
         expect(_stops(fn, call, *args), f"{call}: {what} must stop the rig, got None")
+
+
+def _cost(fn, simulated, recorded) -> float:
+    call = f"matching_cost({len(simulated)} simulated angles, {len(recorded)} recorded)"
+    return as_number(fn(np.asarray(simulated, dtype=float), np.asarray(recorded, dtype=float)), call)
+
+
+@matching.test(points=1, hint="Equal trajectories cost nothing; a constant gap d costs d squared, whatever the "
+                              "length (a mean, not a sum).")
+def a_mean_of_squares(fn, rng):
+    recorded = np.linspace(0.0, 1.0, 20)
+    got = _cost(fn, recorded, recorded)
+    expect(abs(got) < 1e-12, f"identical trajectories should cost 0, got {got!r}")
+    got = _cost(fn, recorded + 0.1, recorded)
+    message = f"a gap of 0.1 rad at every step should cost 0.01 rad^2, got {got!r}"
+    if abs(got - 0.2) < 1e-9:
+        message += ": that is a sum over the 20 steps; take the mean"
+    elif abs(got - 0.1) < 1e-9:
+        message += ": square the differences"
+    expect(abs(got - 0.01) < 1e-9, message)
+    longer = _cost(fn, np.linspace(0.0, 1.0, 80) + 0.1, np.linspace(0.0, 1.0, 80))
+    expect(abs(longer - 0.01) < 1e-9, f"the same gap over 80 steps should still cost 0.01, got {longer!r}")
+
+
+@matching.test(points=1, hint="Gaps either way count the same: a mean of signed differences lets them cancel.")
+def gaps_either_way_add_up(fn, rng):
+    recorded = np.zeros(10)
+    simulated = np.array([0.2, -0.2] * 5)
+    got = _cost(fn, simulated, recorded)
+    expect(abs(got - 0.04) < 1e-9, f"gaps of +0.2 and -0.2 rad in turn should cost 0.04, got {got!r}")
+
+
+@matching.test(points=2, hint="The encoder reads from the bottom in [0, 2 pi): 0.05 and 6.23 rad are 0.1 rad "
+                              "apart, not 6.18. Wrap each difference into [-pi, pi) first.")
+def the_wrap_at_the_bottom(fn, rng):
+    recorded = np.array([0.05, 0.02, 2 * math.pi - 0.01, 2 * math.pi - 0.04])
+    simulated = np.array([2 * math.pi - 0.05, 0.12, 0.09, 0.06])
+    got = _cost(fn, simulated, recorded)
+    message = f"every pair here is 0.1 rad apart across the wrap at the bottom: 0.01 rad^2 expected, got {got!r}"
+    if got > 1.0:
+        message += ": the pendulum swings through 0 = 2 pi all the time; wrap the difference"
+    expect(abs(got - 0.01) < 1e-9, message)
 
 
 prelab_task("09", ("speed_ratio", "stale_steps",))
