@@ -95,11 +95,9 @@ def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str) -> str
     out = Path(out_root) / f"{rig_name}-{variant}-s{seed}"
     out.mkdir(parents=True, exist_ok=True)
     rig.params.save(out / "hidden-rig.json")
-    config = AdaptConfig(seed=seed, evaluation_episodes=EVALUATION_EPISODES)
-    if variant == "identification-only":
-        config = AdaptConfig(seed=seed, evaluation_episodes=EVALUATION_EPISODES, episodes=config.excitation_episodes)
-    elif variant != "full":
-        config = AdaptConfig(seed=seed, evaluation_episodes=EVALUATION_EPISODES, policy=variant, twin_episodes=300)
+    changes = {"full": {}, "identification-only": {"episodes": AdaptConfig().excitation_episodes}}
+    config = AdaptConfig(seed=seed, evaluation_episodes=EVALUATION_EPISODES,
+                         **changes.get(variant, {"policy": variant, "twin_episodes": 300}))
     report = adapt(twin_rig(rig.params, rig.network, rig.residual_offset_counts), out, config, say=lambda _: None)
     found, true = report["identified"], rig.params
     speed = found["servo_speed_s_per_60deg"] / true.servo_speed_s_per_60deg - 1

@@ -118,6 +118,11 @@ def angle_from_upright_rad(angle_from_bottom_rad):
     return np.mod(np.asarray(angle_from_bottom_rad), 2 * math.pi) - math.pi
 
 
+def wrapped_rad(angle_rad):
+    """An angle (or a difference of two) wrapped into [-pi, pi)."""
+    return (np.asarray(angle_rad, dtype=float) + math.pi) % (2 * math.pi) - math.pi
+
+
 def wrap_delta_counts(new_counts, old_counts, counts: int = ENCODER_COUNTS):
     """new - old, taking the shorter way round the 0/1023 seam. A jump of exactly half a turn is kept."""
     delta = np.asarray(new_counts, dtype=np.int64) - np.asarray(old_counts, dtype=np.int64)

@@ -9,6 +9,7 @@ import numpy as np
 
 from pendkit.adapt.excitation import Recording
 from pendkit.adapt.identify import PRIOR_LATENCY_MS, Identification, simulate
+from pendkit.encoder import wrapped_rad
 from pendkit.rig import RigParams
 
 SHOWN = 3
@@ -24,11 +25,11 @@ def plot_identification(recordings: list[Recording], identification: Identificat
     axes = np.atleast_1d(figure.subplots(len(shown), 1))
     for axis, recording in zip(axes, shown):
         t = np.arange(1, len(recording.actions) + 1) * RigParams().control_step_ms / 1000
-        wrap = lambda a: np.degrees(np.angle(np.exp(1j * np.asarray(a))))  # noqa: E731
-        axis.plot(t, wrap(recording.pendulum_rad), color="black", lw=2, label="rig (encoder)")
-        axis.plot(t, wrap(simulate(RigParams(), PRIOR_LATENCY_MS, recording)), color=PALETTE["limit"], lw=1,
+        degrees = lambda angles: np.degrees(wrapped_rad(angles))  # noqa: E731
+        axis.plot(t, degrees(recording.pendulum_rad), color="black", lw=2, label="rig (encoder)")
+        axis.plot(t, degrees(simulate(RigParams(), PRIOR_LATENCY_MS, recording)), color=PALETTE["limit"], lw=1,
                   linestyle="--", label="prior twin")
-        axis.plot(t, wrap(simulate(identification.params, identification.latency_ms, recording)),
+        axis.plot(t, degrees(simulate(identification.params, identification.latency_ms, recording)),
                   color=PALETTE["pendulum"], lw=1.2, label="identified twin")
         axis.set_ylabel("pendulum (deg)")
     axes[0].legend(loc="upper right")

@@ -36,7 +36,6 @@ class Rig:
     prior: Callable[[], RigParams] = RigParams
 
 
-
 @dataclass(frozen=True)
 class AdaptConfig:
     """`episodes`: the rig's episodes adaptation may use (excitation + fine-tuning); `twin_episodes`: training
