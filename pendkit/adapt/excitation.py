@@ -17,11 +17,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from pendkit.encoder import wrapped_rad
+
 CENTRE = 0.0
 # (half-period in steps, amplitude as a fraction of the arm's half range), one per episode, cycled
 EPISODES = ((2, 0.9), (6, 0.3), (3, 0.9), (5, 0.45), (2, 0.8), (8, 0.4), (3, 0.7), (12, 0.35), (4, 0.5),
             (7, 0.3))
 SETTLE_STEPS = 8  # after the last jump back to the centre, before the swing counts as free
+# at rest: the encoder stays within 3 counts over REST_STEPS steps (half a period; a count's flicker allowed)
+REST_SPREAD_RAD = 3 * 2 * np.pi / 1024
+REST_STEPS = 8
+REST_LIMIT_STEPS = 2000  # 2 minutes: a pendulum still swinging then is not one a recording can start from
 
 
 @dataclass(frozen=True)
@@ -59,30 +65,58 @@ def free_from(actions: list[float]) -> int | None:
 @dataclass
 class Recording:
     """What one excitation episode gave: the targets sent (arm half-range units), the servo target the host
-    knows at the start, and per step the pendulum's encoder angle (rad from the bottom) and its rate (rad/s)."""
+    knows at the start, and per step the pendulum's encoder angle (rad from the bottom) and its rate (rad/s);
+    `rest_steps`: the steps spent holding the arm until the pendulum hung still (rig time too)."""
 
     actions: list[float]
     start_servo_target_rad: float
     start_pendulum_rad: float
     pendulum_rad: list[float] = field(default_factory=list)
     pendulum_velocity_rad_s: list[float] = field(default_factory=list)
+    rest_steps: int = 0
+
+    @property
+    def rig_steps(self) -> int:
+        return self.rest_steps + len(self.actions)
 
     def as_dict(self) -> dict:
         return {"actions": self.actions, "start_servo_target_rad": self.start_servo_target_rad,
                 "start_pendulum_rad": self.start_pendulum_rad, "pendulum_rad": self.pendulum_rad,
-                "pendulum_velocity_rad_s": self.pendulum_velocity_rad_s}
+                "pendulum_velocity_rad_s": self.pendulum_velocity_rad_s, "rest_steps": self.rest_steps}
 
     @classmethod
     def from_dict(cls, record: dict) -> Recording:
         return cls(**record)
 
 
+class NotAtRest(RuntimeError):
+    """The pendulum kept swinging: an excitation episode must start from rest, as the twin's does."""
+
+
+def hold_until_at_rest(env, state) -> tuple[object, int]:
+    """Hold the servo at the centre until the pendulum hangs still (a rig starts as the last run left it,
+    perhaps still swinging; the twin matched to it starts from rest). Returns the state it rests in and the
+    steps it took."""
+    angles = [state.pendulum_angle_rad]
+    for _ in range(REST_LIMIT_STEPS):
+        recent = wrapped_rad(np.asarray(angles[-REST_STEPS:]) - angles[-1])
+        if len(angles) >= REST_STEPS and np.ptp(recent) <= REST_SPREAD_RAD:
+            return state, len(angles) - 1
+        _, _, _, _, info = env.step(np.array([CENTRE], dtype=np.float32))
+        state = info["state"]
+        angles.append(state.pendulum_angle_rad)
+    raise NotAtRest(f"the pendulum still swings ({np.degrees(np.ptp(recent)):.1f} deg in the last {REST_STEPS} "
+                    f"steps) after {REST_LIMIT_STEPS} steps with the arm held at the centre: stop it by hand "
+                    "(or check the encoder) before recording")
+
+
 def record(env, excitation: Excitation, seed: int = 0) -> Recording:
-    """Run one excitation episode on `env` (made with `Excitation.env_kwargs()`: twin or rig), reading only
-    what a rig reports (the state record: encoder angle and its rate, the servo target the host sent)."""
-    _, info = env.reset(seed=seed, options={"start": "rest"})  # a rig starts as it is, settled
-    state = info["state"]
-    recording = Recording(excitation.actions(), float(state.servo_target_rad), float(state.pendulum_angle_rad))
+    """Run one excitation episode on `env` (made with `Excitation.env_kwargs()`: twin or rig), from rest,
+    reading only what a rig reports (the state record: encoder angle and its rate, the servo target sent)."""
+    _, info = env.reset(seed=seed, options={"start": "rest"})
+    state, rest_steps = hold_until_at_rest(env, info["state"])
+    recording = Recording(excitation.actions(), float(state.servo_target_rad), float(state.pendulum_angle_rad),
+                          rest_steps=rest_steps)
     for action in recording.actions:
         _, _, _, _, info = env.step(np.array([action], dtype=np.float32))
         recording.pendulum_rad.append(float(info["state"].pendulum_angle_rad))

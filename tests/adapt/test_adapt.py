@@ -8,9 +8,11 @@ import json
 import numpy as np
 import pytest
 
-from pendkit.adapt.excitation import Excitation, record, schedule
+import pendkit
+from pendkit.adapt.excitation import REST_STEPS, Excitation, NotAtRest, hold_until_at_rest, record, schedule
 from pendkit.adapt.identify import identify, matching_cost, swing_estimates
 from pendkit.adapt.rigs import twin_rig
+from pendkit.encoder import wrapped_rad
 from pendkit.rig import RigParams
 
 HIDDEN = dataclasses.replace(RigParams.preset("hitec-d645mw-4v8"), dowel_length_m=0.34,
@@ -28,8 +30,21 @@ def test_excitation_swings_the_pendulum_clearly_but_short_of_the_top_and_counts_
     for r in recs:
         swing = np.abs(np.angle(np.exp(1j * np.asarray(r.pendulum_rad))))
         assert 0.2 < swing.max() < 2.0  # visible, and well below horizontal-and-over
-    assert rig.seconds() == pytest.approx(sum(len(r.actions) for r in recs) * 0.06)
+    assert rig.seconds() == pytest.approx(sum(r.rig_steps for r in recs) * 0.06)
+    assert all(r.rest_steps == REST_STEPS - 1 for r in recs)  # a twin from rest: the check's steps only
     assert len({tuple(r.actions) for r in recs}) == 4  # every episode excites differently
+
+
+def test_a_recording_waits_until_the_pendulum_hangs_still_and_gives_up_on_one_that_never_does():
+    env = twin_rig(RigParams()).make_env(**Excitation.env_kwargs())
+    _, info = env.reset(seed=0, options={"pendulum_angle_rad": 1.0})  # a run left it swinging
+    state, steps = hold_until_at_rest(env, info["state"])
+    assert steps > 50 and abs(wrapped_rad(state.pendulum_angle_rad)) < 0.03
+    frictionless = dataclasses.replace(RigParams(), pendulum_damping_n_m_s_per_rad=0.0)
+    env = pendkit.make(fidelity="ideal", params=frictionless, **Excitation.env_kwargs())
+    _, info = env.reset(seed=0, options={"pendulum_angle_rad": 1.0})
+    with pytest.raises(NotAtRest, match="stop it by hand"):
+        hold_until_at_rest(env, info["state"])
 
 
 def test_the_matching_cost_singles_out_the_rigs_own_parameters():
@@ -79,8 +94,9 @@ def test_an_adaptation_session_writes_rig_policy_and_report(tmp_path):
     assert RigParams.load(tmp_path / "rig.json") != RigParams()  # something was identified
     assert (tmp_path / "policy.pt").exists() and (tmp_path / "identification.png").read_bytes()[:4] == b"\x89PNG"
     saved = json.loads((tmp_path / "report.json").read_text())
-    # rig time as the rig counted it: 2 excitation episodes of 102 steps and 1 fine-tuning episode of 500
-    assert saved["rig_s_adaptation"] == pytest.approx((2 * 102 + 500) * 0.06)
+    # rig time as the rig counted it: 2 excitation episodes of 102 steps after the 7 steps that find the
+    # pendulum still, and 1 fine-tuning episode of 500
+    assert saved["rig_s_adaptation"] == pytest.approx((2 * (REST_STEPS - 1 + 102) + 500) * 0.06)
     assert saved["rig_s_total"] > saved["rig_s_adaptation"]  # the evaluation came after, on the same rig
     assert report["policy_on_rig"]["summary"].startswith("solved=")
     assert "| servo_speed_s_per_60deg |" in (tmp_path / "report.md").read_text()
