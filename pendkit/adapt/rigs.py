@@ -83,8 +83,9 @@ def mqtt_rig(rig_id: str, broker: str | None) -> Rig:
     return Rig(make_env, seconds, name=f"rig {rig_id}", prior=prior)
 
 
-def rig_status(rig_id: str, broker: str | None, wait_s: float = 1.0) -> dict:
-    """The rig's status after asking it for a fresh one (command `r`)."""
+def rig_status(rig_id: str, broker: str | None, wait_s: float = 2.0) -> dict:
+    """The rig's status after asking it for a fresh one (command `r`); the retained one if no fresh one
+    comes within `wait_s` (a v1 rig, or a device that is off)."""
     from pendkit.device.commands import frame_command
     from pendkit.link import DEFAULT_BROKER
     from pendkit.link.driver import RigLink
@@ -92,10 +93,9 @@ def rig_status(rig_id: str, broker: str | None, wait_s: float = 1.0) -> dict:
     link = RigLink(rig_id, broker or DEFAULT_BROKER)
     try:
         link.connect()
-        before = link.status
         link.publish(frame_command("r", 2, 1, int(time.monotonic() * 1000)))
         deadline = time.monotonic() + wait_s
-        while time.monotonic() < deadline and link.status == before:
+        while time.monotonic() < deadline and not link.status_is_live:
             time.sleep(0.02)
         return json.loads(link.status) if link.status else {}
     except (ValueError, OSError):

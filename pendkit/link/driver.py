@@ -97,6 +97,7 @@ class RigLink:
         self.counters = LinkCounters()
         self.newest: Arrival | None = None
         self.status: str | None = None
+        self.status_is_live = False  # the last status was published while we listened (not the retained copy)
         self.log = log
         self._connected = threading.Event()
         self._refused: str | None = None
@@ -160,7 +161,7 @@ class RigLink:
         try:
             payload = message.payload.decode("ascii", errors="replace")
             if message.topic == self.status_topic:
-                self.status = payload
+                self.status, self.status_is_live = payload, not message.retain
                 return
             received = parse_observation(message.payload, self.limits)
             self._check_order(received, now)
