@@ -7,6 +7,7 @@ encoder frames starts without MuJoCo, and so does each notebook the grader runs.
 from __future__ import annotations
 
 import importlib
+import numbers
 from importlib.metadata import PackageNotFoundError, version
 
 import gymnasium
@@ -40,9 +41,15 @@ def __getattr__(name: str):
 def make(**kwargs) -> gymnasium.Env:
     """`gymnasium.make("pendkit/SwingUp-v0", **kwargs)`: e.g. `pendkit.make(fidelity="realistic")`."""
     limit = kwargs.get("max_episode_steps", EPISODE_STEPS)  # gymnasium takes it for its TimeLimit: check it here
-    if isinstance(limit, bool) or not isinstance(limit, int) or limit < 1:
+    if isinstance(limit, bool) or not isinstance(limit, numbers.Integral) or limit < 1:
         raise ConfigError(f"max_episode_steps must be a positive whole number (default {EPISODE_STEPS}), "
                           f"got {limit!r}")
+    if "max_episode_steps" in kwargs:
+        kwargs["max_episode_steps"] = int(limit)  # a numpy integer too
+    if kwargs.get("render_mode") == "human":
+        raise ConfigError("render_mode='human' (a window) is not offered: use render_mode='rgb_array' and show the "
+                          "frames yourself, or watch live in a notebook with pendkit.widgets (`pendkit demo` "
+                          "writes a GIF)")
     return gymnasium.make(ENV_ID, **kwargs)
 
 

@@ -87,8 +87,11 @@ PAPER_FEATURES = ("pendulum_angle", "arm_angle", "pendulum_velocity", "pendulum_
 def resolve_features(names: tuple[str, ...] | list[str] | str) -> tuple[Feature, ...]:
     if isinstance(names, str):
         names = PAPER_FEATURES if names == "paper" else (names,)
+    if not names:
+        raise ConfigError(f"observation needs at least one feature; choose from {sorted(FEATURES)} "
+                          "(or 'paper' for the paper's seven)")
     unknown = [n for n in names if n not in FEATURES]
-    if unknown or not names:
+    if unknown:
         raise ConfigError(f"unknown observation features {unknown}; choose from {sorted(FEATURES)}")
     if len(set(names)) != len(names):
         raise ConfigError(f"observation features repeat: {list(names)}")

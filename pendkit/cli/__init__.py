@@ -13,9 +13,24 @@ from __future__ import annotations
 import click
 
 from pendkit.cli import kit, labs, learning, link
+from pendkit.errors import PendkitError
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+class KitGroup(click.Group):
+    """Errors the kit raises on purpose (bad settings, no broker, a missing extra) and the operating
+    system's (a port taken, a file missing) end a command with one line, never a traceback."""
+
+    def invoke(self, ctx: click.Context):
+        try:
+            return super().invoke(ctx)
+        except PendkitError as error:
+            raise click.ClickException(str(error)) from None
+        except OSError as error:
+            where = f" ({error.filename})" if getattr(error, "filename", None) else ""
+            raise click.ClickException(f"{error.strerror or error}{where}") from None
+
+
+@click.group(cls=KitGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="pendkit", message="pendkit %(version)s")
 def main() -> None:
     """pendkit: the swing-up pendulum teaching kit (twin, rig link, labs, grader)."""

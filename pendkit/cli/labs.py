@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import click
@@ -51,31 +52,50 @@ def labs_check(solutions_dir: Path, labs_dir: Path) -> None:
     click.echo("labs/ is up to date")
 
 
+def _seconds(ctx, param, value: float | None) -> float | None:
+    """A time limit: positive and finite (fractions allowed; a cell's limit is rounded up to whole seconds)."""
+    if value is not None and not (math.isfinite(value) and value > 0):
+        raise click.BadParameter(f"a time limit must be a positive number of seconds, got {value}")
+    return value
+
+
+def _lab(ctx, param, value: str | None) -> str | None:
+    from pendkit.grading.core import known_labs
+
+    if value is not None and value not in known_labs():
+        raise click.BadParameter(f"the kit has no lab {value!r}: its labs are {', '.join(known_labs())}")
+    return value
+
+
 @click.command()
 @click.argument("submissions", type=click.Path(exists=True, file_okay=False, path_type=Path), required=False)
-@click.option("--lab", default=None, help="Grade only this lab (NN); default: from each notebook.")
+@click.option("--lab", default=None, callback=_lab, help="Grade only this lab (NN); default: from each notebook.")
 @click.option("--gradescope-autograder", "autograder_zip", type=click.Path(dir_okay=False, path_type=Path),
               default=None, help="Instead of grading: write Gradescope's autograder zip for --lab NN.")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("grades"),
               show_default=True, help="Where results.json files and grades.csv go.")
 @click.option("--hidden", "hidden_dir", type=click.Path(file_okay=False, path_type=Path),
               default=Path("solutions/tests"), show_default=True, help="Hidden tests (labNN_*.py).")
-@click.option("--cell-timeout", type=float, default=120.0, show_default=True, help="Seconds per cell.")
-@click.option("--notebook-timeout", type=float, default=600.0, show_default=True, help="Seconds per notebook.")
-@click.option("--check-timeout", type=float, default=None,
+@click.option("--cell-timeout", type=float, default=120.0, show_default=True, callback=_seconds,
+              help="Seconds per cell.")
+@click.option("--notebook-timeout", type=float, default=600.0, show_default=True, callback=_seconds,
+              help="Seconds per notebook.")
+@click.option("--check-timeout", type=float, default=None, callback=_seconds,
               help="Cap on each test's own time limit, in seconds (default: the test's, usually 10).")
 @click.option("--jobs", type=click.IntRange(1, 64), default=1, show_default=True,
               help="Notebooks graded at once (each runs its own kernel: about one core each).")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
-def grade(submissions: Path | None, lab: str | None, autograder_zip: Path | None, out_dir: Path, hidden_dir: Path,
-          cell_timeout: float, notebook_timeout: float, check_timeout: float | None, jobs: int, quiet: bool) -> None:
+@click.pass_context
+def grade(ctx: click.Context, submissions: Path | None, lab: str | None, autograder_zip: Path | None, out_dir: Path,
+          hidden_dir: Path, cell_timeout: float, notebook_timeout: float, check_timeout: float | None, jobs: int,
+          quiet: bool) -> None:
     """Run and grade every submitted notebook; write Gradescope results.json files and a CSV."""
     from pendkit.grading.report import grade_folder
     from pendkit.grading.sandbox import isolation_problem
 
-    if lab is not None and not (len(lab) == 2 and lab.isdigit()):
-        raise click.BadParameter(f"expected two digits such as 01, got {lab!r}", param_hint="--lab")
-    hidden = hidden_dir if hidden_dir.exists() else None
+    hidden = hidden_dir if hidden_dir.is_dir() else None
+    if hidden is None and ctx.get_parameter_source("hidden_dir") != click.core.ParameterSource.DEFAULT:
+        raise click.BadParameter(f"{hidden_dir} is not a folder of hidden tests", param_hint="--hidden")
     if hidden is None:
         click.echo(f"no hidden tests at {hidden_dir}: grading with public tests only", err=True)
     if autograder_zip is not None:
@@ -103,9 +123,9 @@ def grade(submissions: Path | None, lab: str | None, autograder_zip: Path | None
 
 
 @click.command("autograder-run")
-@click.option("--root", type=click.Path(file_okay=False, path_type=Path), default=Path("/autograder"),
+@click.option("--root", type=click.Path(exists=True, file_okay=False, path_type=Path), default=Path("/autograder"),
               show_default=True, help="Gradescope's autograder folder.")
-@click.option("--lab", required=True, help="The lab (NN) this autograder grades.")
+@click.option("--lab", required=True, callback=_lab, help="The lab (NN) this autograder grades.")
 def autograder_run(root: Path, lab: str) -> None:
     """Grade one Gradescope submission (the autograder zip's run_autograder calls this)."""
     from pendkit.grading.gradescope import run

@@ -178,8 +178,14 @@ def plot(run_dir: Path) -> None:
 
     from pendkit.episode import PALETTE
 
-    with (run_dir / "returns.csv").open() as handle:
-        returns = [float(row["return"]) for row in csv.DictReader(handle)]
+    if not (run_dir / "returns.csv").is_file():
+        raise click.ClickException(f"{run_dir} is not a training run (it has no returns.csv): give the --out folder "
+                                   "of `pendkit train`")
+    try:
+        with (run_dir / "returns.csv").open() as handle:
+            returns = [float(row["return"]) for row in csv.DictReader(handle)]
+    except (KeyError, ValueError, TypeError) as error:
+        raise click.ClickException(f"{run_dir / 'returns.csv'} is not a run's returns file ({error})") from None
     if not returns:
         raise click.ClickException(f"no episodes in {run_dir / 'returns.csv'} yet")
     figure = Figure(figsize=(8, 4), layout="constrained")

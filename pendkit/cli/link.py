@@ -15,7 +15,7 @@ from pendkit.sim.latency import IMPAIRMENTS
 
 @click.command()
 @click.option("--host", default="127.0.0.1", show_default=True, help="Address to listen on (loopback by default).")
-@click.option("--port", type=int, default=1883, show_default=True)
+@click.option("--port", type=click.IntRange(1, 65535), default=1883, show_default=True)
 def broker(host: str, port: int) -> None:
     """Run the embedded MQTT broker (amqtt) until Ctrl-C: enough for one or a few rigs on a laptop."""
     from pendkit.link.broker import EmbeddedBroker
@@ -32,7 +32,7 @@ def broker(host: str, port: int) -> None:
 @click.option("--rigs", "rig_ids", multiple=True, required=True, help="Rig ids, repeated: --rigs r01 --rigs r02.")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("broker"),
               show_default=True)
-@click.option("--port", type=int, default=1883, show_default=True)
+@click.option("--port", type=click.IntRange(1, 65535), default=1883, show_default=True)
 @click.option("--bind", default="0.0.0.0", show_default=True, help="Address Mosquitto listens on.")
 def broker_config(rig_ids: tuple[str, ...], out_dir: Path, port: int, bind: str) -> None:
     """Write a classroom Mosquitto configuration: per-rig users, an ACL, no anonymous clients."""
@@ -70,10 +70,15 @@ def virtual_rig(rig_ids, broker_url, speed, impairment, username, password, enco
                 preset, params_path) -> None:
     """Run virtual rigs: the twin with the firmware's logic, speaking the rig protocol over MQTT."""
     from pendkit.errors import ConfigError
-    from pendkit.link.driver import RigLinkError
+    from pendkit.link.driver import RigLinkError, check_rig_id
     from pendkit.link.virtual_rig import VirtualRig, VirtualRigGroup
     from pendkit.rig import RigParams
 
+    for rig in rig_ids:
+        try:
+            check_rig_id(rig)
+        except ConfigError as error:
+            raise click.BadParameter(str(error), param_hint="--rig") from None
     try:
         params = RigParams.load(params_path) if params_path is not None else RigParams.preset(preset)
     except ConfigError as error:

@@ -159,12 +159,17 @@ def lab_of(task_id: str) -> str:
     return task_id.split(".", 1)[0]
 
 
+def known_labs() -> list[str]:
+    """The labs the kit grades ("00", "01", ...): one public suite each."""
+    suites = Path(__file__).resolve().parent / "suites"
+    return sorted(path.stem[3:] for path in suites.glob("lab[0-9][0-9].py"))
+
+
 def load_lab(lab: str) -> list[Task]:
     """Import the public suite of lab `lab` ("01") and return its tasks in declaration order."""
-    try:
-        importlib.import_module(f"pendkit.grading.suites.lab{lab}")
-    except ModuleNotFoundError as error:
-        raise ConfigError(f"no graded suite for lab {lab!r}") from error
+    if lab not in known_labs():
+        raise ConfigError(f"the kit has no lab {lab!r}: its labs are {', '.join(known_labs())}")
+    importlib.import_module(f"pendkit.grading.suites.lab{lab}")
     return [t for t in TASKS.values() if lab_of(t.id) == lab]
 
 

@@ -57,11 +57,23 @@ class EmbeddedBroker:
         return {"listeners": {"default": {"type": "tcp", "bind": f"{self.host}:{self.port}"}},
                 "plugins": {"amqtt.plugins.authentication.AnonymousAuthPlugin": {"allow_anonymous": True}}}
 
+    def _check_port_free(self) -> None:
+        """Say plainly that the port is taken (amqtt logs a traceback and a vaguer message)."""
+        with socket.socket(socket.AF_INET6 if ":" in self.host else socket.AF_INET) as probe:
+            probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as asyncio's server will
+            try:
+                probe.bind((self.host, self.port))
+            except OSError as error:
+                raise PendkitError(f"the embedded broker cannot listen on {self.host}:{self.port}: {error.strerror} "
+                                   "(another broker, such as Mosquitto, on that port? stop it, or pass --port)") \
+                    from None
+
     def start(self, timeout_s: float = 10.0) -> EmbeddedBroker:
         try:
             from amqtt.broker import Broker
         except ImportError as error:
             raise PendkitError("the embedded broker needs amqtt: pip install amqtt") from error
+        self._check_port_free()
 
         def serve() -> None:
             self._loop = asyncio.new_event_loop()

@@ -79,8 +79,17 @@ class Arrival:
     receive_time_s: float  # time.monotonic() when it arrived
 
 
+def check_rig_id(rig: str) -> str:
+    """A rig id fit for a topic: letters, digits, '-' and '_' (an MQTT wildcard such as '+' would name
+    every rig at once, a '/' another topic)."""
+    if not isinstance(rig, str) or not rig or len(rig) > 64 or not rig.replace("-", "").replace("_", "").isalnum():
+        raise ConfigError(f"rig id {rig!r} is not a rig's name: use letters, digits, '-' or '_' (r01, r02, ...)")
+    return rig
+
+
 def topics(rig: str) -> tuple[str, str, str]:
     """(observations, commands, status) topics of a rig."""
+    check_rig_id(rig)
     return f"pendulum-r/obs/{rig}", f"pendulum-r/act/{rig}", f"pendulum-r/status/{rig}"
 
 
