@@ -73,7 +73,7 @@ def run(root: Path, lab: str) -> dict:
     results_dir.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as work:
         grades = grade_folder(root / "submission", Path(work) / "out", lab, root / "source" / "hidden",
-                              120.0, 900.0, progress=False)
+                              120.0, 900.0, progress=False, one_student=True)
     if not grades:
         result = {"score": 0.0, "output": f"No notebook found: upload your lab {lab} .ipynb file.", "tests": []}
     else:

@@ -24,6 +24,8 @@ from pendkit.grading.core import Failed, NotGradable, Outcome
 from pendkit.grading.timeouts import CheckTimeout
 
 INTERRUPT_GRACE_S = 5.0
+MAX_REPLY_BYTES = 4 << 20  # a kernel's answer to one batch of calls: thousands of times any lab's (under 1 kB)
+MAX_REPLY_VALUES = 100_000  # values in it (each opens one JSON object): bounds the grader's memory
 # What a student's exception may come back as; anything else is a StudentError.
 RAISABLE = ("ValueError", "TypeError", "NotImplementedError", "ZeroDivisionError", "IndexError", "KeyError",
             "AttributeError", "ArithmeticError", "OverflowError", "FloatingPointError", "RuntimeError",
@@ -67,6 +69,9 @@ class KernelSession:
     def call(self, name: str, calls: list[tuple]) -> dict:
         request = wire.dumps({"function": name, "calls": [list(args) for args in calls]}, allow_kit=True)
         text = self._over_socket(request) if self.channel_dir is not None else self._over_execute(request)
+        if text.count("{") > MAX_REPLY_VALUES:
+            raise StudentError("an oversized answer", f"the answer held over {MAX_REPLY_VALUES} values, more than "
+                               "the grader reads: return what the task asks for, not more")
         try:
             return wire.loads(text)
         except (ValueError, TypeError, MemoryError, RecursionError, wire.WireError):
@@ -92,11 +97,14 @@ class KernelSession:
         try:
             self._connection.settimeout(max(0.001, self.deadline - time.monotonic()))
             channel.send(self._connection, request)
-            text = channel.receive(self._connection)
+            text = channel.receive(self._connection, self.deadline, MAX_REPLY_BYTES)  # the whole reply in time
         except TimeoutError:
-            self._interrupt(self.client.kc, self._serve_id)
-            self._drop()
+            self._abandon_call()
             raise CheckTimeout(f"took longer than {self.limit_s:g} s") from None
+        except channel.TooLarge as error:
+            self._abandon_call()
+            raise StudentError("an oversized answer", f"the answer was {error.size} bytes, more than the "
+                               f"{MAX_REPLY_BYTES} the grader reads: return what the task asks for, not more") from None
         except OSError as error:
             text, problem = None, error
         else:
@@ -112,6 +120,13 @@ class KernelSession:
                     break
             raise StudentError("a broken connection", f"the kernel stopped answering ({problem or 'it hung up'})")
         return text
+
+    def _abandon_call(self) -> None:
+        """Stop the kernel's serving request mid-answer; the next call opens a new one."""
+        serve_id = self._serve_id
+        self._drop()  # the kernel's send fails once the socket is gone, if the interrupt did not stop it
+        self.deadline = max(self.deadline, time.monotonic())
+        self._interrupt(self.client.kc, serve_id)
 
     def _open(self) -> None:
         kc = self.client.kc
@@ -156,7 +171,10 @@ class KernelSession:
                                f"{str(content.get('evalue', ''))[:200]} (the call failed in the kernel)")
         expression = content.get("user_expressions", {}).get("reply", {})
         try:
-            return ast.literal_eval(expression["data"]["text/plain"])
+            text = expression["data"]["text/plain"]
+            if len(text) > 2 * MAX_REPLY_BYTES:  # its repr: about twice the text
+                raise ValueError("too large")
+            return ast.literal_eval(text)
         except (KeyError, ValueError, SyntaxError, TypeError, MemoryError, RecursionError):
             raise StudentError("an unreadable answer", "the kernel's answer was not data the grader understands") \
                 from None

@@ -3,19 +3,23 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import json
 import os
 import re
+import shutil
 import sys
 import tempfile
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
 from dataclasses import dataclass
 from multiprocessing import get_context
 from pathlib import Path
 
-from pendkit.errors import ConfigError
-from pendkit.grading.core import load_hidden_source, load_lab
+from pendkit.errors import ConfigError, PendkitError
+from pendkit.grading.core import known_labs, load_hidden_source, load_lab
 from pendkit.grading.notebook_files import nbformat
 from pendkit.grading.runner import SubmissionGrade, grade_notebook
 
@@ -27,38 +31,72 @@ class Submission:
     student: str
     path: Path
     lab: str | None
+    folder: Path | None = None  # the student's own folder (None: a notebook lying flat in the class folder)
+    problem: str | None = None  # why it cannot be graded, said in its row
+    note: str | None = None  # said in its row, graded anyway
 
 
-def find_submissions(folder: Path, lab: str | None = None) -> list[Submission]:
-    """`folder/<student>/*.ipynb` or `folder/<student>.ipynb`; only lab `lab` when given."""
+def find_submissions(folder: Path, lab: str | None = None, one_student: bool = False) -> list[Submission]:
+    """`folder/<student>/*.ipynb` or `folder/<student>.ipynb`, every one of them (a notebook that cannot be
+    graded, or not in this run, still gets its row saying why). Links are not followed. `one_student`:
+    the folder is one student's (Gradescope's submission folder), whose files its notebooks may read."""
+    folder = Path(folder)
     found = []
-    for path in sorted(Path(folder).rglob("*.ipynb")):
-        if ".ipynb_checkpoints" in path.parts:
-            continue
+    for path in _notebooks(folder):
         relative = path.relative_to(folder)
         student = relative.parts[0] if len(relative.parts) > 1 else path.stem
-        detected = lab_of_notebook(path)
-        if lab is not None and detected not in (None, lab):
+        own_folder = folder / relative.parts[0] if len(relative.parts) > 1 else (folder if one_student else None)
+        if path.is_symlink():
+            found.append(Submission(student, path, lab, own_folder, problem=f"not graded: {relative} is a symbolic "
+                                    "link; submit the notebook itself"))
             continue
-        found.append(Submission(student, path, lab or detected))
+        found.append(_with_lab(Submission(student, path, None, own_folder), lab))
     counts: dict[str, int] = {}
     for submission in found:
         counts[submission.student] = counts.get(submission.student, 0) + 1
-    return [Submission(f"{s.student}/{s.path.stem}" if counts[s.student] > 1 else s.student, s.path, s.lab)
+    return [dataclasses.replace(s, student=f"{s.student}/{s.path.stem}") if counts[s.student] > 1 else s
             for s in found]
 
 
+def _notebooks(folder: Path) -> list[Path]:
+    found = []
+    for top, dirs, files in os.walk(folder):  # never into linked folders
+        dirs[:] = sorted(d for d in dirs if d != ".ipynb_checkpoints")
+        found += [Path(top) / name for name in files if name.endswith(".ipynb")]
+    return sorted(found)
+
+
+def _with_lab(submission: Submission, lab: str | None) -> Submission:
+    """Which lab a notebook is: its metadata's (written by `pendkit labs build`), else its name's NN_ prefix,
+    else `--lab`; a lab the kit does not have is named in the row."""
+    labs = known_labs()
+    stated = lab_of_notebook(submission.path)
+    by_name = LAB_PREFIX.match(submission.path.name)
+    by_name = by_name.group(1) if by_name else None
+    detected = next((n for n in (stated, by_name) if n in labs), None)
+    note = None
+    if stated is not None and stated not in labs:
+        note = f"the notebook's metadata says lab {stated!r}, which the kit does not have"
+    if lab is not None:
+        if detected is not None and detected != lab:
+            return dataclasses.replace(submission, lab=detected, problem=f"not graded: this is lab {detected}'s "
+                                       f"notebook, and this run grades lab {lab}")
+        return dataclasses.replace(submission, lab=lab, note=note and f"{note}: graded as lab {lab}")
+    if detected is None:
+        return dataclasses.replace(submission, problem=f"not graded: {note or 'cannot tell which lab this is'}; name "
+                                   "it NN_name.ipynb or pass --lab NN")
+    return dataclasses.replace(submission, lab=detected, note=note and f"{note}: graded as lab {detected}")
+
+
 def lab_of_notebook(path: Path) -> str | None:
-    """The lab number from the notebook's metadata (written by `pendkit labs build`) or its file name."""
+    """The lab number the notebook's metadata states (written by `pendkit labs build`), if any."""
     try:
-        metadata = nbformat.read(path, as_version=4).metadata
-        lab = metadata.get("pendkit", {}).get("lab")
-        if lab:
-            return str(lab)
+        handle = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
+        with os.fdopen(handle, encoding="utf-8") as file:
+            lab = nbformat.read(file, as_version=4).metadata.get("pendkit", {}).get("lab")
+        return str(lab) if lab else None
     except Exception:
-        pass  # unreadable notebooks are reported by the runner
-    match = LAB_PREFIX.match(path.name)
-    return match.group(1) if match else None
+        return None  # unreadable notebooks are reported by the runner
 
 
 def gradescope_results(grade: SubmissionGrade) -> dict:
@@ -87,7 +125,7 @@ def write_reports(grades: list[SubmissionGrade], out: Path) -> Path:
     Each file is written whole or not at all (a temporary file, then a rename)."""
     out.mkdir(parents=True, exist_ok=True)
     for grade in grades:
-        folder = out / grade.student
+        folder = out / report_folder(grade.student)
         folder.mkdir(parents=True, exist_ok=True)
         _write_atomically(folder / "results.json", json.dumps(gradescope_results(grade), indent=2) + "\n")
     task_ids = list(dict.fromkeys(t.task for g in grades for t in g.tasks))  # lab order
@@ -106,6 +144,14 @@ def write_reports(grades: list[SubmissionGrade], out: Path) -> Path:
     csv_path = out / "grades.csv"
     _write_atomically(csv_path, buffer.getvalue())
     return csv_path
+
+
+def report_folder(student: str) -> str:
+    """Where a student's results.json goes under the output folder: never over grades.csv, never hidden."""
+    first, *rest = student.split("/")
+    if first == "grades.csv" or first.startswith("."):
+        first = f"student-{first.lstrip('.')}"
+    return "/".join([first, *rest])
 
 
 def _write_atomically(path: Path, text: str) -> None:
@@ -142,13 +188,19 @@ def load_suites(sources: dict[str, list[tuple[Path, bytes]]]) -> list[str]:
     return problems
 
 
+class GradingInterrupted(PendkitError):
+    """The run was stopped (Ctrl-C); the grades so far were written."""
+
+
 def grade_folder(folder: Path, out: Path, lab: str | None, hidden_dir: Path | None, cell_timeout_s: float,
                  notebook_timeout_s: float, check_timeout_s: float | None = None, progress: bool = True,
-                 jobs: int = 1) -> list[SubmissionGrade]:
+                 jobs: int = 1, one_student: bool = False) -> list[SubmissionGrade]:
     """Grade every submission in `folder`, `jobs` at a time; write the reports; return the grades. Hidden
-    files that cannot be loaded are skipped and reported on stderr; no submission can stop the others."""
-    submissions = find_submissions(folder, lab)
-    sources = read_hidden_sources(hidden_dir, {s.lab for s in submissions if s.lab is not None})
+    files that cannot be loaded are skipped and reported on stderr; no submission can stop the others.
+    Every scratch folder lives under one folder of this run, removed however the run ends; an interrupted
+    run writes what it graded and says so in the other rows."""
+    submissions = find_submissions(folder, lab, one_student)
+    sources = read_hidden_sources(hidden_dir, {s.lab for s in submissions if s.lab is not None and not s.problem})
     for problem in load_suites(sources):
         print(f"pendkit grade: {problem}; grading without it", file=sys.stderr)
     settings = (cell_timeout_s, notebook_timeout_s, check_timeout_s)
@@ -157,41 +209,91 @@ def grade_folder(folder: Path, out: Path, lab: str | None, hidden_dir: Path | No
         from tqdm.auto import tqdm
 
         bar = tqdm(total=len(submissions), desc="grading", unit="notebook")
-    grades: list[SubmissionGrade] = []
-    if jobs <= 1:
-        for submission in submissions:
-            grades.append(_grade_one(submission, settings))
+    grades: dict[int, SubmissionGrade] = {}
+    scratch = Path(tempfile.mkdtemp(prefix="pendkit-grading-run-"))
+    try:
+        if jobs <= 1:
+            with _temporary_files_in(scratch):
+                for index, submission in enumerate(submissions):
+                    grades[index] = _grade_one(submission, settings)
+                    if bar is not None:
+                        bar.update(1)
+        else:
+            _grade_in_pool(submissions, settings, sources, jobs, scratch, grades, bar)
+    except KeyboardInterrupt:
+        ordered = [grades.get(k) or _failed_grade(s, "not graded: the run was interrupted")
+                   for k, s in enumerate(submissions)]
+        write_reports(ordered, out)
+        raise GradingInterrupted(f"interrupted: {len(grades)} of {len(submissions)} notebooks graded, the rest "
+                                 f"marked so in {out / 'grades.csv'}") from None
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+        if bar is not None:
+            bar.close()
+    ordered = [grades[k] for k in range(len(submissions))]
+    write_reports(ordered, out)
+    return ordered
+
+
+def _grade_in_pool(submissions, settings, sources, jobs, scratch, grades, bar) -> None:
+    """A pool of `jobs` workers; a worker that dies (killed for memory, say) breaks the pool: the notebooks
+    it took down with it are graded again, each in a pool of its own, so only the one that killed its
+    worker twice loses its grade."""
+    def pool(workers: int) -> ProcessPoolExecutor:
+        return ProcessPoolExecutor(workers, mp_context=get_context("spawn"), initializer=_start_worker,
+                                   initargs=(sources, str(scratch)))
+
+    broken: list[int] = []
+    with pool(jobs) as executor:
+        futures = {executor.submit(_grade_one, submission, settings): k for k, submission in enumerate(submissions)}
+        for future in as_completed(futures):
+            k = futures[future]
+            try:
+                grades[k] = future.result()
+            except BrokenProcessPool:
+                broken.append(k)
+                continue
+            except Exception as error:  # noqa: BLE001 - a grader bug costs this submission only
+                grades[k] = _failed_grade(submissions[k], f"the grader failed on it ({type(error).__name__})")
             if bar is not None:
                 bar.update(1)
-    else:
-        with ProcessPoolExecutor(jobs, mp_context=get_context("spawn"), initializer=_start_worker,
-                                 initargs=(sources,)) as pool:
-            futures = [pool.submit(_grade_one, submission, settings) for submission in submissions]
-            for submission, future in zip(submissions, futures):
-                try:
-                    grades.append(future.result())
-                except Exception as error:  # a worker that died: this submission only
-                    grades.append(_failed_grade(submission, f"the grader failed on it ({type(error).__name__})"))
-                if bar is not None:
-                    bar.update(1)
-    if bar is not None:
-        bar.close()
-    write_reports(grades, out)
-    return grades
+    for k in sorted(broken):
+        with pool(1) as executor:
+            try:
+                grades[k] = executor.submit(_grade_one, submissions[k], settings).result()
+            except BrokenProcessPool:
+                grades[k] = _failed_grade(submissions[k], "the grading process running this notebook was killed, "
+                                          "twice (it used too much memory or time?): 0 points")
+        if bar is not None:
+            bar.update(1)
 
 
-def _start_worker(sources) -> None:
+@contextmanager
+def _temporary_files_in(folder: Path):
+    saved, tempfile.tempdir = tempfile.tempdir, str(folder)
+    try:
+        yield
+    finally:
+        tempfile.tempdir = saved
+
+
+def _start_worker(sources, scratch: str) -> None:
+    tempfile.tempdir = scratch  # every scratch folder of this worker, removed by the run if the worker is killed
     for problem in load_suites(sources):
         print(f"pendkit grade: {problem}", file=sys.stderr)
 
 
 def _grade_one(submission: Submission, settings: tuple) -> SubmissionGrade:
-    if submission.lab is None:
-        return _failed_grade(submission, "cannot tell which lab this is: name it NN_name.ipynb or pass --lab NN")
+    if submission.problem is not None:
+        return _failed_grade(submission, submission.problem)
     try:
-        return grade_notebook(submission.path, submission.student, submission.lab, [], *settings)
+        grade = grade_notebook(submission.path, submission.student, submission.lab, [], *settings,
+                               folder=submission.folder)
     except Exception as error:  # a grader bug must cost this submission nothing but its own grade
         return _failed_grade(submission, f"the grader failed on it ({type(error).__name__}: {error})")
+    if submission.note is not None:
+        grade.notes.insert(0, submission.note)
+    return grade
 
 
 def _failed_grade(submission: Submission, note: str) -> SubmissionGrade:

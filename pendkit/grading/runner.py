@@ -8,6 +8,7 @@ broken cell costs only what depends on it. Nothing that could not run scores a p
 from __future__ import annotations
 
 import logging
+import math
 import os
 import shutil
 import socket
@@ -22,9 +23,15 @@ from pendkit.grading.core import TASKS, TIMEOUT_CAP_VARIABLE, TestResult, load_h
 from pendkit.grading.notebook_files import nbformat
 from pendkit.grading.remote import KernelLost, KernelSession, RemoteFunction
 from pendkit.grading.sandbox import Sandbox, isolation_problem
+from pendkit.grading.staging import stage_submission
 from pendkit.grading.written import WrittenAnswer, collect_answers
 
 LOG = logging.getLogger("pendkit.grading")
+KERNEL_ENV_ALLOWED = {"PATH", "LANG", "LANGUAGE", "LC_ALL", "LC_CTYPE", "LC_NUMERIC", "TZ", "TMPDIR", "TEMP", "TMP",
+                      "HOME", "USER", "LOGNAME", "USERPROFILE", "APPDATA", "LOCALAPPDATA", "PROGRAMDATA",
+                      "SYSTEMROOT", "WINDIR", "COMSPEC", "PATHEXT", "VIRTUAL_ENV", "CONDA_PREFIX", "PYTHONPATH",
+                      "MUJOCO_GL", "PYOPENGL_PLATFORM", "OMP_NUM_THREADS", "MKL_NUM_THREADS",
+                      "OPENBLAS_NUM_THREADS"}
 MAX_RUNS = 5
 GRADING_SLACK_S = 20.0
 
@@ -64,21 +71,11 @@ class SubmissionGrade:
         return sum(t.max_score for t in self.tasks)
 
 
-def _sandbox_for(notebook: Path, isolate: bool | None) -> Sandbox | None:
-    """A sandbox holding the notebook's folder without any other notebook (another student's, in a flat
-    submissions folder); None where isolation is off or unavailable."""
-    if isolate is False or (isolate is None and isolation_problem() is not None):
-        return None
-    staging = Path(tempfile.mkdtemp(prefix="pendkit-submission-"))
-    try:
-        for item in notebook.parent.iterdir():
-            if item.suffix == ".ipynb" and item != notebook or item.name == ".ipynb_checkpoints":
-                continue
-            target = staging / item.name
-            shutil.copytree(item, target) if item.is_dir() else shutil.copy2(item, target)
-        return Sandbox(staging)
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
+def _read_notebook(path: Path):
+    """The notebook, never through a symbolic link (a submission's link could name any file)."""
+    handle = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
+    with os.fdopen(handle, encoding="utf-8") as file:
+        return nbformat.read(file, as_version=4)
 
 
 class _Restart(Exception):
@@ -93,9 +90,12 @@ def zero_grade(task_id: str, message: str) -> TaskGrade:
 
 def grade_notebook(path: Path, student: str, lab: str, hidden_paths: list[Path], cell_timeout_s: float = 120.0,
                    notebook_timeout_s: float = 600.0, check_timeout_s: float | None = None,
-                   isolate: bool | None = None) -> SubmissionGrade:
+                   isolate: bool | None = None, folder: Path | None = None) -> SubmissionGrade:
     """Run `path` and grade lab `lab`'s tasks in it. Never raises for anything the notebook does.
+    `folder`: the student's own folder, whose other files the notebook may read (None: the notebook alone).
     `isolate`: run the kernel in the bubblewrap sandbox (None: where it is available)."""
+    if not all(math.isfinite(t) and t > 0 for t in (cell_timeout_s, notebook_timeout_s, check_timeout_s or 1.0)):
+        raise ConfigError("time limits must be positive and finite")
     started = time.monotonic()
     task_ids = [t.id for t in load_lab(lab)]
     for hidden_path in hidden_paths:
@@ -105,18 +105,23 @@ def grade_notebook(path: Path, student: str, lab: str, hidden_paths: list[Path],
             LOG.warning("%s", problem)  # the instructor's file: said to them, not in a student's feedback
     grade = SubmissionGrade(student, str(path), lab)
     try:
-        notebook = nbformat.read(path, as_version=4)
+        notebook = _read_notebook(Path(path))
     except Exception as error:
         grade.notes.append(f"could not read the notebook ({type(error).__name__}: {error}); nothing was run")
         grade.tasks = [zero_grade(t, "the notebook could not be read") for t in task_ids]
         return grade
     grade.written = collect_answers(notebook, lab)
-    sandbox = _sandbox_for(Path(path), isolate)
-    grade.isolated = sandbox is not None
-    workdir = sandbox.work if sandbox is not None else Path(path).parent
-    run = _Run(notebook, workdir, task_ids, cell_timeout_s, started + notebook_timeout_s, grade)
-    run.check_timeout_s, run.sandbox = check_timeout_s, sandbox
+    scratch = Path(tempfile.mkdtemp(prefix="pendkit-submission-"))
+    sandbox = None
     try:
+        for what in stage_submission(Path(path), folder, scratch):
+            grade.notes.append(f"left out {what}")
+        if isolate is True or (isolate is None and isolation_problem() is None):
+            sandbox = Sandbox(scratch)
+        grade.isolated = sandbox is not None
+        workdir = sandbox.work if sandbox is not None else scratch
+        run = _Run(notebook, workdir, task_ids, cell_timeout_s, started + notebook_timeout_s, grade)
+        run.check_timeout_s, run.sandbox = check_timeout_s, sandbox
         with _grading_environment(check_timeout_s):
             for _ in range(MAX_RUNS):
                 try:
@@ -129,6 +134,7 @@ def grade_notebook(path: Path, student: str, lab: str, hidden_paths: list[Path],
     finally:
         if sandbox is not None:
             sandbox.close()
+        shutil.rmtree(scratch, ignore_errors=True)
     grade.tasks = [run.graded.get(t) or zero_grade(t, run.skipped.get(t, "not graded: the notebook did not "
                                                                          "get this far"))
                    for t in task_ids]
@@ -153,12 +159,12 @@ class _Run:
 
         notebook = nbformat.from_dict(self.notebook)  # a fresh copy per run
         km = self.sandbox.kernel_manager() if self.sandbox is not None else None
-        client = NotebookClient(notebook, km=km, timeout=self.cell_timeout_s, kernel_name="python3",
+        client = NotebookClient(notebook, km=km, timeout=math.ceil(self.cell_timeout_s), kernel_name="python3",
                                 allow_errors=True, interrupt_on_timeout=False, record_timing=False,
                                 shutdown_kernel="immediate",  # nothing of the kernel's is kept
                                 resources={"metadata": {"path": str(self.workdir)}})
         try:
-            with client.setup_kernel():
+            with client.setup_kernel(env=kernel_environment(self.check_timeout_s)):
                 for index, cell in enumerate(notebook.cells):
                     if cell.cell_type != "code" or index in self.excluded:
                         continue
@@ -167,7 +173,7 @@ class _Run:
                         self.grade.notes.append(f"the notebook's time limit was reached at {_where(index, cell)}; "
                                                 "later cells were not run")
                         break
-                    client.timeout = int(max(1, min(self.cell_timeout_s, remaining)))
+                    client.timeout = math.ceil(max(1, min(self.cell_timeout_s, remaining)))
                     try:
                         client.execute_cell(cell, index)
                     except (CellTimeoutError, DeadKernelError) as error:
@@ -176,6 +182,9 @@ class _Run:
                                                 "run again without it")
                         self.excluded.add(index)
                         raise _Restart from error
+                    except Exception as error:  # noqa: BLE001 - the kernel's messages no longer make sense
+                        self._tampered(f"while {_where(index, cell)} ran", error)
+                        return
                     self._note_error(index, cell)
                 with _call_channel(self.sandbox) as channel_dir:
                     session = KernelSession(client, channel_dir)
@@ -183,11 +192,26 @@ class _Run:
                         for task_id in self.task_ids:
                             if task_id not in self.graded and task_id not in self.skipped:
                                 self._grade_task(session, task_id)
+                    except (_Restart, KernelLost):
+                        raise
+                    except Exception as error:  # noqa: BLE001 - as above, while the grader called a function
+                        self._tampered("while the grader called your functions", error)
                     finally:
                         session.close()
         finally:
             if km is not None:  # nbclient shuts down only the kernels it started itself
                 _kill_kernel(km)
+
+    def _tampered(self, when: str, error: Exception) -> None:
+        """The kernel's replies stopped making sense (its json, numpy or socket modules were replaced):
+        said to the student as such; what was graded keeps its points, the rest gets none."""
+        reason = (f"the grader could not read your kernel's messages {when} ({type(error).__name__}: "
+                  f"{str(error)[:120]}): does your notebook replace or patch json, numpy, socket or the kit's "
+                  "modules? Don't; 0 points for the tasks not graded before that")
+        self.grade.notes.append(reason)
+        for task_id in self.task_ids:
+            if task_id not in self.graded:
+                self.skipped.setdefault(task_id, "not graded: " + reason)
 
     def _grade_task(self, session: KernelSession, task_id: str) -> None:
         """Every test runs here, in the grader; only the student's function runs in their kernel."""
@@ -195,7 +219,11 @@ class _Run:
         fn = RemoteFunction(session, task.function)
         results: list[TestResult] = []
         for test in task.tests:
-            limit = min(test.timeout_s, self.check_timeout_s or test.timeout_s)
+            remaining = self.deadline - time.monotonic()
+            if remaining <= 0:
+                self.skipped[task_id] = "not graded: the notebook's time limit was reached before its tests"
+                return
+            limit = min(test.timeout_s, self.check_timeout_s or test.timeout_s, remaining)
             session.start_test(limit)
             try:
                 result = run_test(test, fn, time_limit=False)
@@ -242,11 +270,23 @@ def _where(index: int, cell) -> str:
     return f"cell {index + 1} ({first[:50]})" if first else f"cell {index + 1}"
 
 
+def _grading_values(check_timeout_s: float | None) -> dict[str, str]:
+    """Grade mode, never strict, no GUI backend, the cap on checks' time."""
+    return {"PENDKIT_MODE": "grade", "PENDKIT_GRADER_STRICT": "0", "MPLBACKEND": "Agg",
+            TIMEOUT_CAP_VARIABLE: "" if check_timeout_s is None else str(check_timeout_s)}
+
+
+def kernel_environment(check_timeout_s: float | None) -> dict[str, str]:
+    """The student's kernel gets this, not the grader's whole environment (an instructor's tokens and
+    passwords stay out): what Python, locales and temporary folders need, and the grading values."""
+    kept = {name: value for name, value in os.environ.items() if name.upper() in KERNEL_ENV_ALLOWED}
+    return {**kept, **_grading_values(check_timeout_s)}
+
+
 @contextmanager
 def _grading_environment(check_timeout_s: float | None):
-    """The kernel inherits this process's environment: grade mode, never strict, no GUI backend."""
-    wanted = {"PENDKIT_MODE": "grade", "PENDKIT_GRADER_STRICT": "0", "MPLBACKEND": "Agg",
-              TIMEOUT_CAP_VARIABLE: "" if check_timeout_s is None else str(check_timeout_s)}
+    """The grader's own process grades in grade mode too (its tests call the kit)."""
+    wanted = _grading_values(check_timeout_s)
     saved = {name: os.environ.get(name) for name in wanted}
     os.environ.update(wanted)
     try:

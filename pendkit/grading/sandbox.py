@@ -26,6 +26,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 KERNEL_NAME = "pendkit-sandbox"
+KERNEL_WRITES = ("work", "home", "ipc")  # the scratch folder's subfolders the kernel may write
+GRADER_ONLY = ("specs", "run")  # read-only to the kernel: the grader writes and deletes here
 SANDBOX_UID_BASE = 61000
 SYSTEM_DIRS = ("/usr", "/etc", "/lib", "/lib64", "/lib32", "/bin", "/sbin", "/opt/conda")
 
@@ -129,15 +131,16 @@ class Sandbox:
     def __init__(self, submission_dir: Path, limits: Limits | None = None) -> None:
         self.limits = limits or Limits()
         self.root = Path(tempfile.mkdtemp(prefix="pendkit-grade-"))
+        os.chmod(self.root, 0o755)  # the kernel's own user passes through it, and writes nothing in it
         self.work = self.root / "work"
-        shutil.copytree(submission_dir, self.work, ignore=shutil.ignore_patterns(".ipynb_checkpoints"))
-        for name in ("home", "specs", "run"):
-            (self.root / name).mkdir()
+        shutil.copytree(submission_dir, self.work, symlinks=True)  # staged: regular files only
+        for name in (*KERNEL_WRITES, *GRADER_ONLY):
+            (self.root / name).mkdir(exist_ok=True)
         for font_list in _font_cache_files():  # else matplotlib rebuilds it in every sandbox (~0.4 s)
             shutil.copy2(font_list, self.root / "home")
         self.uid = _kernel_uid() if os.geteuid() == 0 else None
         if self.uid is not None:
-            for path in [self.root, *self.root.rglob("*")]:
+            for path in [path for name in KERNEL_WRITES for path in [self.root / name, *(self.root / name).rglob("*")]]:
                 os.chown(path, self.uid, self.uid, follow_symlinks=False)
         self._write_spec()
 
@@ -150,7 +153,11 @@ class Sandbox:
         home = str(self.root / "home")
         argv = ["bwrap", *_namespace_args(), "--dev", "/dev", "--proc", "/proc", "--perms", "1777", "--tmpfs", "/tmp",
                 *binds,
-                "--bind", str(self.root), str(self.root), "--chdir", str(self.work),
+                # the scratch folder read-only but for the kernel's own folders, so it can never swap a folder
+                # the grader later writes in (run/: the connection file and the call socket) for a link
+                "--ro-bind", str(self.root), str(self.root),
+                *[arg for name in KERNEL_WRITES for arg in ("--bind", str(self.root / name), str(self.root / name))],
+                "--chdir", str(self.work),
                 "--setenv", "HOME", home, "--setenv", "MPLCONFIGDIR", home, "--setenv", "IPYTHONDIR", home,
                 "--unsetenv", "JPY_PARENT_PID",  # its parent is the sandbox's init (pid 1): no parent polling
                 sys.executable, "-m", "pendkit.grading.sandbox_launch", "--cpu-s", str(self.limits.cpu_s),
@@ -170,9 +177,9 @@ class Sandbox:
         from jupyter_client.manager import AsyncKernelManager
 
         specs = KernelSpecManager(kernel_dirs=[str(self.root / "specs")], ensure_native_kernel=False)
-        run = self.root / "run"
         return AsyncKernelManager(kernel_name=KERNEL_NAME, kernel_spec_manager=specs, transport="ipc",
-                                  ip=str(run / "kernel"), connection_file=str(run / "connection.json"))
+                                  ip=str(self.root / "ipc" / "kernel"),  # the kernel binds these sockets
+                                  connection_file=str(self.root / "run" / "connection.json"))
 
     def close(self) -> None:
         """Kill whatever still runs as the sandbox's own user, then remove the scratch folder."""
