@@ -64,7 +64,8 @@ def mqtt_rig(rig_id: str, broker: str | None) -> Rig:
     def prior() -> RigParams:
         if not configured:
             counts = rig_status(rig_id, broker).get("servo_counts_range")
-            valid = isinstance(counts, list) and len(counts) == 2 and all(isinstance(c, int) for c in counts)
+            valid = (isinstance(counts, list) and len(counts) == 2 and all(isinstance(c, int) for c in counts)
+                     and 0 <= counts[0] < counts[1])
             configured.append(configured_prior(*counts) if valid else RigParams())
         return configured[0]
 

@@ -194,16 +194,16 @@ class GradingInterrupted(PendkitError):
 
 def grade_folder(folder: Path, out: Path, lab: str | None, hidden_dir: Path | None, cell_timeout_s: float,
                  notebook_timeout_s: float, check_timeout_s: float | None = None, progress: bool = True,
-                 jobs: int = 1, one_student: bool = False) -> list[SubmissionGrade]:
+                 jobs: int = 1, one_student: bool = False, isolate: bool | None = None) -> list[SubmissionGrade]:
     """Grade every submission in `folder`, `jobs` at a time; write the reports; return the grades. Hidden
     files that cannot be loaded are skipped and reported on stderr; no submission can stop the others.
     Every scratch folder lives under one folder of this run, removed however the run ends; an interrupted
-    run writes what it graded and says so in the other rows."""
+    run writes what it graded and says so in the other rows. `isolate`: as `grade_notebook`'s."""
     submissions = find_submissions(folder, lab, one_student)
     sources = read_hidden_sources(hidden_dir, {s.lab for s in submissions if s.lab is not None and not s.problem})
     for problem in load_suites(sources):
         print(f"pendkit grade: {problem}; grading without it", file=sys.stderr)
-    settings = (cell_timeout_s, notebook_timeout_s, check_timeout_s)
+    settings = (cell_timeout_s, notebook_timeout_s, check_timeout_s, isolate)
     bar = None
     if progress:
         from tqdm.auto import tqdm

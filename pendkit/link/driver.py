@@ -22,11 +22,14 @@ from pendkit.errors import ConfigError, PendkitError
 from pendkit.link import DEFAULT_BROKER
 
 LOG = logging.getLogger("pendkit.link")
-# An observation older than the newest (time or v2 sequence), or a sequence number further ahead than
-# this, is a replayed or forged message while the stream is live; after RESYNC_AFTER_S of silence the
-# device may have rebooted (its clock and counters restart), so the next observation is taken as it is.
-SEQUENCE_WINDOW = 1000
+# While the stream is live, an observation older than the newest (time or v2 sequence) or further ahead than
+# the time since it allows is a replayed or forged one (anyone may publish on an open broker): rejected, and
+# the stream followed goes on. Two such observations in a row that follow each other are a new stream (the
+# device rebooted: its clock and counters restarted) and are followed from then on, as is any observation
+# after RESYNC_AFTER_S of silence.
 RESYNC_AFTER_S = 1.0
+FASTEST_STREAM_MS = 5.0  # no device streams faster: bounds how far the sequence can move in a given time
+CLOCK_SLACK_S = 0.5  # the network's jitter: how much further the device's clock may move than ours
 
 
 def send_without_delay(client: mqtt.Client) -> None:
@@ -93,6 +96,22 @@ def topics(rig: str) -> tuple[str, str, str]:
     return f"pendulum-r/obs/{rig}", f"pendulum-r/act/{rig}", f"pendulum-r/status/{rig}"
 
 
+def order_problem(before: ReceivedObservation, received: ReceivedObservation, elapsed_s: float) -> str | None:
+    """Why `received` cannot follow `before` in a live stream `elapsed_s` later (None: it can)."""
+    ahead_ms = received.observation.millis - before.observation.millis
+    if ahead_ms < 0:
+        return f"time went backwards: {received.observation.millis} ms after {before.observation.millis} ms"
+    if ahead_ms > (elapsed_s + CLOCK_SLACK_S) * 1000:
+        return f"time jumped {ahead_ms} ms ahead in {elapsed_s * 1000:.0f} ms"
+    if received.version == 2 and before.version == 2:
+        gap = received.observation_seq - before.observation_seq
+        most = 2 + int((elapsed_s + CLOCK_SLACK_S) * 1000 / FASTEST_STREAM_MS)
+        if not 1 <= gap <= most:
+            return (f"observation seq {received.observation_seq} after {before.observation_seq}: expected the next "
+                    f"one, at most {most} ahead")
+    return None
+
+
 class RigLink:
     """Connects as the host of `rig`; `publish` commands, read `newest`."""
 
@@ -105,6 +124,7 @@ class RigLink:
         self.obs_topic, self.act_topic, self.status_topic = topics(rig)
         self.counters = LinkCounters()
         self.newest: Arrival | None = None
+        self._stray: ReceivedObservation | None = None  # the last observation rejected as out of order
         self.status: str | None = None
         self.status_is_live = False  # the last status was published while we listened (not the retained copy)
         self.log = log
@@ -188,21 +208,24 @@ class RigLink:
             self.log.write(now, "rx", self.obs_topic, payload)
 
     def _check_order(self, received: ReceivedObservation, now: float) -> None:
-        """Reject what a live stream cannot send: time going backwards, a repeated or far-jumping v2
-        sequence number. Count dropped observations (sequence gaps) of an accepted one."""
+        """Reject what the live stream cannot have sent (see RESYNC_AFTER_S); count the observations lost
+        (v2 sequence gaps) before an accepted one."""
         newest = self.newest
         if newest is None:
             return
         if now - newest.receive_time_s > RESYNC_AFTER_S:
             self.counters.resyncs += 1
+            self._stray = None
             return
-        before = newest.received
-        if received.observation.millis < before.observation.millis:
-            raise ProtocolError(f"time went backwards: {received.observation.millis} ms after "
-                                f"{before.observation.millis} ms")
-        if received.version == 2 and before.version == 2:
-            gap = received.observation_seq - before.observation_seq
-            if not 1 <= gap <= SEQUENCE_WINDOW:
-                raise ProtocolError(f"observation seq {received.observation_seq} after {before.observation_seq}: "
-                                    f"expected the next one, at most {SEQUENCE_WINDOW} ahead")
-            self.counters.dropped += gap - 1
+        problem = order_problem(newest.received, received, now - newest.receive_time_s)
+        if problem is None:
+            self._stray = None
+            if received.version == 2 and newest.received.version == 2:
+                self.counters.dropped += received.observation_seq - newest.received.observation_seq - 1
+            return
+        stray, self._stray = self._stray, received
+        if stray is not None and order_problem(stray, received, now - newest.receive_time_s) is None:
+            self.counters.resyncs += 1  # two in a row that follow each other: the device restarted
+            self._stray = None
+            return
+        raise ProtocolError(problem)

@@ -136,7 +136,15 @@ class RigBackend:
             return
         device_range = status.get("servo_counts_range") if isinstance(status, dict) else None
         host_range = [self.params.servo_min_counts, self.params.servo_max_counts]
-        if isinstance(device_range, list) and device_range != host_range:
+        if device_range is None:
+            return
+        if not (isinstance(device_range, list) and len(device_range) == 2
+                and all(isinstance(n, int) and not isinstance(n, bool) for n in device_range)
+                and 0 <= device_range[0] < device_range[1] <= 65535):
+            raise RigLinkError(f"rig {self.rig}'s status says servo_counts_range {str(device_range)[:40]}, not "
+                               "[min, max] counts: a malformed or forged status (anyone may publish on an open "
+                               "broker: use the classroom broker's ACLs, docs/protocol.md); restart the rig")
+        if device_range != host_range:
             raise ConfigError(f"rig {self.rig}'s firmware drives servo counts {device_range[0]}..{device_range[-1]}, "
                               f"but the host's RigParams say {host_range[0]}..{host_range[1]} "
                               f"({self.params.servo_name}): pass params=RigParams.preset(...) for the servo "

@@ -77,3 +77,44 @@ def test_after_silence_a_restarted_device_is_picked_up_again(link):
     link._on_message(None, None, message(link.obs_topic, "R12,0,512,300,0.0,0.0,0.0,0,0,0"))  # rebooted
     assert link.counters.malformed == 0 and link.counters.resyncs == 1
     assert link.newest.received.observation.millis == 12
+
+
+def feed(link, *payloads):
+    for payload in payloads:
+        link._on_message(None, None, message(link.obs_topic, payload))
+
+
+def test_one_forged_observation_far_ahead_does_not_stop_the_real_stream(link):
+    feed(link, "R1000,10,512,300,0.0,0.0,0.0,0,3,99")
+    feed(link, "R1025,1010,512,300,0.0,0.0,0.0,0,3,99")  # forged: seq +1000
+    feed(link, "R1025,11,512,300,0.0,0.0,0.0,0,3,99", "R1050,12,512,300,0.0,0.0,0.0,0,3,99")  # the real stream
+    assert link.newest.received.observation_seq == 12
+    assert link.counters.malformed == 1 and link.counters.dropped == 0 and link.counters.resyncs == 0
+    feed(link, "R4294967295,13,512,300,0.0,0.0,0.0,0,3,99")  # forged: the device's clock at its end
+    feed(link, "R1075,13,512,300,0.0,0.0,0.0,0,3,99")
+    assert link.newest.received.observation.millis == 1075 and link.counters.malformed == 2
+
+
+def test_time_jumping_ahead_of_the_hosts_clock_is_rejected(link):
+    feed(link, "S5000,512,300,0.0,0.0,0.0", "S900000,512,300,0.0,0.0,0.0", "S5025,512,300,0.0,0.0,0.0")
+    assert link.counters.malformed == 1 and link.newest.received.observation.millis == 5025
+
+
+def test_a_device_that_restarts_mid_stream_is_followed_after_two_observations_that_agree(link):
+    feed(link, "R90000,5000,512,300,0.0,0.0,0.0,0,3,99", "R12,0,512,300,0.0,0.0,0.0,0,0,0")
+    assert link.newest.received.observation_seq == 5000 and link.counters.malformed == 1
+    feed(link, "R37,1,512,300,0.0,0.0,0.0,0,0,0")  # follows the rejected one: a new stream
+    assert link.newest.received.observation_seq == 1 and link.counters.resyncs == 1
+
+
+@pytest.mark.parametrize("reported", [[], [150], ["150", "450"], [450, 150], "150..450", [True, 450]])
+def test_a_malformed_servo_range_in_the_status_is_named_not_an_index_error(reported):
+    import json
+
+    from pendkit.link.driver import RigLinkError
+    from pendkit.link.rig_backend import RigBackend
+
+    backend = SimpleNamespace(link=SimpleNamespace(status=json.dumps({"servo_counts_range": reported})),
+                              params=RigParams(), rig="r07")
+    with pytest.raises(RigLinkError, match="malformed or forged"):
+        RigBackend._check_device_config(backend)

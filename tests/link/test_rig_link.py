@@ -182,3 +182,26 @@ def test_classroom_acl_and_anonymous_clients(classroom):
         RigLink("r01", classroom.url).connect(timeout_s=1.0)  # anonymous: refused
     with pytest.raises(RigLinkError, match="no connection"):
         RigLink("r01", classroom.url, username="host-r01", password="wrong").connect(timeout_s=1.0)
+
+
+def test_forged_observations_on_an_open_broker_do_not_stop_an_episode(broker_url):
+    import paho.mqtt.client as mqtt
+
+    with VirtualRigGroup([VirtualRig("r01", broker_url)]):
+        env = rig_env(broker_url)
+        env.reset(seed=0)
+        link = env.unwrapped.backend.link
+        forger = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2)
+        host, port = broker_url.removeprefix("mqtt://").split(":")
+        forger.connect(host, int(port))
+        forger.loop_start()
+        for k in range(30):
+            if k in (5, 15):
+                newest = link.newest.received
+                seq, millis = newest.observation_seq, newest.observation.millis
+                forged = (f"R{millis + 25},{seq + 999}" if k == 5 else f"R{2**32 - 1},{seq + 1}") + ",512,300,0,0,0,0,3,99"
+                forger.publish(link.obs_topic, forged).wait_for_publish()
+            env.step(0)  # never a RigLinkError: the real stream goes on
+        assert link.counters.malformed >= 2 and link.counters.dropped < 50
+        forger.loop_stop()
+        env.close()
