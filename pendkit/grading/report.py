@@ -210,7 +210,7 @@ def grade_folder(folder: Path, out: Path, lab: str | None, hidden_dir: Path | No
 
         bar = tqdm(total=len(submissions), desc="grading", unit="notebook")
     grades: dict[int, SubmissionGrade] = {}
-    scratch = Path(tempfile.mkdtemp(prefix="pendkit-grading-run-"))
+    scratch = Path(tempfile.mkdtemp(prefix="pendkit-grading-run-", dir=_short_temporary_folder()))
     try:
         if jobs <= 1:
             with _temporary_files_in(scratch):
@@ -266,6 +266,15 @@ def _grade_in_pool(submissions, settings, sources, jobs, scratch, grades, bar) -
                                           "twice (it used too much memory or time?): 0 points")
         if bar is not None:
             bar.update(1)
+
+
+def _short_temporary_folder() -> str | None:
+    """/tmp on Linux and macOS unless a caller chose a folder: the kernels' sockets live under the run's
+    scratch folder, and a socket's path may not pass 104-108 bytes (macOS's own temporary folder is
+    already 49)."""
+    if tempfile.tempdir is None and os.name == "posix" and os.access("/tmp", os.W_OK):
+        return "/tmp"
+    return None
 
 
 @contextmanager

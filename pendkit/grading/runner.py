@@ -183,6 +183,11 @@ class _Run:
                         self.excluded.add(index)
                         raise _Restart from error
                     except Exception as error:  # noqa: BLE001 - the kernel's messages no longer make sense
+                        if not _alive(client):  # nbclient saw the death its own way
+                            self.grade.notes.append(f"{_where(index, cell)} killed the kernel; it was left out "
+                                                    "and the notebook run again without it")
+                            self.excluded.add(index)
+                            raise _Restart from error
                         self._tampered(f"while {_where(index, cell)} ran", error)
                         return
                     self._note_error(index, cell)
@@ -252,6 +257,15 @@ def _call_channel(sandbox: Sandbox | None):
     else:
         with tempfile.TemporaryDirectory(prefix="pendkit-calls-") as folder:
             yield Path(folder)
+
+
+def _alive(client) -> bool:
+    from jupyter_core.utils import run_sync
+
+    try:
+        return bool(run_sync(client.km.is_alive)())
+    except Exception:  # noqa: BLE001 - a kernel that cannot even say is not one to go on with
+        return False
 
 
 def _kill_kernel(km) -> None:

@@ -25,7 +25,10 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
+from pendkit.errors import ConfigError
+
 KERNEL_NAME = "pendkit-sandbox"
+MAX_SOCKET_PATH = 100  # Linux allows 108 bytes, macOS 104
 KERNEL_WRITES = ("work", "home", "ipc")  # the scratch folder's subfolders the kernel may write
 GRADER_ONLY = ("specs", "run")  # read-only to the kernel: the grader writes and deletes here
 SANDBOX_UID_BASE = 61000
@@ -131,6 +134,10 @@ class Sandbox:
     def __init__(self, submission_dir: Path, limits: Limits | None = None) -> None:
         self.limits = limits or Limits()
         self.root = Path(tempfile.mkdtemp(prefix="pendkit-grade-"))
+        if len(str(self.root / "ipc" / "kernel-65535")) > MAX_SOCKET_PATH:
+            shutil.rmtree(self.root)
+            raise ConfigError(f"the scratch folder {self.root.parent} is too deep for the kernel's sockets (a socket's "
+                              f"path may not pass {MAX_SOCKET_PATH} bytes): grade with TMPDIR=/tmp")
         os.chmod(self.root, 0o755)  # the kernel's own user passes through it, and writes nothing in it
         self.work = self.root / "work"
         shutil.copytree(submission_dir, self.work, symlinks=True)  # staged: regular files only

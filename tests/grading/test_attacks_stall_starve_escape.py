@@ -6,6 +6,7 @@ import os
 import shutil
 import signal
 import stat
+import tempfile
 import time
 from pathlib import Path
 
@@ -128,18 +129,21 @@ def graded(tmp_path_factory):
     write(cls / "z-honest" / "00_tour.ipynb", nbformat.read(SOLUTION, as_version=4))
     (cls / "z-honest" / "notes.txt").write_text(f"{SECRET} z-honest's own notes\n")
     os.environ["PENDKIT_TEST_INSTRUCTOR_TOKEN"] = SECRET
+    run_tmp = Path(tempfile.mkdtemp(prefix="pk-"))  # this run's scratch apart from others' (short: sockets)
+    saved_tmp, tempfile.tempdir = tempfile.tempdir, str(run_tmp)
     try:
-        started = time.monotonic()
         grades = grade_folder(cls, work / "out", None, outside, 60.0, 240.0, check_timeout_s=3.0,
                               progress=False, jobs=2)
-        seconds = time.monotonic() - started
     finally:
         del os.environ["PENDKIT_TEST_INSTRUCTOR_TOKEN"]
-    return {g.student: g for g in grades}, work, decoy, seconds
+        tempfile.tempdir = saved_tmp
+    yield {g.student: g for g in grades}, run_tmp, decoy
+    shutil.rmtree(run_tmp, ignore_errors=True)
 
 
 def test_every_notebook_gets_a_row_and_the_csv_is_written(graded):
-    grades, work, *_ = graded
+    grades, *_ = graded
+    work = Path(grades["z-honest"].notebook).parents[2]
     assert set(grades) == {"a-trickle", "b-huge-bytes", "c-many-values", "d-environment", "e-links/00_tour",
                            "e-links/neighbour", "f-flat",
                            "g-json", "h-run-folder", "grades.csv", "i-lab99", "j-linked-notebook", "z-honest"}
@@ -196,7 +200,7 @@ def test_patching_json_in_the_kernel_is_reported_as_tampering(graded):
 
 @needs_sandbox
 def test_a_kernel_cannot_swap_the_graders_folder_for_a_link(graded):
-    grades, _, decoy, _ = graded
+    grades, _, decoy = graded
     assert (decoy / "connection.json").read_text() == "keep me"
     assert stat.S_IMODE(decoy.stat().st_mode) == 0o700
     assert "killed the kernel" in feedback(grades["h-run-folder"])
@@ -223,10 +227,8 @@ def test_with_a_lab_given_a_notebook_of_unknown_lab_is_graded_as_that_lab(graded
 
 
 def test_scratch_folders_are_gone_after_the_run(graded):
-    import tempfile
-
-    leftovers = [p for p in Path(tempfile.gettempdir()).glob("pendkit-grading-run-*")]
-    assert not [p for p in leftovers if p.stat().st_mtime > time.time() - graded[3] - 60]
+    _, run_tmp, _ = graded
+    assert list(run_tmp.iterdir()) == []  # sandboxes, staged copies and killed workers' folders alike
 
 
 def test_a_killed_worker_costs_only_the_notebook_that_killed_it(tmp_path):
@@ -256,11 +258,14 @@ def test_an_interrupted_run_writes_what_it_graded(tmp_path, monkeypatch):
         return real(submission, settings)
 
     monkeypatch.setattr(report, "_grade_one", interrupted_at_bob)
+    run_tmp = Path(tempfile.mkdtemp(prefix="pk-"))
+    monkeypatch.setattr(tempfile, "tempdir", str(run_tmp))
     with pytest.raises(GradingInterrupted, match="1 of 3 notebooks graded"):
         grade_folder(cls, tmp_path / "out", None, None, 60.0, 240.0, progress=False)
     rows = (tmp_path / "out" / "grades.csv").read_text().splitlines()
     assert len(rows) == 4 and "interrupted" in rows[2] and "interrupted" in rows[3]
-    assert not list(Path(os.environ.get("TMPDIR", "/tmp")).glob("pendkit-grading-run-*/pendkit-*"))
+    assert list(run_tmp.iterdir()) == []
+    run_tmp.rmdir()
 
 
 def test_fractional_limits_work_and_bad_ones_are_refused(tmp_path):

@@ -199,7 +199,8 @@ def test_forged_observations_on_an_open_broker_do_not_stop_an_episode(broker_url
             if k in (5, 15):
                 newest = link.newest.received
                 seq, millis = newest.observation_seq, newest.observation.millis
-                forged = (f"R{millis + 25},{seq + 999}" if k == 5 else f"R{2**32 - 1},{seq + 1}") + ",512,300,0,0,0,0,3,99"
+                head = f"R{millis + 25},{seq + 999}" if k == 5 else f"R{2**32 - 1},{seq + 1}"
+                forged = head + ",512,300,0,0,0,0,3,99"
                 forger.publish(link.obs_topic, forged).wait_for_publish()
             env.step(0)  # never a RigLinkError: the real stream goes on
         assert link.counters.malformed >= 2 and link.counters.dropped < 50
