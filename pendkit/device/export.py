@@ -1,0 +1,106 @@
+"""Controllers as blobs for a rig to run: a trained R-DQN's network, an LQR's gain; and the shared test
+vectors that hold the device runtimes (Python here, C++ in the firmware) to torch's outputs.
+
+    python -m pendkit.device.export vectors tests/vectors   # rebuild the vectors from the shipped policy
+"""
+
+from __future__ import annotations
+
+import struct
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from pendkit.device.controller_blob import DenseLayer, NetworkBlob, StateFeedbackBlob, pack
+
+VECTORS_MAGIC = b"PKTV"
+VECTOR_HEADER = struct.Struct("<4sIHH")  # magic, steps, input size, output size
+
+
+def network_blob(agent) -> NetworkBlob:
+    """The greedy network of a recurrent DQN agent (`pendkit.agents.recurrent_dqn`)."""
+    from pendkit.agents.normalizer import CLIP_STD
+
+    gru = agent.q.trunk.gru
+    weights = tuple(p.detach().numpy().astype(np.float32) for p in (gru.weight_ih_l0, gru.weight_hh_l0,
+                                                                      gru.bias_ih_l0, gru.bias_hh_l0))
+    modules = list(agent.q.head)
+    layers = []
+    for k, module in enumerate(modules):
+        if hasattr(module, "weight"):
+            follows = type(modules[k + 1]).__name__ if k + 1 < len(modules) else ""
+            layers.append(DenseLayer(module.weight.detach().numpy().astype(np.float32),
+                                     module.bias.detach().numpy().astype(np.float32),
+                                     {"ReLU": "relu", "Tanh": "tanh", "Sigmoid": "sigmoid"}.get(follows, "none")))
+    normalizer = agent.normalizer
+    return NetworkBlob(normalizer.mean.astype(np.float32), normalizer.std.astype(np.float32), CLIP_STD, layers,
+                       weights, "argmax")
+
+
+def state_feedback_blob(gain, reference, output_limit: float) -> StateFeedbackBlob:
+    return StateFeedbackBlob(np.asarray(gain, dtype=np.float32).ravel(),
+                             np.asarray(reference, dtype=np.float32).ravel(), float(output_limit))
+
+
+def record_vectors(name: str = "r-dqn-realistic", steps: int = 10_000, seed: int = 0):
+    """(blob, starts, inputs, torch outputs): a shipped policy driving its twin greedily, every step's raw
+    input and the Q-values torch computes for it."""
+    import torch
+
+    import pendkit
+    from pendkit.agents.pretrained import policy_weights
+    from pendkit.agents.runs import build_run
+
+    spec, state = policy_weights(name)
+    env, agent, inputs = build_run(spec)
+    agent.load_policy(state)
+    starts, xs, outputs = [], [], []
+    episode = 0
+    while len(xs) < steps:
+        observation, _ = env.reset(seed=seed + episode, options={"start": "random" if episode % 2 else "rest"})
+        agent.reset()
+        x = inputs.reset(observation)
+        for k in range(min(500, steps - len(xs))):
+            starts.append(k == 0)
+            xs.append(np.asarray(x, dtype=np.float32))
+            with torch.no_grad():
+                z = agent.normalizer.normalize(torch.as_tensor(xs[-1]).reshape(1, -1))
+                agent.hidden = agent.q.trunk.step(z, agent.hidden)
+                q = agent.q.q(z, agent.hidden)[0].numpy()
+            outputs.append(q.astype(np.float32))
+            action = int(np.argmax(q))
+            observation, _, terminated, truncated, _ = env.step(action)
+            x = inputs.step(observation, action)
+            if terminated or truncated:
+                break
+        episode += 1
+    env.close()
+    del pendkit
+    return network_blob(agent), np.array(starts), np.stack(xs), np.stack(outputs)
+
+
+def write_vectors(folder: Path, name: str = "r-dqn-realistic") -> Path:
+    blob, starts, xs, outputs = record_vectors(name)
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / f"{name}.pkcb").write_bytes(pack(blob))
+    path = folder / f"{name}.pktv"
+    rows = np.concatenate([starts[:, None].astype(np.float32), xs, outputs], axis=1).astype("<f4")
+    path.write_bytes(VECTOR_HEADER.pack(VECTORS_MAGIC, len(xs), xs.shape[1], outputs.shape[1]) + rows.tobytes())
+    return path
+
+
+def read_vectors(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(episode starts, inputs, expected outputs) of a vectors file: per step, 1 + inputs + outputs float32."""
+    data = Path(path).read_bytes()
+    magic, steps, n_in, n_out = VECTOR_HEADER.unpack_from(data)
+    if magic != VECTORS_MAGIC:
+        raise ValueError(f"{path} is not a pendkit vectors file")
+    rows = np.frombuffer(data, dtype="<f4", offset=VECTOR_HEADER.size).reshape(steps, 1 + n_in + n_out)
+    return rows[:, 0] > 0.5, rows[:, 1:1 + n_in], rows[:, 1 + n_in:]
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 3 or sys.argv[1] != "vectors":
+        raise SystemExit("usage: python -m pendkit.device.export vectors FOLDER")
+    print(f"wrote {write_vectors(Path(sys.argv[2]))}")
