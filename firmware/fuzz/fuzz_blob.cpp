@@ -1,0 +1,38 @@
+// libFuzzer target: arbitrary bytes as a controller blob (and, when they load, one step on inputs taken from
+// the same bytes). Any crash or sanitizer report is a bug; so is a refused blob that changed the active one.
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+
+#include "controller.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  static pend::Controller controller;
+  const pend::ControllerKind before = controller.kind();
+  const size_t weights = controller.weight_count();
+  pend::BlobStatus status = controller.load(data, size);
+  if (status != pend::BlobStatus::kOk && (controller.kind() != before || controller.weight_count() != weights)) {
+    __builtin_trap();
+  }
+  // The same bytes with a length and a CRC that agree, so that mutations reach the shape checks.
+  static uint8_t sealed[pend::kMaxBlobBytes];
+  if (size >= 16 && size <= sizeof sealed) {
+    std::memcpy(sealed, data, size);
+    const uint32_t payload = static_cast<uint32_t>(size - 16);
+    for (int i = 0; i < 4; ++i) sealed[8 + i] = static_cast<uint8_t>(payload >> (8 * i));
+    const uint32_t crc = pend::crc32(sealed, size - 4);
+    for (int i = 0; i < 4; ++i) sealed[size - 4 + i] = static_cast<uint8_t>(crc >> (8 * i));
+    const pend::ControllerKind kind = controller.kind();
+    const size_t held = controller.weight_count();
+    status = controller.load(sealed, size);
+    if (status != pend::BlobStatus::kOk && (controller.kind() != kind || controller.weight_count() != held)) {
+      __builtin_trap();
+    }
+  }
+  float inputs[512] = {};
+  const size_t count = controller.input_size();
+  for (size_t i = 0; i < count && i < 512 && size > 0; ++i) inputs[i] = static_cast<float>(data[i % size] % 13) - 6.0f;
+  float outputs[512];
+  controller.step(inputs, count, outputs, 512);
+  return 0;
+}
