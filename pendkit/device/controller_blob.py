@@ -24,11 +24,11 @@ MAGIC = b"PKCB"
 VERSION = 1
 HEADER = struct.Struct("<4sHHI")
 CRC = struct.Struct("<I")
-MAX_BLOB_BYTES = 128 * 1024  # a fifth of the ESP32-S2's SRAM; the shipped R-DQN is 47 KB
+MAX_BLOB_BYTES = 64 * 1024  # a fifth of the ESP32-S2's 320 KB of SRAM; the shipped R-DQN is 47 KB
 KINDS = {"network": 1, "state-feedback": 2}
 ACTIVATIONS = {"none": 0, "relu": 1, "tanh": 2, "sigmoid": 3}
 OUTPUTS = {"argmax": 0, "continuous": 1}
-MAX_WIDTH = 512
+MAX_WIDTH = 256
 
 
 class BlobError(PendkitError, ValueError):

@@ -10,8 +10,8 @@
 
 namespace pend {
 
-constexpr size_t kMaxBlobBytes = 128 * 1024;
-constexpr size_t kMaxWidth = 512;
+constexpr size_t kMaxBlobBytes = 64 * 1024;  // a fifth of the ESP32-S2's SRAM; the shipped R-DQN is 47 KB
+constexpr size_t kMaxWidth = 256;
 constexpr size_t kMaxLayers = 8;
 constexpr size_t kMaxStateSize = 16;
 
