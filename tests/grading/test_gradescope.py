@@ -41,3 +41,23 @@ def test_the_autograder_zip_grades_a_submission_like_gradescope(tmp_path):
         scores[name] = results["score"]
         assert all({"name", "score", "max_score", "output", "visibility"} <= set(t) for t in results["tests"])
     assert scores["solution"] == 10 and scores["template"] < scores["solution"]
+
+
+def test_a_link_to_the_hidden_tests_in_a_gradescope_submission_is_left_out(tmp_path):
+    from pendkit.grading.gradescope import run
+
+    root = tmp_path / "autograder"
+    (root / "submission").mkdir(parents=True)
+    (root / "source" / "hidden").mkdir(parents=True)
+    (root / "source" / "hidden" / "lab00_hidden.py").write_text("# pendkit-secret-hidden\n")
+    notebook = nbformat.read(ROOT / "solutions" / "00_tour.ipynb", as_version=4)
+    notebook.cells.append(nbformat.v4.new_code_cell(
+        "import os\ndef reward(a, v):\n    raise ValueError(str([open(f).read() for f in os.listdir('.') "
+        "if not f.endswith('.ipynb')]))"))
+    nbformat.write(notebook, root / "submission" / "00_tour.ipynb")
+    os.symlink(root / "source" / "hidden", root / "submission" / "hidden")
+    os.symlink(root / "source" / "hidden" / "lab00_hidden.py", root / "submission" / "notes.py")
+    result = run(root, "00")
+    shown = json.dumps(result)
+    assert "pendkit-secret-hidden" not in shown
+    assert "left out `hidden` (a symbolic link" in shown and "left out `notes.py` (a symbolic link" in shown
