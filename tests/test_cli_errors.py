@@ -17,6 +17,7 @@ BAD = {
     "cad": ["cad", "--preset", "no-such-servo"],
     "demo": ["demo", "--seed", "x"],
     "eval": ["eval", "not-a-run"],
+    "export": ["export", "not-a-run", "--out", "x.pkcb"],
     "firmware-header": ["firmware-header", "--preset", "no-such-servo"],
     "grade": ["grade", "class", "--lab", "42"],
     "info": ["info", "--preset", "no-such-servo"],
@@ -35,6 +36,7 @@ MORE_BAD = [
     (["grade", "class", "--hidden", "/nonexistent"], "not a folder of hidden tests"),
     (["eval", "not-a-run"], "no weights"),
     (["plot", "not-a-run"], "not a training run"),
+    (["export", "--policy", "dqn-ideal", "--out", "x.pkcb"], "R-DQN policies so far"),
     (["virtual-rig", "--rig", "+"], "not a rig's name"),
     (["broker", "--port", "99999"], "65535"),
 ]

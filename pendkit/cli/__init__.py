@@ -6,13 +6,14 @@
 | labs.py     | labs build/check, grade, autograder-run                         |
 | learning.py | train, eval, plot, policies list/build                          |
 | link.py     | broker, broker-config, virtual-rig                              |
+| device.py   | export                                                          |
 """
 
 from __future__ import annotations
 
 import click
 
-from pendkit.cli import kit, labs, learning, link
+from pendkit.cli import device, kit, labs, learning, link
 from pendkit.errors import PendkitError
 
 
@@ -36,6 +37,6 @@ def main() -> None:
     """pendkit: the swing-up pendulum teaching kit (twin, rig link, labs, grader)."""
 
 
-for _module in (kit, labs, learning, link):
+for _module in (kit, labs, learning, link, device):
     for _command in _module.COMMANDS:
         main.add_command(_command)
