@@ -57,6 +57,7 @@ def mqtt_rig(rig_id: str, broker: str | None) -> Rig:
     """A rig over MQTT; its time is what it reports having received (a rig that does not report it is
     measured from the host's first command to its last instead, and says so in the name)."""
     import pendkit
+    from pendkit.link.rig_backend import is_servo_counts_range
 
     first: list[float] = []
     configured: list[RigParams] = []
@@ -64,9 +65,7 @@ def mqtt_rig(rig_id: str, broker: str | None) -> Rig:
     def prior() -> RigParams:
         if not configured:
             counts = rig_status(rig_id, broker).get("servo_counts_range")
-            valid = (isinstance(counts, list) and len(counts) == 2 and all(isinstance(c, int) for c in counts)
-                     and 0 <= counts[0] < counts[1])
-            configured.append(configured_prior(*counts) if valid else RigParams())
+            configured.append(configured_prior(*counts) if is_servo_counts_range(counts) else RigParams())
         return configured[0]
 
     def make_env(**env_kwargs):

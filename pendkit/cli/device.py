@@ -42,10 +42,9 @@ def export(run_dir: Path | None, policy_name: str | None, out_path: Path) -> Non
     out_path.parent.mkdir(parents=True, exist_ok=True)
     out_path.write_bytes(data)
     layers = " x ".join(str(layer.weight.shape[0]) for layer in blob.layers)
-    macs = 3 * blob.gru_size * (blob.input_dim + blob.gru_size) + sum(layer.weight.size for layer in blob.layers)
     runtime_for(blob).step([0.0] * blob.input_dim)  # it runs
     click.echo(f"wrote {out_path}: {len(data)} bytes, {blob.input_dim} inputs, GRU {blob.gru_size}, layers {layers}, "
-               f"{macs} multiply-accumulates per step")
+               f"{blob.multiply_accumulates} multiply-accumulates per step")
 
 
 COMMANDS = (export,)

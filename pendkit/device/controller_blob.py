@@ -62,6 +62,11 @@ class NetworkBlob:
     def gru_size(self) -> int:
         return 0 if self.gru is None else int(self.gru[1].shape[1])
 
+    @property
+    def multiply_accumulates(self) -> int:
+        """Per step: the GRU's gates and every dense layer (as the firmware's Controller counts them)."""
+        return 3 * self.gru_size * (self.input_dim + self.gru_size) + sum(layer.weight.size for layer in self.layers)
+
 
 @dataclass
 class StateFeedbackBlob:

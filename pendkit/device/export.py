@@ -48,7 +48,6 @@ def record_vectors(name: str = "r-dqn-realistic", steps: int = 10_000, seed: int
     input and the Q-values torch computes for it."""
     import torch
 
-    import pendkit
     from pendkit.agents.pretrained import policy_weights
     from pendkit.agents.runs import build_run
 
@@ -76,7 +75,6 @@ def record_vectors(name: str = "r-dqn-realistic", steps: int = 10_000, seed: int
                 break
         episode += 1
     env.close()
-    del pendkit
     return network_blob(agent), np.array(starts), np.stack(xs), np.stack(outputs)
 
 

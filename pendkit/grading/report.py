@@ -20,7 +20,7 @@ from pathlib import Path
 
 from pendkit.errors import ConfigError, PendkitError
 from pendkit.grading.core import known_labs, load_hidden_source, load_lab
-from pendkit.grading.notebook_files import nbformat
+from pendkit.grading.notebook_files import read_submitted
 from pendkit.grading.runner import SubmissionGrade, grade_notebook
 
 LAB_PREFIX = re.compile(r"^(\d\d)_")
@@ -91,9 +91,7 @@ def _with_lab(submission: Submission, lab: str | None) -> Submission:
 def lab_of_notebook(path: Path) -> str | None:
     """The lab number the notebook's metadata states (written by `pendkit labs build`), if any."""
     try:
-        handle = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
-        with os.fdopen(handle, encoding="utf-8") as file:
-            lab = nbformat.read(file, as_version=4).metadata.get("pendkit", {}).get("lab")
+        lab = read_submitted(path).metadata.get("pendkit", {}).get("lab")
         return str(lab) if lab else None
     except Exception:
         return None  # unreadable notebooks are reported by the runner

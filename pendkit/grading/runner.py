@@ -20,7 +20,7 @@ from pathlib import Path
 
 from pendkit.errors import ConfigError
 from pendkit.grading.core import TASKS, TIMEOUT_CAP_VARIABLE, TestResult, load_hidden, load_lab, run_test
-from pendkit.grading.notebook_files import nbformat
+from pendkit.grading.notebook_files import nbformat, read_submitted
 from pendkit.grading.remote import KernelLost, KernelSession, RemoteFunction
 from pendkit.grading.sandbox import Sandbox, isolation_problem
 from pendkit.grading.staging import stage_submission
@@ -71,13 +71,6 @@ class SubmissionGrade:
         return sum(t.max_score for t in self.tasks)
 
 
-def _read_notebook(path: Path):
-    """The notebook, never through a symbolic link (a submission's link could name any file)."""
-    handle = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
-    with os.fdopen(handle, encoding="utf-8") as file:
-        return nbformat.read(file, as_version=4)
-
-
 class _Restart(Exception):
     """The kernel must be replaced: a cell hung or killed it."""
 
@@ -105,7 +98,7 @@ def grade_notebook(path: Path, student: str, lab: str, hidden_paths: list[Path],
             LOG.warning("%s", problem)  # the instructor's file: said to them, not in a student's feedback
     grade = SubmissionGrade(student, str(path), lab)
     try:
-        notebook = _read_notebook(Path(path))
+        notebook = read_submitted(path)
     except Exception as error:
         grade.notes.append(f"could not read the notebook ({type(error).__name__}: {error}); nothing was run")
         grade.tasks = [zero_grade(t, "the notebook could not be read") for t in task_ids]

@@ -33,6 +33,13 @@ HEARTBEAT_S = 0.05
 ASSUMED_LATENCY_MS = median_latency_ms(CLASSROOM_WIFI)  # until you measure your room's (lab 06)
 
 
+def is_servo_counts_range(value) -> bool:
+    """A status's `servo_counts_range` as a device writes it: [min, max] whole counts, min below max."""
+    return (isinstance(value, list) and len(value) == 2
+            and all(isinstance(n, int) and not isinstance(n, bool) for n in value)
+            and 0 <= value[0] < value[1] <= 65535)
+
+
 class RigBackend:
     """The env's backend for a rig on a broker. `rig` names it (r01); `broker` is a URL."""
 
@@ -138,9 +145,7 @@ class RigBackend:
         host_range = [self.params.servo_min_counts, self.params.servo_max_counts]
         if device_range is None:
             return
-        if not (isinstance(device_range, list) and len(device_range) == 2
-                and all(isinstance(n, int) and not isinstance(n, bool) for n in device_range)
-                and 0 <= device_range[0] < device_range[1] <= 65535):
+        if not is_servo_counts_range(device_range):
             raise RigLinkError(f"rig {self.rig}'s status says servo_counts_range {str(device_range)[:40]}, not "
                                "[min, max] counts: a malformed or forged status (anyone may publish on an open "
                                "broker: use the classroom broker's ACLs, docs/protocol.md); restart the rig")
