@@ -11,6 +11,8 @@
              | w<50..5000> | p<float 0 or 0.5..20>      v2: watchdog timeout ms; over-spin limit rev/s (0 = off)
              | n<1..16>                                 v2: velocity window (the rate is the mean of the last n
                                                           per-reading rates; the history restarts)
+             | k<0..1>                                  v2: stop (0) or start (1) the uploaded controller
+                                                          (pendkit.device.onboard; uploads are binary chunks)
 
 A float is `[+-]digits[.digits]` or `[+-].digits` (no exponent, no nan or inf), at most 16 characters.
 The firmware's C++ parser follows the same grammar; tests/vectors/commands.json holds both to it.
@@ -37,7 +39,7 @@ FLAGS_ONLY = {"z": "observe_once", "x": "stream_on", "y": "stream_off", "c": "co
               "v": "discrete_mode", "h": "heartbeat", "r": "status"}
 INTEGER_SETTINGS = {"o": ("encoder_offset", 0, 1023), "u": ("streaming_period", 5, 1000),
                     "i": ("acting_period", 5, 1000), "w": ("watchdog_timeout", 50, 5000), "m": ("action", 0, 4),
-                    "n": ("velocity_window", 1, 16)}
+                    "n": ("velocity_window", 1, 16), "k": ("onboard", 0, 1)}
 FLOAT_SETTINGS = {"b": ("target", -1.0, 1.0), "e": ("filter", 0.0, 0.999), "p": ("overspin_limit", 0.0, 20.0)}
 _FLOAT = re.compile(r"[+-]?([0-9]+(\.[0-9]*)?|\.[0-9]+)")
 _INTEGER = re.compile(r"[+-]?[0-9]+")

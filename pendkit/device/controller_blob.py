@@ -6,6 +6,7 @@ little-endian throughout, every number float32. A network's payload: input size,
 layer count, output (0 argmax, 1 continuous), the input normalisation (mean, std, clip), the GRU's
 weights in PyTorch's gate order (r, z, n), then per dense layer its shape, activation and weights. A
 state-feedback payload: the state size, the gain K (u = -K (x - x_ref)) and x_ref, the output's limit.
+A swing-up payload: `pendkit.device.swingup_blob`.
 `parse` checks everything (size, magic, version, CRC, shapes against the payload) before it returns;
 anything else is a `BlobError` and nothing is built from it. The firmware's parser reads the same bytes.
 """
@@ -25,7 +26,7 @@ VERSION = 1
 HEADER = struct.Struct("<4sHHI")
 CRC = struct.Struct("<I")
 MAX_BLOB_BYTES = 64 * 1024  # a fifth of the ESP32-S2's 320 KB of SRAM; the shipped R-DQN is 47 KB
-KINDS = {"network": 1, "state-feedback": 2}
+KINDS = {"network": 1, "state-feedback": 2, "swing-up": 3}
 ACTIVATIONS = {"none": 0, "relu": 1, "tanh": 2, "sigmoid": 3}
 OUTPUTS = {"argmax": 0, "continuous": 1}
 MAX_WIDTH = 256
@@ -80,8 +81,13 @@ def _f32(values) -> bytes:
     return np.ascontiguousarray(values, dtype="<f4").tobytes()
 
 
-def pack(blob: NetworkBlob | StateFeedbackBlob) -> bytes:
-    if isinstance(blob, NetworkBlob):
+def pack(blob) -> bytes:
+    """The blob's bytes (a NetworkBlob, StateFeedbackBlob or SwingUpBlob)."""
+    if blob.kind == "swing-up":
+        from pendkit.device.swingup_blob import pack_payload
+
+        parts = [pack_payload(blob, _f32)]
+    elif isinstance(blob, NetworkBlob):
         parts = [struct.pack("<HHHBB", blob.input_dim, blob.gru_size, len(blob.layers), OUTPUTS[blob.output], 0),
                  _f32(blob.mean), _f32(blob.std), _f32([blob.clip])]
         if blob.gru is not None:
@@ -124,7 +130,7 @@ class _Reader:
         return values.reshape(shape)
 
 
-def parse(data: bytes) -> NetworkBlob | StateFeedbackBlob:
+def parse(data: bytes):
     """The controller in `data`, checked whole (see the module docstring); BlobError otherwise."""
     if len(data) > MAX_BLOB_BYTES:
         raise BlobError(f"{len(data)} bytes, more than a rig takes ({MAX_BLOB_BYTES})")
@@ -141,9 +147,15 @@ def parse(data: bytes) -> NetworkBlob | StateFeedbackBlob:
     if zlib.crc32(data[:-CRC.size]) != crc:
         raise BlobError("CRC mismatch: the blob was damaged or cut")
     reader = _Reader(data[HEADER.size:-CRC.size])
-    blob = _parse_network(reader) if kind == KINDS["network"] else _parse_state_feedback(reader) \
-        if kind == KINDS["state-feedback"] else None
-    if blob is None:
+    if kind == KINDS["network"]:
+        blob = _parse_network(reader)
+    elif kind == KINDS["state-feedback"]:
+        blob = _parse_state_feedback(reader)
+    elif kind == KINDS["swing-up"]:
+        from pendkit.device.swingup_blob import parse_payload
+
+        blob = parse_payload(reader, BlobError)
+    else:
         raise BlobError(f"unknown controller kind {kind}")
     if reader.at != len(reader.data):
         raise BlobError("bytes left over after the last layer")

@@ -8,6 +8,8 @@ right before actuation, and no command can override them:
 - over-spin: |omega| above the limit -> hold the servo (the limit can be set to 0 = off);
 - stuck encoder: 8 bad frames in a row, or no change while the arm travelled 60 counts -> hold;
 - arm limits: the target is clipped to the servo's counts, and a discrete action ends there.
+An uploaded controller (`pendkit.device.onboard`), once started with `k1`, chooses the target on every
+acting tick from the encoder read on that tick; the same stops apply to it.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import math
 from dataclasses import dataclass
 
 from pendkit.backend_contract import FLAG_BITS, STOP, RigState, ServoCommand
+from pendkit.device.onboard import OnboardController
 from pendkit.encoder import FirmwareVelocityEstimator, frame_status
 from pendkit.rig import RigParams
 
@@ -86,6 +89,7 @@ class McuLogic:
         self.watchdog_timeout_ms = params.watchdog_timeout_ms
         self.overspin_limit_rev_s = params.overspin_limit_rev_s
         self.device_filter = 0.0  # the kit filters on the host; `e<c>` restores the authors' device filter
+        self.onboard = OnboardController()  # kept across resets, as in the firmware's RAM
         self.reset(round_half_up(params.servo_centre_counts), 0)
 
     def reset(self, servo_counts: int, now_ms: int) -> None:
@@ -101,6 +105,7 @@ class McuLogic:
         self._bad_frames = 0
         self._servo_at_last_change = servo_counts
         self.flags: set[str] = set()
+        self.onboard.stop()
 
     # --- commands ---
     def receive(self, command: ServoCommand, now_ms: int) -> None:
@@ -114,10 +119,19 @@ class McuLogic:
     def apply(self, command, now_ms: int) -> None:
         """The one entry for a decoded `pendkit.device.commands.DeviceCommand` (actions, settings, heartbeat)."""
         kind, value = command.kind, command.value
+        if kind in ("action", "target"):
+            self.onboard.stop()  # the host takes over
         if kind == "action":
             self.receive(discrete_command(int(value), self.params), now_ms)
         elif kind == "target":
             self.receive(ServoCommand("continuous", target_unit=value), now_ms)
+        elif kind == "onboard":
+            self.heartbeat(now_ms)
+            if value:
+                target_rad = self.params.servo_counts_to_rad(self.servo_counts)
+                self.onboard.start(self.pendulum_rad(self._last_raw), target_rad)
+            else:
+                self.onboard.stop()
         elif kind == "heartbeat":
             self.heartbeat(now_ms)
         elif kind == "encoder_offset":
@@ -133,12 +147,23 @@ class McuLogic:
         # periods, streaming on/off, modes, status requests belong to the scheduler and the link
 
     # --- acting tick ---
-    def acting_tick(self, now_ms: int) -> int:
-        """Advance the servo target by the current command; return the counts to actuate."""
+    def pendulum_rad(self, raw_counts: int | None) -> float:
+        """A raw encoder reading as the calibrated angle from the bottom (0 before any reading)."""
+        if raw_counts is None:
+            return 0.0
+        counts = self.params.encoder_counts
+        return ((raw_counts - self.offset_counts) % counts) * (2 * math.pi / counts)
+
+    def acting_tick(self, now_ms: int, raw_counts: int | None = None) -> int:
+        """Advance the servo target by the current command, or by the running onboard controller from the
+        encoder read now (`raw_counts`); return the counts to actuate."""
         p = self.params
         if now_ms - self.last_command_ms > self.watchdog_timeout_ms:
             self.flags.add("watchdog")
-        if self.command.mode == "continuous":
+        if self.onboard.running and raw_counts is not None:
+            target_rad = self.onboard.tick(self.pendulum_rad(raw_counts), p.servo_counts_to_rad(self.servo_counts))
+            wanted = round_half_up(p.servo_centre_counts + target_rad / p.servo_rad_per_count)
+        elif self.command.mode == "continuous":
             c = self.device_filter
             self._filtered_unit = c * self._filtered_unit + (1 - c) * self.command.target_unit
             wanted = round_half_up(p.servo_centre_counts + self._filtered_unit * p.servo_span_counts / 2)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from pendkit.device.commands import DeviceCommand, parse_command
 from pendkit.device.logic import FLAG_BITS, McuLogic, McuObservation
+from pendkit.device.onboard import is_chunk
 from pendkit.device.protocol import ProtocolError, format_observation_v1, format_observation_v2
 from pendkit.errors import ConfigError
 from pendkit.rig import RigParams
@@ -87,7 +88,14 @@ class DeviceScheduler:
         self.observe_once = False
 
     def receive(self, payload: str | bytes | DeviceCommand, now_ms: int) -> DeviceCommand | None:
-        """Take one command as it arrived; a malformed or unknown one is counted and changes nothing."""
+        """Take one command (or upload chunk) as it arrived; a malformed or unknown one is counted and
+        changes nothing."""
+        if is_chunk(payload):
+            if self.protocol == 1:  # the authors' firmware has no controller topic
+                self.rejected_commands += 1
+            else:
+                self.logic.onboard.chunk(payload)
+            return None
         try:
             command = payload if isinstance(payload, DeviceCommand) else parse_command(payload)
         except ProtocolError:
@@ -138,4 +146,5 @@ class DeviceScheduler:
                 "mode": logic.command.mode, "online": True,
                 "flags": sum(bit for name, bit in FLAG_BITS.items() if name in logic.flags) & 15,
                 "rejected_commands": self.rejected_commands,
-                "servo_counts_range": [p.servo_min_counts, p.servo_max_counts]}
+                "servo_counts_range": [p.servo_min_counts, p.servo_max_counts],
+                **({"controller": logic.onboard.status()} if self.protocol == 2 else {})}

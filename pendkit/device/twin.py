@@ -67,6 +67,8 @@ class TwinDevice:
             next_event = min(end, (tick // self._pwm_ticks + 1) * self._pwm_ticks)
             if self.streaming_on:
                 next_event = min(next_event, max(tick + 1, math.ceil(self.scheduler.streaming.next_ms / self._tick_ms)))
+            if self.mcu.onboard.running:  # the device's own controller reads the encoder on every acting tick
+                next_event = min(next_event, max(tick + 1, math.ceil(self.scheduler.acting.next_ms / self._tick_ms)))
             if self._pending:  # a command may change streaming or ask for an observation
                 next_event = min(next_event, max(tick + 1, math.ceil(self._pending[0][0] / self._tick_ms)))
             mujoco.mj_step(self.model, self.data, next_event - tick)
@@ -79,7 +81,8 @@ class TwinDevice:
         now_ms = self.tick * self._tick_ms
         at_pwm = self.tick % self._pwm_ticks == 0
         arrived = bool(self._pending) and self._pending[0][0] <= now_ms
-        if at_pwm or arrived or self._stream_due(now_ms):
+        acting_now = self.mcu.onboard.running and self.scheduler.acting.next_ms <= now_ms
+        if at_pwm or arrived or acting_now or self._stream_due(now_ms):
             self._catch_up(now_ms)
         if at_pwm:
             self.data.act[0] = self.params.servo_counts_to_rad(self.mcu.servo_counts)
@@ -104,12 +107,19 @@ class TwinDevice:
                 scheduler.receive(payload, int(math.ceil(arrival_ms / self._tick_ms) * self._tick_ms))
             else:
                 scheduler.acting_due(acting_ms)
-                self.mcu.acting_tick(int(acting_ms))
+                raw = self._onboard_reading() if self.mcu.onboard.running else None
+                self.mcu.acting_tick(int(acting_ms), raw)
 
     def raw_encoder_counts(self) -> int:
         counts = self.params.encoder_counts
         angle = self.data.qpos[self._pendulum_qpos]
         return (math.floor(angle * counts / (2 * math.pi)) + self.mount_offset_counts) % counts
+
+    def _onboard_reading(self) -> int:
+        """The encoder as the controller reads it on an acting tick (a stuck encoder repeats itself)."""
+        if self.encoder_fault == "stuck" and self._stuck_raw is not None:
+            return self._stuck_raw
+        return self.raw_encoder_counts()
 
     def _read_and_stream(self) -> McuObservation:
         raw, now_ms = self.raw_encoder_counts(), int(self.now_ms)

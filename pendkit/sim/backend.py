@@ -179,19 +179,35 @@ class SimBackend:
 
     # --- the MCU pipeline (realistic) ---
     def _step_mcu(self, command: ServoCommand) -> RigState:
-        now_ms, network = self._device.now_ms, self.fidelity.network
         # The host's own command path: the device parses what a rig receives. Bare v1 bodies: nothing in the
         # twin reads the v2 echo, and the parser's cache then serves the few distinct commands.
-        text = frame_command(command_body(command, self.params), 1)
+        return self.step_with_message(frame_command(command_body(command, self.params), 1))
+
+    def send(self, payload: str | bytes) -> None:
+        """A message from the host to the device through the network (its latency and losses): a command's
+        text, or an upload chunk (`pendkit.device.onboard`). Realistic fidelity only."""
+        if self._device is None:
+            raise ConfigError("only a fidelity with the MCU pipeline (e.g. 'realistic') has a device to send to")
+        now_ms, network = self._device.now_ms, self.fidelity.network
         lost = network.command_loss_pct > 0 and self._rng.random() * 100 < network.command_loss_pct
         if not lost:
             arrival = max(now_ms + network.latency.sample_ms(self._rng), self._last_command_arrival_ms)
             self._last_command_arrival_ms = arrival  # TCP keeps order: no overtaking
-            self._device.deliver(arrival, text)
-        if self._log is not None:
-            self._log.write(now_ms / 1000, "tx", TWIN_ACT_TOPIC, text)
+            self._device.deliver(arrival, payload)
+        if self._log is not None and isinstance(payload, str):
+            self._log.write(now_ms / 1000, "tx", TWIN_ACT_TOPIC, payload)
+
+    def step_with_message(self, payload: str | bytes) -> RigState:
+        """One env step after sending `payload` (e.g. the heartbeat `h` while the device runs its own
+        controller); the observation as the host receives it."""
+        self.send(payload)
         self._run_mcu_substeps(self.substeps)
         return self._observe_mcu(time_since_action_s=self.substeps * self.physics_step_s)
+
+    @property
+    def device(self) -> TwinDevice | None:
+        """The twin's device (its status is what a rig would publish)."""
+        return self._device
 
     def _run_mcu_substeps(self, count: int) -> None:
         self._device.run(count, self._in_flight_append)

@@ -1,0 +1,100 @@
+"""The kit's classical controllers designed for the device: the energy swing-up with its LQR hand-over, and
+the minimum-time swing-up (the plan from rest, its time-varying gains, the energy law as the fallback).
+
+Designed as the host designs them (`pendkit.control`), with the device's delays in place of the
+network's: a target chosen on an acting tick reaches the servo on the next PWM frame (half an acting
+tick and half a frame on average), and the device's estimate is of the present, so nothing else waits.
+"""
+
+from __future__ import annotations
+
+import math
+
+import control
+import numpy as np
+
+from pendkit.control.lqr import LqrBalancer, LqrWeights
+from pendkit.control.model import FurutaModel
+from pendkit.control.swingup import SwingUpConfig
+from pendkit.control.tracking import TRACKING_WEIGHTS, time_varying_lqr
+from pendkit.control.trajopt import StepModel, SwingUpLimits, fastest_bang_bang, initial_state
+from pendkit.device.swingup_blob import SwingUpBlob
+from pendkit.errors import ConfigError
+from pendkit.rig import RigParams
+
+CONTROLLERS = ("energy", "trajopt")
+# The pendulum filter's process noise: what the gravity-only prediction leaves out (the arm's push on the
+# pivot reaches about 30 rad/s^2 while pumping); the measurement noise is the encoder's quantisation.
+UNMODELLED_ACCELERATION_RAD_S2 = 30.0
+REST_ANGLE_RAD, REST_VELOCITY_RAD_S = 0.1, 0.5  # a plan from rest is followed only from (near) rest
+SETTLE_STEPS, WARMUP_STEPS, DRIFT_RAD = 30, 3, 0.15  # as pendkit.control.tracking.TrajectoryController
+
+
+def device_delay_s(params: RigParams) -> float:
+    """From choosing a target to the servo being given it: half an acting tick and half a PWM frame."""
+    return (params.acting_period_ms + params.pwm_period_ms) / 2000.0
+
+
+def pendulum_filter_gains(params: RigParams) -> tuple[float, float]:
+    """Steady-state Kalman gains (angle, rate) of a constant-rate model at the acting tick (python-control)."""
+    dt = params.acting_period_ms / 1000.0
+    a = np.array([[1.0, dt], [0.0, 1.0]])
+    g = np.array([[dt * dt / 2], [dt]])
+    c = np.array([[1.0, 0.0]])
+    quantum = 2 * math.pi / params.encoder_counts
+    _, prior, _ = control.dlqe(a, g, c, np.array([[UNMODELLED_ACCELERATION_RAD_S2 ** 2]]),
+                               np.array([[quantum ** 2 / 12]]))
+    prior = np.asarray(prior)
+    gain = prior @ c.T / (c @ prior @ c.T)[0, 0]
+    return float(gain[0, 0]), float(gain[1, 0])
+
+
+def model_scalars(model: FurutaModel) -> dict[str, float]:
+    """What the device's estimate predicts with, per unit of the inertia each acts on."""
+    arm, pendulum = model.arm_inertia_kg_m2, model.pendulum_inertia_kg_m2
+    return {"servo_kp_per_inertia": model.servo_kp_n_m_per_rad / arm,
+            "servo_kv_per_inertia": model.servo_kv_n_m_s_per_rad / arm,
+            "arm_damping_per_inertia": model.arm_damping_n_m_s_per_rad / arm,
+            "stall_per_inertia": model.servo_stall_torque_n_m / arm,
+            "coupling_per_inertia": model.coupling_kg_m2 / pendulum,
+            "pendulum_damping_per_inertia": model.pendulum_damping_n_m_s_per_rad / pendulum}
+
+
+def design_swing_up(params: RigParams | None = None, controller: str = "energy",
+                    config: SwingUpConfig | None = None, weights: LqrWeights | None = None,
+                    limits: SwingUpLimits | None = None) -> SwingUpBlob:
+    """The device's swing-up for a rig: "energy" (pump, catch with LQR) or "trajopt" (the fastest plan from
+    rest first)."""
+    if controller not in CONTROLLERS:
+        raise ConfigError(f"controller must be one of {CONTROLLERS}, got {controller!r}")
+    params = params or RigParams()
+    config = config or SwingUpConfig()
+    if config.phase_lead_rad not in (0, 0.0):
+        raise ConfigError("the device's swing-up has no phase lead (it reads the encoder itself): use 0")
+    delay_s, period_s = device_delay_s(params), params.control_step_ms / 1000.0
+    balancer = LqrBalancer(params, weights, period_s=period_s, delay_s=delay_s, internal_filter=True)
+    model = balancer.model
+    angle_gain, rate_gain = pendulum_filter_gains(params)
+    scalars = {"period_s": period_s, "acting_period_s": params.acting_period_ms / 1000.0,
+               "observer_angle_gain": angle_gain, "observer_rate_gain": rate_gain,
+               "natural_frequency_rad_s": model.natural_frequency_rad_s,
+               "energy_gain": config.energy_gain, "swing_rate_rad_s": config.swing_rate_rad_s,
+               "centring_per_s": config.centring_per_s, "arm_limit_rad": config.arm_limit_rad,
+               "target_energy": config.target_energy, "catch_angle_rad": config.catch_angle_rad,
+               "catch_velocity_rad_s": config.catch_velocity_rad_s, "fall_angle_rad": config.fall_angle_rad,
+               "filter_coefficient": balancer.filter_coefficient, "servo_range_rad": params.servo_range_rad,
+               "rest_angle_rad": REST_ANGLE_RAD, "rest_velocity_rad_s": REST_VELOCITY_RAD_S, "drift_rad": DRIFT_RAD,
+               **model_scalars(model)}
+    blob = SwingUpBlob(scalars, balancer.gain.reshape(-1), np.zeros(5))
+    if controller == "trajopt":
+        step_model = StepModel(model, period_s, delay_s)
+        plan = fastest_bang_bang(step_model, initial_state(), limits or SwingUpLimits(), 40, 5)
+        if plan is None:
+            raise ConfigError("no swing-up from rest within 40 steps for this rig: use --controller energy")
+        gains, settle_gain = time_varying_lqr(step_model, plan, TRACKING_WEIGHTS)
+        blob.plan_targets = plan.targets_rad.astype(np.float32)
+        blob.plan_states = plan.states[:-1].astype(np.float32)
+        blob.plan_gains = gains[:, 0, :].astype(np.float32)
+        blob.settle_gain = settle_gain.reshape(-1).astype(np.float32)
+        blob.settle_steps, blob.warmup_steps = SETTLE_STEPS, WARMUP_STEPS
+    return blob
