@@ -1,4 +1,5 @@
-"""`pendkit export`: a controller as a blob a rig can run itself (docs/on-device.md)."""
+"""`pendkit export` and `pendkit deploy`: a controller as a blob a rig runs itself, and sending it there
+(docs/on-device.md)."""
 
 from __future__ import annotations
 
@@ -6,21 +7,20 @@ from pathlib import Path
 
 import click
 
+CONTROLLER_CHOICES = ("energy", "trajopt")
 
-@click.command()
-@click.argument("run_dir", type=click.Path(exists=True, file_okay=False, path_type=Path), required=False)
-@click.option("--policy", "policy_name", default=None, help="A shipped policy (`pendkit policies list`).")
-@click.option("--out", "out_path", type=click.Path(dir_okay=False, path_type=Path), required=True,
-              help="The blob to write (.pkcb).")
-def export(run_dir: Path | None, policy_name: str | None, out_path: Path) -> None:
-    """Write a trained R-DQN (RUN_DIR or --policy NAME) as a controller blob for the device."""
+
+def _rig_params(params_path: Path | None):
+    from pendkit.rig import RigParams
+
+    return RigParams() if params_path is None else RigParams.load(params_path)
+
+
+def _learned_blob(run_dir: Path | None, policy_name: str | None):
+    """A trained R-DQN's network blob, from RUN_DIR or a shipped policy."""
     from pendkit.agents.runs import build_run, load_weights
-    from pendkit.device.controller_blob import pack
     from pendkit.device.export import network_blob
-    from pendkit.device.policy_runtime import runtime_for
 
-    if (run_dir is None) == (policy_name is None):
-        raise click.UsageError("give a RUN_DIR or --policy NAME (one of them)")
     if policy_name is not None:
         from pendkit.agents.pretrained import policy_weights
 
@@ -37,14 +37,97 @@ def export(run_dir: Path | None, policy_name: str | None, out_path: Path) -> Non
     env, agent, _ = build_run(spec)
     env.close()
     agent.load_policy(state)
-    blob = network_blob(agent)
+    return network_blob(agent)
+
+
+def _blob(run_dir: Path | None, policy_name: str | None, controller: str | None, params_path: Path | None):
+    if sum(x is not None for x in (run_dir, policy_name, controller)) != 1:
+        raise click.UsageError("give one of RUN_DIR, --policy NAME or --controller energy|trajopt")
+    if controller is None:
+        return _learned_blob(run_dir, policy_name)
+    from pendkit.device.swingup_design import design_swing_up
+
+    return design_swing_up(_rig_params(params_path), controller)
+
+
+def _describe(blob) -> str:
+    if blob.kind == "network":
+        layers = " x ".join(str(layer.weight.shape[0]) for layer in blob.layers)
+        return f"{blob.input_dim} inputs, GRU {blob.gru_size}, layers {layers}"
+    plan = f", a plan of {blob.plan_steps} steps from rest" if blob.plan_steps else ""
+    return f"swing-up (energy pumping, LQR hand-over{plan})"
+
+
+_SOURCE_OPTIONS = (
+    click.argument("run_dir", type=click.Path(exists=True, file_okay=False, path_type=Path), required=False),
+    click.option("--policy", "policy_name", default=None, help="A shipped policy (`pendkit policies list`)."),
+    click.option("--controller", type=click.Choice(CONTROLLER_CHOICES), default=None,
+                 help="A classical controller designed for the rig: energy swing-up + LQR, or the minimum-time plan."),
+    click.option("--params", "params_path", type=click.Path(exists=True, dir_okay=False, path_type=Path),
+                 default=None, help="The rig's parameters (RigParams.save) for --controller; default: the kit's rig."),
+)
+
+
+def _with_source(function):
+    for option in reversed(_SOURCE_OPTIONS):
+        function = option(function)
+    return function
+
+
+@click.command()
+@_with_source
+@click.option("--out", "out_path", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="The blob to write (.pkcb).")
+def export(run_dir, policy_name, controller, params_path, out_path: Path) -> None:
+    """Write a controller (RUN_DIR, --policy NAME or --controller NAME) as a blob for the device."""
+    from pendkit.device.controller_blob import pack
+
+    blob = _blob(run_dir, policy_name, controller, params_path)
     data = pack(blob)
     out_path.parent.mkdir(parents=True, exist_ok=True)
     out_path.write_bytes(data)
-    layers = " x ".join(str(layer.weight.shape[0]) for layer in blob.layers)
-    runtime_for(blob).step([0.0] * blob.input_dim)  # it runs
-    click.echo(f"wrote {out_path}: {len(data)} bytes, {blob.input_dim} inputs, GRU {blob.gru_size}, layers {layers}, "
+    click.echo(f"wrote {out_path}: {len(data)} bytes, {_describe(blob)}, "
                f"{blob.multiply_accumulates} multiply-accumulates per step")
 
 
-COMMANDS = (export,)
+@click.command()
+@_with_source
+@click.option("--blob", "blob_path", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
+              help="A blob written by `pendkit export`.")
+@click.option("--rig", "rig_id", required=True, help="The rig's id (r01, ...).")
+@click.option("--broker", default=None, help="The broker's URL; default: this machine's.")
+@click.option("--seconds", type=click.FloatRange(0.5, 3600), default=None,
+              help="Stop after this long; default: run until Ctrl-C.")
+def deploy(run_dir, policy_name, controller, params_path, blob_path, rig_id: str, broker: str | None,
+           seconds: float | None) -> None:
+    """Upload a controller to a rig, start it, stream its telemetry; Ctrl-C stops it (so does the rig's
+    watchdog if this laptop goes away)."""
+    from pendkit.device.controller_blob import BlobError, pack, parse
+    from pendkit.device.deploy_rig import RigSession, run_on_rig, upload_to_rig
+    from pendkit.link import DEFAULT_BROKER
+    from pendkit.link.driver import RigLink, check_rig_id
+
+    check_rig_id(rig_id)
+    if blob_path is not None:
+        if any(x is not None for x in (run_dir, policy_name, controller)):
+            raise click.UsageError("give --blob FILE or one of RUN_DIR, --policy, --controller, not both")
+        data = blob_path.read_bytes()
+        try:
+            parse(data)
+        except BlobError as error:
+            raise click.ClickException(f"{blob_path} is not a controller a rig takes: {error}") from None
+    else:
+        data = pack(_blob(run_dir, policy_name, controller, params_path))
+    link = RigLink(rig_id, broker or DEFAULT_BROKER)
+    link.connect()
+    try:
+        session = RigSession(link)
+        chunks = upload_to_rig(session, data)
+        click.echo(f"uploaded {len(data)} bytes to {rig_id} in {chunks} chunks; starting it (Ctrl-C stops)")
+        outcome = run_on_rig(session, seconds, report=click.echo)
+        click.echo(f"stopped after {outcome['seconds']} s; telemetry received: {outcome['telemetry']}")
+    finally:
+        link.close()
+
+
+COMMANDS = (export, deploy)

@@ -94,7 +94,11 @@ class DeviceScheduler:
             if self.protocol == 1:  # the authors' firmware has no controller topic
                 self.rejected_commands += 1
             else:
-                self.logic.onboard.chunk(payload)
+                onboard = self.logic.onboard
+                settled = onboard.blobs_accepted + onboard.blobs_refused
+                onboard.chunk(payload)
+                if onboard.blobs_accepted + onboard.blobs_refused != settled:
+                    self.status_requested = True  # an upload ended: say how
             return None
         try:
             command = payload if isinstance(payload, DeviceCommand) else parse_command(payload)

@@ -96,6 +96,12 @@ def topics(rig: str) -> tuple[str, str, str]:
     return f"pendulum-r/obs/{rig}", f"pendulum-r/act/{rig}", f"pendulum-r/status/{rig}"
 
 
+def controller_topic(rig: str) -> str:
+    """The topic a rig takes controller uploads on (binary chunks, `pendkit.device.onboard`; v2 firmware)."""
+    check_rig_id(rig)
+    return f"pendulum-r/ctl/{rig}"
+
+
 def order_problem(before: ReceivedObservation, received: ReceivedObservation, elapsed_s: float) -> str | None:
     """Why `received` cannot follow `before` in a live stream `elapsed_s` later (None: it can)."""
     ahead_ms = received.observation.millis - before.observation.millis
@@ -164,6 +170,11 @@ class RigLink:
                 self.log.write(time.monotonic(), "tx", self.act_topic, text)
             return True
         return False
+
+    def publish_chunk(self, chunk: bytes) -> bool:
+        """One upload chunk on the rig's controller topic (QoS 0, as commands: a lost one is resent)."""
+        info = self.client.publish(controller_topic(self.rig), chunk, qos=0)
+        return info.rc == mqtt.MQTT_ERR_SUCCESS
 
     def close(self) -> None:
         self.client.loop_stop()

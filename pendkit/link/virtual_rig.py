@@ -26,7 +26,14 @@ import paho.mqtt.client as mqtt
 from pendkit.device.logic import McuObservation
 from pendkit.device.twin import ENCODER_FAULTS, TwinDevice
 from pendkit.errors import ConfigError
-from pendkit.link.driver import DEFAULT_BROKER, BrokerAddress, RigLinkError, send_without_delay, topics
+from pendkit.link.driver import (
+    DEFAULT_BROKER,
+    BrokerAddress,
+    RigLinkError,
+    controller_topic,
+    send_without_delay,
+    topics,
+)
 from pendkit.rig import RigParams
 from pendkit.sim.latency import IMPAIRMENTS, NetworkImpairment
 from pendkit.sim.model import PENDULUM_JOINT, build_model
@@ -98,6 +105,8 @@ class VirtualRig:
             return
         send_without_delay(client)  # as the firmware does: observations leave at once
         client.subscribe(self.act_topic, qos=0)
+        if self.device.scheduler.protocol == 2:  # the authors' firmware takes no controllers
+            client.subscribe(controller_topic(self.rig), qos=0)
         self._connected.set()
         self.publish_status()
 

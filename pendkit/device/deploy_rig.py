@@ -1,0 +1,109 @@
+"""`pendkit deploy`'s host side: upload a controller blob to a rig over MQTT, start it, keep it alive with
+heartbeats, stream its telemetry, and stop it (Ctrl-C, or the rig's watchdog when this side goes away)."""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Callable
+
+from pendkit.device.commands import frame_command
+from pendkit.device.on_twin import DeployError
+from pendkit.device.onboard import blob_chunks
+
+HEARTBEAT_S = 0.05  # a third of the watchdog (150 ms by default): one or two lost heartbeats do not stop it
+CHUNK_PAUSE_S = 0.002  # a rig's MQTT buffer takes one chunk at a time
+
+
+class RigSession:
+    """Commands and status over one `RigLink`, with v2 framing and sequence numbers."""
+
+    def __init__(self, link) -> None:
+        self.link, self.seq = link, 0
+
+    def command(self, body: str) -> None:
+        self.seq += 1
+        self.link.publish(frame_command(body, 2, self.seq, int(time.monotonic() * 1000)))
+
+    def status(self, wait_s: float = 2.0) -> dict:
+        """A status the rig publishes now (after `r`); {} when none comes (a rig that is off)."""
+        self.link.status_is_live = False
+        self.command("r")
+        deadline = time.monotonic() + wait_s
+        while time.monotonic() < deadline and not self.link.status_is_live:
+            time.sleep(0.01)
+        try:
+            return json.loads(self.link.status) if self.link.status_is_live else {}
+        except ValueError:
+            return {}
+
+
+def controller_status(session: RigSession) -> dict:
+    status = session.status()
+    if not status:
+        raise DeployError(f"rig {session.link.rig} did not answer: is it on, and on this broker?")
+    if "controller" not in status:
+        raise DeployError(f"rig {session.link.rig} runs firmware without on-device controllers (protocol "
+                          f"{status.get('protocol', '?')}): flash the kit's firmware (docs/on-device.md)")
+    return status["controller"]
+
+
+def upload_to_rig(session: RigSession, blob: bytes, rounds: int = 10) -> int:
+    """Send `blob`, resuming after lost chunks from where the rig says it got to; the chunks sent.
+    `DeployError` with the rig's reason when it refuses the blob."""
+    before = controller_status(session)
+    start, sent = 0, 0
+    for _ in range(rounds):
+        for chunk in blob_chunks(blob, start):
+            session.link.publish_chunk(chunk)
+            sent += 1
+            time.sleep(CHUNK_PAUSE_S)
+        status = controller_status(session)
+        if status["refused"] > before["refused"]:
+            raise DeployError(f"the rig refused the controller: {status['last_refusal']}")
+        if status["accepted"] > before["accepted"] and status["bytes"] == len(blob):
+            return sent
+        start = status["received"] if status["total"] == len(blob) else 0
+    raise DeployError(f"the controller did not arrive whole after {rounds} rounds ({sent} chunks): check the WiFi")
+
+
+def run_on_rig(session: RigSession, seconds: float | None = None,
+               report: Callable[[str], None] = print, report_every_s: float = 1.0) -> dict:
+    """Start the uploaded controller and keep it alive until `seconds` pass or Ctrl-C; then stop it and hold
+    the servo. Returns what happened: seconds run, telemetry received, the pendulum's last angle."""
+    link = session.link
+    started = time.monotonic()
+    received_before = link.counters.received
+    next_report = next_start_check = started
+    running = False
+    try:
+        while seconds is None or time.monotonic() - started < seconds:
+            now = time.monotonic()
+            if not running and now >= next_start_check:
+                session.command("k1")  # again until the rig says it runs (a lost k1 starts nothing)
+                running = bool(controller_status(session)["running"])
+                next_start_check = time.monotonic() + 0.5
+            else:
+                session.command("h")
+            if now >= next_report and link.newest is not None:
+                report(_telemetry_line(link, now - started))
+                next_report = now + report_every_s
+            time.sleep(HEARTBEAT_S)
+    except KeyboardInterrupt:
+        report("stopping (Ctrl-C)")
+    finally:
+        session.command("k0")
+        session.command("d")
+    newest = link.newest
+    return {"seconds": round(time.monotonic() - started, 2), "started": running,
+            "telemetry": link.counters.received - received_before,
+            "last_position_counts": None if newest is None else newest.received.observation.position_counts}
+
+
+def _telemetry_line(link, elapsed_s: float) -> str:
+    observation = link.newest.received.observation
+    from_upright = math.degrees(((observation.position_counts / 1024) * 2 * math.pi) % (2 * math.pi) - math.pi)
+    flags = ",".join(sorted(observation.flags)) or "-"
+    return (f"t={elapsed_s:5.1f}s pendulum {from_upright:+6.1f} deg from upright, servo {observation.servo_counts}, "
+            f"flags {flags}, telemetry {link.counters.received}")
