@@ -20,6 +20,7 @@ def render_header(params: RigParams | None = None) -> str:
         ("kServoMaxCounts", "int32_t", p.servo_max_counts, f"PCA9685 counts at +{p.servo_range_deg:g} deg"),
         ("kServoCentreCounts", "double", p.servo_centre_counts, "counts at 0 deg"),
         ("kServoSpanCounts", "int32_t", p.servo_span_counts, "max - min"),
+        ("kServoRangeRad", "double", p.servo_range_rad, "arm angle at either end of the span"),
         ("kSlowStepCounts", "int32_t", p.discrete_slow_step_counts, "discrete slow step per acting tick"),
         ("kFastStepCounts", "int32_t", p.discrete_fast_step_counts, "discrete fast step per acting tick"),
         ("kPwmPeriodMs", "int32_t", int(p.pwm_period_ms), "servo PWM period (50 Hz)"),

@@ -147,7 +147,7 @@ TEST_CASE("the device's loop: scheduler scenarios") {
         const std::string text = commands[next_command++][1].get<std::string>();
         records.push_back({{"t", now}, {"cmd", text}, {"taken", scheduler.receive(text.data(), text.size(), now)}});
       }
-      char buffer[320];
+      char buffer[640];
       if (scheduler.take_status_request()) {
         REQUIRE(scheduler.status_json("test", "r00", buffer, sizeof buffer) > 0);
         json status = json::parse(buffer);

@@ -1,7 +1,10 @@
 #include "controller.h"
 
+#include "swingup.h"
+
 #include <cmath>
 #include <cstring>
+#include <initializer_list>
 
 namespace pend {
 
@@ -95,17 +98,70 @@ uint32_t crc32(const uint8_t* data, size_t length) {  // zlib's CRC-32 (reflecte
   return ~crc;
 }
 
-BlobStatus Controller::load(const uint8_t* blob, size_t length) {
+BlobStatus open_blob(const uint8_t* blob, size_t length, uint16_t& kind, const uint8_t*& payload,
+                     size_t& payload_length) {
   if (length > kMaxBlobBytes) return BlobStatus::kTooLarge;
   if (blob == nullptr || length < kHeaderBytes + kCrcBytes) return BlobStatus::kTooShort;
   if (std::memcmp(blob, kMagic, 4) != 0) return BlobStatus::kBadMagic;
   if (read_u16(blob + 4) != kVersion) return BlobStatus::kBadVersion;
-  const uint16_t kind = read_u16(blob + 6);
-  const uint32_t payload = read_u32(blob + 8);
-  if (static_cast<size_t>(payload) != length - kHeaderBytes - kCrcBytes) return BlobStatus::kBadLength;
+  const uint32_t size = read_u32(blob + 8);
+  if (static_cast<size_t>(size) != length - kHeaderBytes - kCrcBytes) return BlobStatus::kBadLength;
   if (crc32(blob, length - kCrcBytes) != read_u32(blob + length - kCrcBytes)) return BlobStatus::kBadCrc;
-  const BlobStatus status = check(blob + kHeaderBytes, payload, kind);
-  if (status == BlobStatus::kOk) copy(blob + kHeaderBytes, kind);
+  kind = read_u16(blob + 6);
+  payload = blob + kHeaderBytes;
+  payload_length = size;
+  return BlobStatus::kOk;
+}
+
+BlobStatus parse_swing_up(const uint8_t* payload, size_t length, SwingUpParams& out) {
+  Walker w{payload, length};
+  const uint8_t* head = w.take(8);
+  if (head == nullptr) return w.fail;
+  const uint16_t steps = read_u16(head), settle = read_u16(head + 2), warmup = read_u16(head + 4);
+  if (steps > kMaxPlanSteps || settle > 1000 || warmup > 100) return BlobStatus::kBadShape;
+  const uint8_t* scalars = w.floats(kScalarCount);
+  const uint8_t* balance = w.floats(5);
+  const uint8_t* settle_gain = w.floats(5);
+  const uint8_t* targets = w.floats(steps);
+  const uint8_t* states = w.floats(5u * steps);
+  const uint8_t* gains = w.floats(5u * steps);
+  if (w.fail != BlobStatus::kOk) return w.fail;
+  if (w.at != length) return BlobStatus::kTrailingBytes;
+  float value[kScalarCount];
+  for (size_t i = 0; i < kScalarCount; ++i) value[i] = read_f32(scalars + 4 * i);
+  for (Scalar name : {kPeriodS, kActingPeriodS, kNaturalFrequency, kServoRange, kArmLimitRad, kServoKpPerInertia,
+                      kStallPerInertia}) {
+    if (!(value[name] > 0.0f)) return BlobStatus::kBadShape;
+  }
+  if (value[kPeriodS] < value[kActingPeriodS] || !(value[kFilterCoefficient] >= 0.0f && value[kFilterCoefficient] < 1.0f)) {
+    return BlobStatus::kBadShape;
+  }
+  for (size_t i = 0; i < kScalarCount; ++i) out.scalar[i] = value[i];
+  for (size_t i = 0; i < 5; ++i) {
+    out.balance_gain[i] = read_f32(balance + 4 * i);
+    out.settle_gain[i] = read_f32(settle_gain + 4 * i);
+  }
+  for (size_t k = 0; k < steps; ++k) {
+    out.plan_target[k] = read_f32(targets + 4 * k);
+    for (size_t i = 0; i < 5; ++i) {
+      out.plan_state[k][i] = read_f32(states + 4 * (5 * k + i));
+      out.plan_gain[k][i] = read_f32(gains + 4 * (5 * k + i));
+    }
+  }
+  out.plan_steps = steps;
+  out.settle_steps = settle;
+  out.warmup_steps = warmup;
+  return BlobStatus::kOk;
+}
+
+BlobStatus Controller::load(const uint8_t* blob, size_t length) {
+  uint16_t kind = 0;
+  const uint8_t* payload = nullptr;
+  size_t payload_length = 0;
+  BlobStatus status = open_blob(blob, length, kind, payload, payload_length);
+  if (status != BlobStatus::kOk) return status;
+  status = check(payload, payload_length, kind);
+  if (status == BlobStatus::kOk) copy(payload, kind);
   return status;
 }
 

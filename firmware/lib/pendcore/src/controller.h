@@ -19,11 +19,19 @@ enum class BlobStatus : uint8_t {
   kOk, kTooShort, kTooLarge, kBadMagic, kBadVersion, kBadLength, kBadCrc, kBadShape, kNotFinite, kUnknownKind,
   kTrailingBytes,
 };
-enum class ControllerKind : uint8_t { kNone = 0, kNetwork = 1, kStateFeedback = 2 };
+enum class ControllerKind : uint8_t { kNone = 0, kNetwork = 1, kStateFeedback = 2, kSwingUp = 3 };
 enum class Activation : uint8_t { kNone = 0, kRelu = 1, kTanh = 2, kSigmoid = 3 };
 
 const char* blob_status_name(BlobStatus status);
 uint32_t crc32(const uint8_t* data, size_t length);
+
+// Checks a blob's envelope (length, magic, version, CRC); on kOk names its kind and payload.
+BlobStatus open_blob(const uint8_t* blob, size_t length, uint16_t& kind, const uint8_t*& payload,
+                     size_t& payload_length);
+
+struct SwingUpParams;
+// Reads a swing-up payload (kind 3, pendkit.device.swingup_blob) into `out`, checking every shape and number.
+BlobStatus parse_swing_up(const uint8_t* payload, size_t length, SwingUpParams& out);
 
 struct StepResult {
   bool ok = false;       // false: no controller loaded, or inputs of the wrong size

@@ -38,9 +38,22 @@ void Device::reset(int32_t servo_counts, uint32_t now_ms) {
   bad_frames_ = 0;
   servo_at_last_change_ = servo_counts;
   flags_ = 0;
+  onboard_.stop();
+}
+
+float Device::pendulum_rad(int32_t raw_counts) const {
+  if (raw_counts < 0) return 0.0f;  // no reading yet
+  const int32_t position = ((raw_counts - offset_counts_) % kEncoderCounts + kEncoderCounts) % kEncoderCounts;
+  return static_cast<float>(position * (2 * M_PI / kEncoderCounts));
+}
+
+float Device::servo_rad(int32_t counts) const {
+  return static_cast<float>((counts - kServoCentreCounts) * (2 * kServoRangeRad / kServoSpanCounts));
 }
 
 void Device::apply(const Command& command, uint32_t now_ms) {
+  // An action or a target: the host takes over from the onboard controller.
+  if (command.kind == CommandKind::kAction || command.kind == CommandKind::kTarget) onboard_.stop();
   switch (command.kind) {
     case CommandKind::kAction:
       discrete_ = true;
@@ -58,6 +71,15 @@ void Device::apply(const Command& command, uint32_t now_ms) {
       last_command_ms_ = now_ms;
       set(kFlagWatchdog, false);
       break;
+    case CommandKind::kOnboard:
+      last_command_ms_ = now_ms;
+      set(kFlagWatchdog, false);
+      if (command.value > 0) {
+        onboard_.start(pendulum_rad(has_raw_ ? last_raw_ : -1), servo_rad(servo_counts_));
+      } else {
+        onboard_.stop();
+      }
+      break;
     case CommandKind::kEncoderOffset: offset_counts_ = static_cast<int32_t>(command.value); break;
     case CommandKind::kFilter: device_filter_ = command.value; break;
     case CommandKind::kWatchdogTimeout: watchdog_timeout_ms_ = command.value; break;
@@ -69,10 +91,13 @@ void Device::apply(const Command& command, uint32_t now_ms) {
   }
 }
 
-int32_t Device::act(uint32_t now_ms) {
+int32_t Device::act(uint32_t now_ms, int32_t raw_counts) {
   if (static_cast<double>(elapsed_ms(now_ms, last_command_ms_)) > watchdog_timeout_ms_) set(kFlagWatchdog, true);
   int32_t wanted;
-  if (!discrete_) {
+  if (onboard_.running() && raw_counts >= 0) {
+    const float target_rad = onboard_.tick(pendulum_rad(raw_counts), servo_rad(servo_counts_));
+    wanted = round_half_up(kServoCentreCounts + static_cast<double>(target_rad) * kServoSpanCounts / (2 * kServoRangeRad));
+  } else if (!discrete_) {
     const double c = device_filter_;
     filtered_unit_ = c * filtered_unit_ + (1 - c) * target_unit_;
     wanted = round_half_up(kServoCentreCounts + filtered_unit_ * kServoSpanCounts / 2);

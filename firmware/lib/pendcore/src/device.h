@@ -5,6 +5,7 @@
 #include <cstdint>
 
 #include "encoder.h"
+#include "onboard.h"
 #include "protocol.h"
 #include "rig_constants.h"
 
@@ -26,8 +27,12 @@ class Device {
   // The one entry for a decoded command: actions and settings (scheduling commands are the Scheduler's).
   void apply(const Command& command, uint32_t now_ms);
 
-  // Acting tick: advance the target, apply the safety stops last, return the counts to actuate.
-  int32_t act(uint32_t now_ms);
+  // Acting tick: advance the target (by the command, or by the running onboard controller from the encoder
+  // read now: `raw_counts`, -1 when not read), apply the safety stops last, return the counts to actuate.
+  int32_t act(uint32_t now_ms, int32_t raw_counts = -1);
+
+  Onboard& onboard() { return onboard_; }
+  const Onboard& onboard() const { return onboard_; }
 
   // Streaming tick from a raw SSI frame; a bad frame repeats the last good reading.
   Observation stream_frame(int64_t frame, uint32_t now_ms);
@@ -38,6 +43,8 @@ class Device {
 
  private:
   Observation stream_raw(int32_t raw_counts, uint32_t now_ms, bool frame_error);
+  float pendulum_rad(int32_t raw_counts) const;
+  float servo_rad(int32_t counts) const;
   void set(uint8_t flag, bool on) { flags_ = on ? (flags_ | flag) : (flags_ & static_cast<uint8_t>(~flag)); }
 
   VelocityEstimator estimator_;
@@ -58,6 +65,7 @@ class Device {
   int32_t bad_frames_ = 0;
   int32_t servo_at_last_change_ = 0;
   uint8_t flags_ = 0;
+  Onboard onboard_;  // kept across resets, as in RAM
 };
 
 // Fixed-rate deadlines for the two ticks; a late loop catches up by skipping, never by bursting.

@@ -66,7 +66,7 @@ constexpr Range kSettings[] = {
     {'i', CommandKind::kActingPeriod, 5, 1000, true},   {'w', CommandKind::kWatchdogTimeout, 50, 5000, true},
     {'m', CommandKind::kAction, 0, 4, true},            {'b', CommandKind::kTarget, -1.0, 1.0, false},
     {'e', CommandKind::kFilter, 0.0, 0.999, false},     {'p', CommandKind::kOverspinLimit, 0.0, 20.0, false},
-    {'n', CommandKind::kSetVelocityWindow, 1, 16, true},
+    {'n', CommandKind::kSetVelocityWindow, 1, 16, true}, {'k', CommandKind::kOnboard, 0, 1, true},
 };
 
 bool single_letter(char letter, CommandKind& kind, double& value) {
@@ -120,6 +120,7 @@ const char* command_kind_name(CommandKind kind) {
     case CommandKind::kWatchdogTimeout: return "watchdog_timeout";
     case CommandKind::kOverspinLimit: return "overspin_limit";
     case CommandKind::kSetVelocityWindow: return "velocity_window";
+    case CommandKind::kOnboard: return "onboard";
   }
   return "unknown";
 }

@@ -13,7 +13,7 @@ enum class ParseStatus : uint8_t { kOk, kEmpty, kTooLong, kBadFraming, kUnknownC
 enum class CommandKind : uint8_t {
   kAction, kTarget, kEncoderOffset, kStreamingPeriod, kActingPeriod, kFilter, kObserveOnce, kStreamOn,
   kStreamOff, kContinuousMode, kDiscreteMode, kHeartbeat, kStatus, kWatchdogTimeout, kOverspinLimit,
-  kSetVelocityWindow,
+  kSetVelocityWindow, kOnboard,
 };
 
 struct Command {

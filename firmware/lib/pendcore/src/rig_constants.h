@@ -12,6 +12,7 @@ constexpr int32_t kServoMinCounts = 150;  // PCA9685 counts at -90 deg
 constexpr int32_t kServoMaxCounts = 450;  // PCA9685 counts at +90 deg
 constexpr double kServoCentreCounts = 300.0;  // counts at 0 deg
 constexpr int32_t kServoSpanCounts = 300;  // max - min
+constexpr double kServoRangeRad = 1.5707963267948966;  // arm angle at either end of the span
 constexpr int32_t kSlowStepCounts = 2;  // discrete slow step per acting tick
 constexpr int32_t kFastStepCounts = 4;  // discrete fast step per acting tick
 constexpr int32_t kPwmPeriodMs = 20;  // servo PWM period (50 Hz)

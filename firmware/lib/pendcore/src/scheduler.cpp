@@ -11,6 +11,11 @@ Scheduler::Scheduler()
       streaming_period_ms_(kStreamingPeriodMs) {}
 
 bool Scheduler::receive(const char* payload, size_t length, uint32_t now_ms) {
+  const uint8_t* bytes = reinterpret_cast<const uint8_t*>(payload);
+  if (is_chunk(bytes, length)) {  // an upload on the controller topic
+    if (device_.onboard().chunk(bytes, length)) status_requested_ = true;  // an upload ended: say how
+    return false;
+  }
   Command command;
   if (parse_command(payload, length, command) != ParseStatus::kOk) {
     ++rejected_commands_;
@@ -65,12 +70,19 @@ size_t Scheduler::status_json(const char* firmware, const char* rig, char* buffe
   const int length = std::snprintf(
       buffer, capacity,
       "{\"firmware\":\"%s\",\"protocol\":2,\"rig\":\"%s\",\"streaming_ms\":%lu,\"acting_ms\":%lu,"
-      "\"mode\":\"%s\",\"online\":true,\"flags\":%u,\"rejected_commands\":%lu,\"servo_counts_range\":[%ld,%ld]}",
+      "\"mode\":\"%s\",\"online\":true,\"flags\":%u,\"rejected_commands\":%lu,\"servo_counts_range\":[%ld,%ld],"
+      "\"controller\":",
       firmware, rig, static_cast<unsigned long>(streaming_period_ms_), static_cast<unsigned long>(acting_period_ms_),
       device_.discrete() ? "discrete" : "continuous", static_cast<unsigned>(device_.flags() & 15u),
       static_cast<unsigned long>(rejected_commands_), static_cast<long>(kServoMinCounts),
       static_cast<long>(kServoMaxCounts));
-  return (length < 0 || static_cast<size_t>(length) >= capacity) ? 0 : static_cast<size_t>(length);
+  if (length < 0 || static_cast<size_t>(length) >= capacity) return 0;
+  const size_t used = static_cast<size_t>(length);
+  const size_t inner = device_.onboard().status_json(buffer + used, capacity - used);
+  if (inner == 0 || used + inner + 2 > capacity) return 0;
+  buffer[used + inner] = '}';
+  buffer[used + inner + 1] = '\0';
+  return used + inner + 1;
 }
 
 }  // namespace pend

@@ -1,0 +1,47 @@
+// A controller the device runs itself: its upload in chunks, the active one, whether it runs. Mirrors
+// pendkit/device/onboard.py; tests/vectors/uploads.json holds both to the same outcomes.
+//   chunk := "PKUP" | offset u32 | blob size u32 | up to 1024 bytes of the blob   (little-endian)
+// An upload starts at offset 0; a chunk that does not start where the device has got to is ignored and
+// counted (the host resumes from `received`). The whole blob is checked before it replaces the active
+// controller; a refused one is counted and changes nothing.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "controller.h"
+#include "swingup.h"
+
+namespace pend {
+
+constexpr size_t kMaxChunkBytes = 1024;
+constexpr size_t kChunkHeaderBytes = 12;
+
+bool is_chunk(const uint8_t* payload, size_t length);
+
+class Onboard {
+ public:
+  // Takes one chunk; true when an upload ended with it (accepted or refused).
+  bool chunk(const uint8_t* payload, size_t length);
+  bool start(float pendulum_rad, float target_rad);  // false: no controller to run
+  void stop() { running_ = false; }
+  bool running() const { return running_; }
+  float tick(float pendulum_rad, float target_in_force_rad) { return runtime_.tick(pendulum_rad, target_in_force_rad); }
+  const SwingUp& runtime() const { return runtime_; }
+  // The status's "controller" object as JSON; 0 if it does not fit.
+  size_t status_json(char* buffer, size_t capacity) const;
+
+ private:
+  void refuse(const char* reason);
+  void install();
+
+  uint8_t buffer_[kMaxBlobBytes];
+  size_t received_ = 0, total_ = 0;
+  SwingUpParams params_;  // scratch for a checked blob, copied into the runtime when accepted
+  SwingUp runtime_;
+  bool has_controller_ = false, running_ = false;
+  uint32_t active_bytes_ = 0, active_crc_ = 0, accepted_ = 0, refused_ = 0, ignored_ = 0;
+  const char* last_refusal_ = "";
+};
+
+}  // namespace pend
