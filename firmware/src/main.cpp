@@ -28,7 +28,7 @@ WiFiClient network;
 PubSubClient mqtt(network);
 Adafruit_PWMServoDriver servo_driver(pins::kServoDriverAddress);
 pend::Scheduler scheduler;  // the device's logic and its loop: all of it in lib/pendcore, host-tested
-String topic_obs, topic_act, topic_status;
+String topic_obs, topic_act, topic_status, topic_ctl;
 
 void load_settings() {
   preferences.begin("pendkit", true);
@@ -43,6 +43,7 @@ void load_settings() {
   topic_obs = "pendulum-r/obs/" + settings.rig;
   topic_act = "pendulum-r/act/" + settings.rig;
   topic_status = "pendulum-r/status/" + settings.rig;
+  topic_ctl = "pendulum-r/ctl/" + settings.rig;  // controller uploads, binary chunks (docs/on-device.md)
 }
 
 // Serial provisioning: `set <key> <value>` for ssid, password, host, port, user, mqtt_password, rig;
@@ -80,12 +81,13 @@ void handle_serial_line(const String& line) {
 }
 
 void publish_status() {
-  char json[320];
+  char json[640];  // the status with its controller object
   if (scheduler.status_json(kFirmwareVersion, settings.rig.c_str(), json, sizeof json) > 0) {
     mqtt.publish(topic_status.c_str(), json, true);  // retained: a newcomer sees the rig's state at once
   }
 }
 
+// Commands and upload chunks take the same path: the core tells them apart by the chunk's magic.
 void on_command(char*, uint8_t* payload, unsigned int length) {
   scheduler.receive(reinterpret_cast<const char*>(payload), length, millis());
   if (scheduler.take_status_request()) publish_status();
@@ -116,6 +118,7 @@ void keep_connected() {
                    topic_status.c_str(), 1, true, "{\"online\":false}")) {
     network.setNoDelay(true);  // no Nagle: 13-32 ms p99 latency otherwise
     mqtt.subscribe(topic_act.c_str());
+    mqtt.subscribe(topic_ctl.c_str());
     publish_status();
   }
 }
@@ -137,6 +140,15 @@ void setup() {
   WiFi.begin(settings.ssid.c_str(), settings.password.c_str());
   mqtt.setServer(settings.host.c_str(), settings.port);
   mqtt.setCallback(on_command);
+  mqtt.setBufferSize(1200);  // an upload chunk: 12 bytes of header, 1024 of blob, the topic
+}
+
+// The encoder as the onboard controller reads it on an acting tick; -1 for a bad frame (the streaming
+// tick counts bad frames and the stuck-encoder stop holds the servo).
+int32_t encoder_for_controller() {
+  if (!scheduler.device().onboard().running()) return -1;
+  const int64_t frame = read_encoder_frame();
+  return pend::frame_status(frame) == pend::FrameStatus::kOk ? pend::frame_position(static_cast<uint32_t>(frame)) : -1;
 }
 
 void loop() {
@@ -156,7 +168,8 @@ void loop() {
   const uint32_t now = millis();
   // The core holds the servo itself when commands stop (watchdog), so a lost link is safe.
   if (scheduler.acting_due(now)) {
-    servo_driver.setPWM(pins::kServoChannel, 0, static_cast<uint16_t>(scheduler.device().act(now)));
+    const int32_t counts = scheduler.device().act(now, encoder_for_controller());
+    servo_driver.setPWM(pins::kServoChannel, 0, static_cast<uint16_t>(counts));
   }
   if (scheduler.streaming_due(now)) {
     const pend::Observation observation = scheduler.device().stream_frame(read_encoder_frame(), now);

@@ -1,0 +1,112 @@
+"""Vectors for the device's own controllers, replayed by the firmware's C++ tests and by pytest:
+
+- swing-up-energy/-trajopt.pkcb: the kit's designs for the default rig; .pktv: every acting tick's inputs
+  (pendulum angle from the bottom, target in force) and the Python runtime's output (target, mode index)
+  while that controller drove the realistic twin on poor WiFi (episodes from rest and random starts);
+- uploads.json: upload scenarios (chunks as hex) and the device's controller status after each chunk.
+
+Run `python -m tests.vectors.make_onboard_vectors` (from the repository root) after a deliberate change.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+
+from pendkit.device.controller_blob import DenseLayer, NetworkBlob, pack
+from pendkit.device.export import VECTOR_HEADER, VECTORS_MAGIC
+from pendkit.device.onboard import CHUNK_HEADER, CHUNK_MAGIC, OnboardController, blob_chunks
+from pendkit.device.swingup_design import design_swing_up
+from pendkit.device.swingup_runtime import MODES
+
+HERE = Path(__file__).parent
+STATUS_KEYS = ("kind", "bytes", "crc", "running", "received", "total", "accepted", "refused", "ignored_chunks")
+TICKS = 6000
+
+
+class _Recording:
+    """The runtime with every tick's inputs and outputs kept."""
+
+    def __init__(self, runtime, rows: list) -> None:
+        self.runtime, self.rows, self._start = runtime, rows, False
+
+    def reset(self, pendulum_rad: float, target_rad: float) -> None:
+        self.runtime.reset(pendulum_rad, target_rad)
+        self.rows.append([2.0, pendulum_rad, target_rad, 0.0, 0.0])  # a start: its own row
+
+    def tick(self, pendulum_rad: float, target_in_force_rad: float) -> float:
+        output = self.runtime.tick(pendulum_rad, target_in_force_rad)
+        self.rows.append([0.0, pendulum_rad, target_in_force_rad, output, MODES.index(self.runtime.mode)])
+        return output
+
+
+def record_swing_up(controller: str, ticks: int = TICKS, seed: int = 0) -> tuple[bytes, np.ndarray]:
+    import pendkit
+    from pendkit.device.on_twin import onboard_episode, upload_to_twin
+    from pendkit.sim.fidelity import FIDELITY_PRESETS
+    from pendkit.sim.latency import IMPAIRMENTS
+
+    fidelity = dataclasses.replace(FIDELITY_PRESETS["realistic"], network=IMPAIRMENTS["poor-wifi"])
+    env = pendkit.make(fidelity=fidelity, action_mode="continuous")
+    blob = pack(design_swing_up(env.unwrapped.params, controller))
+    upload_to_twin(env, blob)
+    onboard = env.unwrapped.backend.device.mcu.onboard
+    rows: list = []
+    onboard.runtime = _Recording(onboard.runtime, rows)
+    episode = 0
+    while len(rows) < ticks:
+        onboard_episode(env, seed=seed + episode, start="random" if episode % 2 else "rest", steps=150)
+        episode += 1
+    env.close()
+    return blob, np.array(rows[:ticks], dtype=np.float32)
+
+
+def upload_scenarios() -> list[dict]:
+    blob = pack(design_swing_up(None, "trajopt"))
+    chunks = blob_chunks(blob, chunk_bytes=256)
+    damaged = bytearray(blob)
+    damaged[40] ^= 0x01
+    tiny = NetworkBlob(np.zeros(2, np.float32), np.ones(2, np.float32), 5.0,
+                       [DenseLayer(np.ones((3, 2), np.float32), np.zeros(3, np.float32))])
+    oversized = CHUNK_HEADER.pack(CHUNK_MAGIC, 0, 70_000) + bytes(64)
+    scenarios = {
+        "whole, in order": chunks,
+        "a lost chunk, then resumed from the device's count": [chunks[0], chunks[2], chunks[1], *chunks[2:]],
+        "damaged (CRC)": blob_chunks(bytes(damaged), chunk_bytes=256),
+        "oversized": [oversized],
+        "a network (not run on the device)": blob_chunks(pack(tiny), chunk_bytes=256),
+        "garbage and a chunk past the end": [b"PKUP", b"hello", CHUNK_HEADER.pack(CHUNK_MAGIC, 0, 10) + bytes(20)],
+        "a second upload replaces the first": chunks + chunks,
+        "a restart at offset 0 drops the partial one": chunks[:2] + chunks,
+    }
+    out = []
+    for name, sequence in scenarios.items():
+        device = OnboardController()
+        statuses = []
+        for chunk in sequence:
+            device.chunk(chunk)
+            statuses.append({key: device.status()[key] for key in STATUS_KEYS})
+        out.append({"name": name, "chunks": [chunk.hex() for chunk in sequence], "status_after": statuses})
+    return out
+
+
+def write_pktv(path: Path, rows: np.ndarray) -> None:
+    path.write_bytes(VECTOR_HEADER.pack(VECTORS_MAGIC, len(rows), 2, 2) + rows.astype("<f4").tobytes())
+
+
+def main() -> None:
+    for controller in ("energy", "trajopt"):
+        blob, rows = record_swing_up(controller)
+        (HERE / f"swing-up-{controller}.pkcb").write_bytes(blob)
+        write_pktv(HERE / f"swing-up-{controller}.pktv", rows)
+        print(f"wrote swing-up-{controller}: {len(blob)} bytes, {len(rows)} ticks")
+    (HERE / "uploads.json").write_text(json.dumps({"description": __doc__.split("\n\n")[0],
+                                                   "scenarios": upload_scenarios()}, indent=1) + "\n")
+    print("wrote uploads.json")
+
+
+if __name__ == "__main__":
+    main()
