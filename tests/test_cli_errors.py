@@ -16,6 +16,7 @@ BAD = {
     "broker-config": ["broker-config", "--rigs", "+", "--out", "bc"],
     "cad": ["cad", "--preset", "no-such-servo"],
     "demo": ["demo", "--seed", "x"],
+    "deploy": ["deploy", "--rig", "+", "--controller", "energy"],
     "eval": ["eval", "not-a-run"],
     "export": ["export", "not-a-run", "--out", "x.pkcb"],
     "firmware-header": ["firmware-header", "--preset", "no-such-servo"],
@@ -38,6 +39,9 @@ MORE_BAD = [
     (["plot", "not-a-run"], "not a training run"),
     (["export", "--policy", "dqn-ideal", "--out", "x.pkcb"], "R-DQN policies so far"),
     (["virtual-rig", "--rig", "+"], "not a rig's name"),
+    (["deploy", "--rig", "+", "--controller", "energy"], "not a rig's name"),
+    (["export", "--controller", "energy", "--policy", "r-dqn-realistic", "--out", "x.pkcb"], "give one of"),
+    (["deploy", "--rig", "r01", "--blob", "not-a-run"], "is a directory"),
     (["broker", "--port", "99999"], "65535"),
 ]
 

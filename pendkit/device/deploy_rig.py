@@ -41,6 +41,13 @@ class RigSession:
 
 def controller_status(session: RigSession) -> dict:
     status = session.status()
+    if not status:  # the authors' firmware ignores `r`: its retained status still says what it is
+        try:
+            status = json.loads(session.link.status or "{}")
+        except ValueError:
+            status = {}
+        if status.get("protocol") != 1:
+            status = {}
     if not status:
         raise DeployError(f"rig {session.link.rig} did not answer: is it on, and on this broker?")
     if "controller" not in status:
@@ -93,12 +100,23 @@ def run_on_rig(session: RigSession, seconds: float | None = None,
     except KeyboardInterrupt:
         report("stopping (Ctrl-C)")
     finally:
-        session.command("k0")
-        session.command("d")
+        stop(session)
     newest = link.newest
     return {"seconds": round(time.monotonic() - started, 2), "started": running,
             "telemetry": link.counters.received - received_before,
             "last_position_counts": None if newest is None else newest.received.observation.position_counts}
+
+
+def stop(session: RigSession, attempts: int = 3) -> bool:
+    """Stop the controller and hold the servo (`k0`, `d`), until the rig says it stopped; False when it never
+    says so (its watchdog stops the servo without heartbeats anyway)."""
+    for _ in range(attempts):
+        session.command("k0")
+        session.command("d")
+        status = session.status(wait_s=1.0)
+        if status and not status.get("controller", {}).get("running", False):
+            return True
+    return False
 
 
 def _telemetry_line(link, elapsed_s: float) -> str:
