@@ -1,10 +1,13 @@
 // libFuzzer target: arbitrary bytes as a controller blob (and, when they load, one step on inputs taken from
-// the same bytes). Any crash or sanitizer report is a bug; so is a refused blob that changed the active one.
+// the same bytes), and the same bytes uploaded in chunks to the device's onboard controller (a swing-up
+// that loads runs a few ticks). Any crash or sanitizer report is a bug; so is a refused blob that changed
+// the active one.
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
 
 #include "controller.h"
+#include "onboard.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static pend::Controller controller;
@@ -29,6 +32,23 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       __builtin_trap();
     }
   }
+  static pend::Onboard onboard;
+  if (size >= 16 && size <= sizeof sealed) {
+    uint8_t chunk[pend::kChunkHeaderBytes + pend::kMaxChunkBytes];
+    for (size_t offset = 0; offset < size; offset += pend::kMaxChunkBytes) {
+      const size_t bytes = size - offset < pend::kMaxChunkBytes ? size - offset : pend::kMaxChunkBytes;
+      std::memcpy(chunk, "PKUP", 4);
+      for (int i = 0; i < 4; ++i) chunk[4 + i] = static_cast<uint8_t>(offset >> (8 * i));
+      for (int i = 0; i < 4; ++i) chunk[8 + i] = static_cast<uint8_t>(size >> (8 * i));
+      std::memcpy(chunk + pend::kChunkHeaderBytes, sealed + offset, bytes);
+      onboard.chunk(chunk, pend::kChunkHeaderBytes + bytes);
+    }
+    if (onboard.start(static_cast<float>(data[0]) / 40.0f, 0.0f)) {
+      for (int k = 0; k < 12; ++k) onboard.tick(static_cast<float>(data[k % size]) / 40.0f, 0.0f);
+      onboard.stop();
+    }
+  }
+  onboard.chunk(data, size);  // the raw bytes as one chunk: garbage, or a chunk of some upload
   float inputs[512] = {};
   const size_t count = controller.input_size();
   for (size_t i = 0; i < count && i < 512 && size > 0; ++i) inputs[i] = static_cast<float>(data[i % size] % 13) - 6.0f;

@@ -1,0 +1,172 @@
+"""The kit's controllers on the laptop and on the device: the same designs, the realistic twin and a virtual
+rig over a real broker, the classroom's and a busy room's WiFi. One line a row:
+
+    where=host|device controller=NAME network=NAME backend=twin|virtual-rig solved=K/N median_upright_s=X
+
+"solved" is the kit's rule (within 0.3 rad of upright for the last 200 of 500 steps); the time to upright
+is the start of the final upright run. Twin rows start from the authors' random starts (seeds 10 000 on);
+the virtual rig cannot be put in a random state (nor can a real one), so its rows start from a pendulum
+hanging still, after the arm is held until it settles. On the device the laptop only sends heartbeats;
+the time on the virtual rig runs `--speed` times faster than real time (the device's controller does
+not depend on the laptop keeping up; laptop-side rows on a virtual rig run in real time, 30 s a start).
+
+    python benchmarks/bench_on_device.py [--starts 20] [--networks classroom-wifi poor-wifi]
+        [--controllers energy trajopt] [--backends twin virtual-rig] [--where host device]
+        [--rig-starts 5] [--speed 5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import time
+
+import numpy as np
+
+import pendkit
+from pendkit.agents.runs import SOLVED_TAIL_STEPS, Evaluation, held_fraction
+from pendkit.device.controller_blob import pack
+from pendkit.device.on_twin import onboard_episode, upload_to_twin
+from pendkit.device.swingup_design import design_swing_up
+from pendkit.episode import time_to_upright_s
+from pendkit.features import holds_upright
+from pendkit.sim.fidelity import FIDELITY_PRESETS
+from pendkit.sim.latency import IMPAIRMENTS
+
+SEED = 10_000
+STEPS = 500
+
+
+def twin_env(network: str):
+    fidelity = dataclasses.replace(FIDELITY_PRESETS["realistic"], network=IMPAIRMENTS[network])
+    return pendkit.make(fidelity=fidelity, action_mode="continuous", filter_coefficient=0.0)
+
+
+def judged(episodes: list[list[float]], dt_s: float) -> Evaluation:
+    outcome = Evaluation([], [], [], [])
+    for angles in episodes:
+        outcome += Evaluation([holds_upright(angles, SOLVED_TAIL_STEPS)], [time_to_upright_s(angles, dt_s)], [0.0],
+                              [held_fraction(angles)])
+    return outcome
+
+
+def twin_row(where: str, controller: str, network: str, starts: int) -> Evaluation:
+    from pendkit.adapt.routes import classical_on_env
+
+    env = twin_env(network)
+    try:
+        if where == "host":
+            return classical_on_env(env, env, controller, starts, SEED, start="random")
+        upload_to_twin(env, pack(design_swing_up(env.unwrapped.params, controller)))
+        episodes = [onboard_episode(env, seed=SEED + k, start="random", steps=STEPS) for k in range(starts)]
+        return judged(episodes, env.unwrapped.dt)
+    finally:
+        env.close()
+
+
+def rig_row(where: str, controller: str, network: str, starts: int, speed: float) -> Evaluation:
+    from pendkit.link.virtual_rig import LocalRig
+
+    if where == "host":
+        rig = LocalRig(impairment=network)
+        try:
+            from pendkit.adapt.routes import classical_on_env
+
+            design = twin_env(network)
+            env = pendkit.make(backend="rig", broker=rig.url, rig=rig.rig, action_mode="continuous",
+                               filter_coefficient=0.0)
+            outcome = classical_on_env(design, env, controller, starts, SEED)
+            env.close()
+            design.close()
+            return outcome
+        finally:
+            rig.stop()
+    return device_on_virtual_rig(controller, network, starts, speed)
+
+
+def device_on_virtual_rig(controller: str, network: str, starts: int, speed: float) -> Evaluation:
+    from pendkit.device.deploy_rig import RigSession, stop, upload_to_rig
+    from pendkit.link.driver import RigLink
+    from pendkit.link.virtual_rig import LocalRig
+
+    rig = LocalRig(impairment=network, speed=speed)
+    link = RigLink(rig.rig, rig.url)
+    link.connect()
+    session = RigSession(link)
+    dt_s = rig.virtual.params.control_step_ms / 1000
+    try:
+        upload_to_rig(session, pack(design_swing_up(rig.virtual.params, controller)))
+        episodes = []
+        for _ in range(starts):
+            stop(session)
+            wait_until_still(session, speed)
+            episodes.append(run_started(session, speed, dt_s))
+        stop(session)
+        return judged(episodes, dt_s)
+    finally:
+        link.close()
+        rig.stop()
+
+
+def angle_from_upright(link) -> float:
+    counts = link.newest.received.observation.position_counts
+    return (counts * 2 * math.pi / 1024) % (2 * math.pi) - math.pi
+
+
+def wait_until_still(session, speed: float, still_counts: int = 3, still_s: float = 1.0) -> None:
+    """Hold the arm (heartbeats while the servo stays put) until the encoder stays within a few counts."""
+    window: list[int] = []
+    while True:
+        session.command("h")
+        time.sleep(0.05 / speed)
+        if session.link.newest is None:
+            continue
+        window = (window + [session.link.newest.received.observation.position_counts])[-round(still_s / 0.05):]
+        if len(window) == round(still_s / 0.05) and max(window) - min(window) <= still_counts:
+            return
+
+
+def run_started(session, speed: float, dt_s: float) -> list[float]:
+    """Start the device's controller (again until it runs) and sample its telemetry every control step."""
+    link = session.link
+    while not session.status().get("controller", {}).get("running"):
+        session.command("k1")
+    angles = [angle_from_upright(link)]
+    next_s = time.monotonic()
+    for _ in range(STEPS):
+        next_s += dt_s / speed
+        session.command("h")
+        time.sleep(max(0.0, next_s - time.monotonic()))
+        angles.append(angle_from_upright(link))
+    return angles
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--starts", type=int, default=20, help="random starts per twin row")
+    parser.add_argument("--rig-starts", type=int, default=5, help="starts (from rest) per virtual-rig row")
+    parser.add_argument("--networks", nargs="+", default=["classroom-wifi", "poor-wifi"], choices=sorted(IMPAIRMENTS))
+    parser.add_argument("--controllers", nargs="+", default=["energy", "trajopt"], choices=["energy", "trajopt"])
+    parser.add_argument("--backends", nargs="+", default=["twin", "virtual-rig"], choices=["twin", "virtual-rig"])
+    parser.add_argument("--where", nargs="+", default=["host", "device"], choices=["host", "device"])
+    parser.add_argument("--speed", type=float, default=5.0, help="virtual rig time per wall second (device rows)")
+    args = parser.parse_args()
+    for backend in args.backends:
+        for network in args.networks:
+            for controller in args.controllers:
+                for where in args.where:
+                    started = time.perf_counter()
+                    if backend == "twin":
+                        outcome = twin_row(where, controller, network, args.starts)
+                    else:
+                        outcome = rig_row(where, controller, network, args.rig_starts, args.speed)
+                    held = outcome.min_held_fraction
+                    print(f"where={where} controller={controller} network={network} backend={backend} "
+                          f"{outcome.summary()} min_held={'-' if held is None else f'{held:.3f}'} "
+                          f"wall_s={time.perf_counter() - started:.0f}", flush=True)
+
+
+if __name__ == "__main__":
+    np.set_printoptions(precision=3)
+    main()
