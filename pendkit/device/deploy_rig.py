@@ -56,14 +56,15 @@ def controller_status(session: RigSession) -> dict:
     return status["controller"]
 
 
-def upload_to_rig(session: RigSession, blob: bytes, rounds: int = 10) -> int:
+def upload_to_rig(session: RigSession, blob: bytes, rounds: int = 10, chunker=blob_chunks) -> int:
     """Send `blob`, resuming after lost chunks from where the rig says it got to; the chunks sent.
-    `DeployError` with the rig's reason when it refuses the blob."""
+    `DeployError` with the rig's reason when it refuses the blob. `chunker(blob, start)` makes the chunks
+    (lab 10 plugs in a student's)."""
     before = controller_status(session)
     start, sent = 0, 0
     for _ in range(rounds):
-        for chunk in blob_chunks(blob, start):
-            session.link.publish_chunk(chunk)
+        for chunk in chunker(blob, start):
+            session.link.publish_chunk(bytes(chunk))
             sent += 1
             time.sleep(CHUNK_PAUSE_S)
         status = controller_status(session)
@@ -76,9 +77,11 @@ def upload_to_rig(session: RigSession, blob: bytes, rounds: int = 10) -> int:
 
 
 def run_on_rig(session: RigSession, seconds: float | None = None,
-               report: Callable[[str], None] = print, report_every_s: float = 1.0) -> dict:
+               report: Callable[[str], None] = print, report_every_s: float = 1.0,
+               on_heartbeat: Callable[[float], None] | None = None) -> dict:
     """Start the uploaded controller and keep it alive until `seconds` pass or Ctrl-C; then stop it and hold
-    the servo. Returns what happened: seconds run, telemetry received, the pendulum's last angle."""
+    the servo. Returns what happened: seconds run, telemetry received, the pendulum's last position.
+    `on_heartbeat(elapsed_s)` is called at every heartbeat (to sample the telemetry)."""
     link = session.link
     started = time.monotonic()
     received_before = link.counters.received
@@ -93,6 +96,8 @@ def run_on_rig(session: RigSession, seconds: float | None = None,
                 next_start_check = time.monotonic() + 0.5
             else:
                 session.command("h")
+                if on_heartbeat is not None:
+                    on_heartbeat(now - started)
             if now >= next_report and link.newest is not None:
                 report(_telemetry_line(link, now - started))
                 next_report = now + report_every_s

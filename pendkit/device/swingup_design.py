@@ -49,6 +49,16 @@ def pendulum_filter_gains(params: RigParams) -> tuple[float, float]:
     return float(gain[0, 0]), float(gain[1, 0])
 
 
+def _gains(given) -> tuple[float, float]:
+    try:
+        angle_gain, rate_gain = (float(g) for g in np.asarray(given, dtype=float).reshape(-1))
+    except (TypeError, ValueError):
+        raise ConfigError(f"observer gains must be two numbers (angle, rate), got {given!r}") from None
+    if not (math.isfinite(angle_gain) and math.isfinite(rate_gain)):
+        raise ConfigError(f"observer gains must be finite, got {given!r}")
+    return angle_gain, rate_gain
+
+
 def model_scalars(model: FurutaModel) -> dict[str, float]:
     """What the device's estimate predicts with, per unit of the inertia each acts on."""
     arm, pendulum = model.arm_inertia_kg_m2, model.pendulum_inertia_kg_m2
@@ -62,9 +72,10 @@ def model_scalars(model: FurutaModel) -> dict[str, float]:
 
 def design_swing_up(params: RigParams | None = None, controller: str = "energy",
                     config: SwingUpConfig | None = None, weights: LqrWeights | None = None,
-                    limits: SwingUpLimits | None = None) -> SwingUpBlob:
+                    limits: SwingUpLimits | None = None,
+                    observer_gains: tuple[float, float] | None = None) -> SwingUpBlob:
     """The device's swing-up for a rig: "energy" (pump, catch with LQR) or "trajopt" (the fastest plan from
-    rest first)."""
+    rest first). `observer_gains` (angle, rate) replaces the pendulum filter's designed gains (lab 10)."""
     if controller not in CONTROLLERS:
         raise ConfigError(f"controller must be one of {CONTROLLERS}, got {controller!r}")
     params = params or RigParams()
@@ -74,7 +85,7 @@ def design_swing_up(params: RigParams | None = None, controller: str = "energy",
     delay_s, period_s = device_delay_s(params), params.control_step_ms / 1000.0
     balancer = LqrBalancer(params, weights, period_s=period_s, delay_s=delay_s, internal_filter=True)
     model = balancer.model
-    angle_gain, rate_gain = pendulum_filter_gains(params)
+    angle_gain, rate_gain = pendulum_filter_gains(params) if observer_gains is None else _gains(observer_gains)
     scalars = {"period_s": period_s, "acting_period_s": params.acting_period_ms / 1000.0,
                "observer_angle_gain": angle_gain, "observer_rate_gain": rate_gain,
                "natural_frequency_rad_s": model.natural_frequency_rad_s,

@@ -2,6 +2,7 @@
 points at the mistake (public and hidden tests together)."""
 
 import math
+import struct
 
 import control
 import numpy as np
@@ -108,7 +109,18 @@ CORRECT = {
     "09.should_stop": lambda arm, rate, age: should_stop(arm, rate, age),
     "08.augmented_state": lambda obs, recent, n: augmented_state(obs, recent, n),
     "08.breaking_delay": lambda d, p, r, t=0.5: next((a for a, b, c in zip(d, p, r) if b < t <= c), None),
+    "10.pendulum_acceleration": lambda a, w, p, w0, d, k: pendulum_acceleration(a, w, p, w0, d, k),
+    "10.upload_chunks": lambda blob, start=0, size=1024: upload_chunks(blob, start, size),
 }
+
+
+def pendulum_acceleration(angle, rate, push, w0, damping, coupling, push_sign=-1.0):
+    return -w0**2 * math.sin(angle) - damping * rate + push_sign * coupling * math.cos(angle) * push
+
+
+def upload_chunks(blob, start=0, size=1024, order="<", whole_size=True):
+    return [b"PKUP" + struct.pack(order + "II", offset, len(blob) if whole_size else len(blob[offset:offset + size]))
+            + blob[offset:offset + size] for offset in range(start, len(blob), size)]
 
 
 def augmented_state(observation, recent, n, oldest_first=False, one_hot=True):
@@ -359,6 +371,13 @@ MISTAKES = [
      "not a number"),
     ("09.should_stop", lambda arm, rate, age: "arm" if arm > 1.6 or rate > 20 or not age <= 0.3 else None,
      "either way"),
+    ("10.pendulum_acceleration", lambda a, w, p, w0, d, k: pendulum_acceleration(a, w, p, w0, d, k, 1.0),
+     "wrong sign"),
+    ("10.pendulum_acceleration", lambda a, w, p, w0, d, k: pendulum_acceleration(a, w, 0.0, w0, d, k), "missing"),
+    ("10.upload_chunks", lambda blob, start=0, size=1024: upload_chunks(blob, start, size, ">"), "big-endian"),
+    ("10.upload_chunks", lambda blob, start=0, size=1024: upload_chunks(blob, start, size, whole_size=False),
+     "whole blob's size"),
+    ("10.upload_chunks", lambda blob, start=0, size=1024: upload_chunks(blob, 0, size), "offsets"),
 ]
 
 

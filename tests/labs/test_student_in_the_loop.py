@@ -123,3 +123,35 @@ def test_lab09_the_students_cost_identifies_a_twin_that_follows_the_rig_and_a_si
     right = printed_by_lab("09_deploy.ipynb", "your_cost(params, latency_ms")
     wrong = printed_by_lab("09_deploy.ipynb", "your_cost(params, latency_ms", {"matching_cost": SIGNED_COST})
     assert gap_to_nominal(right) < 0.6 and gap_to_nominal(wrong) > gap_to_nominal(right) + 0.2, (right, wrong)
+
+
+PUSH_WITH_THE_WRONG_SIGN = '''
+def pendulum_acceleration(angle_rad, rate_rad_s, arm_acceleration_rad_s2, natural_frequency_rad_s,
+                          damping_per_s, coupling):
+    return (-natural_frequency_rad_s**2 * math.sin(angle_rad) - damping_per_s * rate_rad_s
+            + coupling * math.cos(angle_rad) * arm_acceleration_rad_s2)  # the arm's push reversed
+'''
+BIG_ENDIAN_CHUNKS = '''
+def upload_chunks(blob, start=0, chunk_bytes=1024):
+    return [b"PKUP" + struct.pack(">II", offset, len(blob)) + blob[offset:offset + chunk_bytes]
+            for offset in range(start, len(blob), chunk_bytes)]
+'''
+
+
+def estimate_error(text: str) -> float:
+    return float(re.search(r"rate error during the swing-up ([\d.]+) rad/s RMS", text).group(1))
+
+
+def test_lab10_the_students_model_drives_the_devices_estimate_and_a_reversed_push_shows():
+    right = printed_by_lab("10_on_device.ipynb", "onboard.runtime.pendulum_acceleration")
+    wrong = printed_by_lab("10_on_device.ipynb", "onboard.runtime.pendulum_acceleration",
+                           {"pendulum_acceleration": PUSH_WITH_THE_WRONG_SIGN})
+    assert "solved=2/2" in right, right
+    assert estimate_error(wrong) > 1.3 * estimate_error(right), (right, wrong)
+
+
+def test_lab10_the_students_chunks_reach_the_rig_and_big_endian_ones_do_not():
+    right = printed_by_lab("10_on_device.ipynb", "chunker=lambda")
+    wrong = printed_by_lab("10_on_device.ipynb", "chunker=lambda", {"upload_chunks": BIG_ENDIAN_CHUNKS})
+    assert "the rig took the controller: 1260 bytes in 2 chunks" in right and "1 accepted" in right, right
+    assert "the upload failed" in wrong and "0 accepted" in wrong, wrong

@@ -1,0 +1,39 @@
+"""Hidden tests for lab 10 (instructor material: never copied into labs/)."""
+
+import struct
+
+from pendkit.grading import expect, task
+from pendkit.grading.prelab import prelab_answers
+from pendkit.grading.suites.lab10 import a_number, as_chunk_list, device_takes, reference
+
+model = task("10.pendulum_acceleration", function="pendulum_acceleration", title="The estimate's model")
+chunks = task("10.upload_chunks", function="upload_chunks", title="Upload chunks")
+
+prelab_answers("10", {"round_trip_ms": 38.0, "readings_per_decision": 6.0, "heartbeat_ms": 50.0})
+
+
+@model.test(points=1, hidden=True, hint="Any rig (its frequency, damping and coupling), any state.")
+def random_rigs_and_states(fn, rng):
+    for _ in range(20):
+        angle, rate, push = (float(v) for v in rng.uniform([-4, -15, -60], [4, 15, 60]))
+        w0, damping, coupling = (float(v) for v in rng.uniform([3, 0, 0.5], [9, 3, 2]))
+        got = a_number(fn(angle, rate, push, w0, damping, coupling), "pendulum_acceleration")
+        expected = reference(angle, rate, push, w0, damping, coupling)
+        expect(abs(got - expected) <= 1e-9 * max(1.0, abs(expected)),
+               f"angle {angle:.3f}, rate {rate:.3f}, arm acceleration {push:.2f}, w0 {w0:.2f}, d {damping:.2f}, "
+               f"coupling {coupling:.2f}: expected {expected:.4f}, got {got:.4f}")
+
+
+@chunks.test(points=1, hidden=True, hint="Blobs of any size, any chunk size; the last chunk may be short.")
+def any_blob_any_size(fn, rng):
+    from pendkit.device.controller_blob import pack
+    from pendkit.device.swingup_design import design_swing_up
+
+    blob = pack(design_swing_up(None, str(rng.choice(["energy", "trajopt"]))))
+    size = int(rng.integers(7, 700))
+    got = as_chunk_list(fn(blob, 0, size), f"upload_chunks(blob, 0, {size})")
+    too_big = [len(c) for c in got if len(c) > size + 12]
+    expect(not too_big, f"chunks of at most {size} bytes of blob (+12 of header), got lengths {too_big[:3]}")
+    offsets = [struct.unpack("<I", c[4:8])[0] for c in got if len(c) >= 8]
+    expect(offsets == list(range(0, len(blob), size)), f"offsets {offsets[:5]}... for {size}-byte chunks")
+    expect(device_takes(got)["accepted"] == 1, f"a {len(blob)}-byte blob in {size}-byte chunks was not accepted")
