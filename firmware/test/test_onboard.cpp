@@ -3,6 +3,7 @@
 // upload scenarios with the controller status after each chunk.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -97,4 +98,47 @@ TEST_CASE("uploads: the controller status after every chunk") {
       CHECK(status == scenario["status_after"][k]);
     }
   }
+}
+
+TEST_CASE("the device's policy makes the Python device's inputs and takes torch's actions") {
+  const std::vector<uint8_t> blob = read_file("r-dqn-realistic-policy.pkcb");
+  onboard = pend::Onboard();
+  for (size_t offset = 0; offset < blob.size(); offset += pend::kMaxChunkBytes) {
+    const size_t bytes = std::min(pend::kMaxChunkBytes, blob.size() - offset);
+    std::vector<uint8_t> chunk = {'P', 'K', 'U', 'P'};
+    for (int i = 0; i < 4; ++i) chunk.push_back(static_cast<uint8_t>(offset >> (8 * i)));
+    for (int i = 0; i < 4; ++i) chunk.push_back(static_cast<uint8_t>(blob.size() >> (8 * i)));
+    chunk.insert(chunk.end(), blob.begin() + static_cast<long>(offset), blob.begin() + static_cast<long>(offset + bytes));
+    onboard.chunk(chunk.data(), chunk.size());
+  }
+  REQUIRE(onboard.runs_policy());
+  const std::vector<uint8_t> text = read_file("policy-device.json");
+  const json vectors = json::parse(text.begin(), text.end());
+  size_t decisions = 0, same_action = 0;
+  double worst_input = 0.0;
+  for (const json& row : vectors["decisions"]) {
+    if (row.contains("start")) {
+      REQUIRE(onboard.start(0.0f, 0.0f));
+      continue;
+    }
+    const json& r = row["reading"];
+    const pend::Observation reading{r[0].get<uint32_t>(), r[1].get<int32_t>(), r[2].get<int32_t>(), r[3].get<double>(),
+                                    r[4].get<double>(), r[5].get<double>(), 0};
+    const uint32_t now = row["now_ms"].get<uint32_t>();
+    float inputs[32];
+    const size_t count = onboard.policy_inputs(reading, now, inputs, 32);
+    REQUIRE(count == row["inputs"].size());
+    for (size_t i = 0; i < count; ++i) {
+      worst_input = std::fmax(worst_input, std::fabs(inputs[i] - row["inputs"][i].get<double>()));
+    }
+    int action = -1;
+    for (int k = 0; k < 64 && !onboard.policy_tick(&reading, now, action); ++k) {
+    }
+    ++decisions;
+    same_action += action == row["action"].get<int>();
+  }
+  MESSAGE("policy: " << same_action << " of " << decisions << " decisions the same, largest input difference "
+                     << worst_input);
+  CHECK(static_cast<double>(same_action) >= 0.999 * static_cast<double>(decisions));
+  CHECK(worst_input <= 1e-5);
 }

@@ -17,9 +17,9 @@ def _rig_params(params_path: Path | None):
 
 
 def _learned_blob(run_dir: Path | None, policy_name: str | None):
-    """A trained R-DQN's network blob, from RUN_DIR or a shipped policy."""
+    """A trained R-DQN as a policy the device runs, from RUN_DIR or a shipped policy."""
     from pendkit.agents.runs import build_run, load_weights
-    from pendkit.device.export import network_blob
+    from pendkit.device.export import policy_blob
 
     if policy_name is not None:
         from pendkit.agents.pretrained import policy_weights
@@ -37,7 +37,7 @@ def _learned_blob(run_dir: Path | None, policy_name: str | None):
     env, agent, _ = build_run(spec)
     env.close()
     agent.load_policy(state)
-    return network_blob(agent)
+    return policy_blob(agent, env.unwrapped.params)
 
 
 def _blob(run_dir: Path | None, policy_name: str | None, controller: str | None, params_path: Path | None):
@@ -51,9 +51,10 @@ def _blob(run_dir: Path | None, policy_name: str | None, controller: str | None,
 
 
 def _describe(blob) -> str:
-    if blob.kind == "network":
-        layers = " x ".join(str(layer.weight.shape[0]) for layer in blob.layers)
-        return f"{blob.input_dim} inputs, GRU {blob.gru_size}, layers {layers}"
+    if blob.kind == "policy":
+        network = blob.network
+        layers = " x ".join(str(layer.weight.shape[0]) for layer in network.layers)
+        return f"a policy: {network.input_dim} inputs made on the device, GRU {network.gru_size}, layers {layers}"
     plan = f", a plan of {blob.plan_steps} steps from rest" if blob.plan_steps else ""
     return f"swing-up (energy pumping, LQR hand-over{plan})"
 

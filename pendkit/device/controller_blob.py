@@ -6,7 +6,8 @@ little-endian throughout, every number float32. A network's payload: input size,
 layer count, output (0 argmax, 1 continuous), the input normalisation (mean, std, clip), the GRU's
 weights in PyTorch's gate order (r, z, n), then per dense layer its shape, activation and weights. A
 state-feedback payload: the state size, the gain K (u = -K (x - x_ref)) and x_ref, the output's limit.
-A swing-up payload: `pendkit.device.swingup_blob`.
+A swing-up payload: `pendkit.device.swingup_blob`; a policy (a network with the inputs the device makes
+for it): `pendkit.device.policy_blob`.
 `parse` checks everything (size, magic, version, CRC, shapes against the payload) before it returns;
 anything else is a `BlobError` and nothing is built from it. The firmware's parser reads the same bytes.
 """
@@ -26,7 +27,7 @@ VERSION = 1
 HEADER = struct.Struct("<4sHHI")
 CRC = struct.Struct("<I")
 MAX_BLOB_BYTES = 64 * 1024  # a fifth of the ESP32-S2's 320 KB of SRAM; the shipped R-DQN is 47 KB
-KINDS = {"network": 1, "state-feedback": 2, "swing-up": 3}
+KINDS = {"network": 1, "state-feedback": 2, "swing-up": 3, "policy": 4}
 ACTIVATIONS = {"none": 0, "relu": 1, "tanh": 2, "sigmoid": 3}
 OUTPUTS = {"argmax": 0, "continuous": 1}
 MAX_WIDTH = 256
@@ -87,15 +88,12 @@ def pack(blob) -> bytes:
         from pendkit.device.swingup_blob import pack_payload
 
         parts = [pack_payload(blob, _f32)]
+    elif blob.kind == "policy":
+        from pendkit.device.policy_blob import pack_payload
+
+        parts = [pack_payload(blob, network_payload)]
     elif isinstance(blob, NetworkBlob):
-        parts = [struct.pack("<HHHBB", blob.input_dim, blob.gru_size, len(blob.layers), OUTPUTS[blob.output], 0),
-                 _f32(blob.mean), _f32(blob.std), _f32([blob.clip])]
-        if blob.gru is not None:
-            parts += [_f32(w) for w in blob.gru]
-        for layer in blob.layers:
-            rows, cols = layer.weight.shape
-            parts += [struct.pack("<HHBB", rows, cols, ACTIVATIONS[layer.activation], 0), _f32(layer.weight),
-                      _f32(layer.bias)]
+        parts = [network_payload(blob)]
     else:
         parts = [struct.pack("<HH", blob.gain.size, 0), _f32(blob.gain), _f32(blob.reference),
                  _f32([blob.output_limit])]
@@ -105,6 +103,18 @@ def pack(blob) -> bytes:
     if len(data) > MAX_BLOB_BYTES:
         raise BlobError(f"the controller is {len(data)} bytes, more than a rig takes ({MAX_BLOB_BYTES})")
     return data
+
+
+def network_payload(blob: NetworkBlob) -> bytes:
+    parts = [struct.pack("<HHHBB", blob.input_dim, blob.gru_size, len(blob.layers), OUTPUTS[blob.output], 0),
+             _f32(blob.mean), _f32(blob.std), _f32([blob.clip])]
+    if blob.gru is not None:
+        parts += [_f32(w) for w in blob.gru]
+    for layer in blob.layers:
+        rows, cols = layer.weight.shape
+        parts += [struct.pack("<HHBB", rows, cols, ACTIVATIONS[layer.activation], 0), _f32(layer.weight),
+                  _f32(layer.bias)]
+    return b"".join(parts)
 
 
 class _Reader:
@@ -155,6 +165,10 @@ def parse(data: bytes):
         from pendkit.device.swingup_blob import parse_payload
 
         blob = parse_payload(reader, BlobError)
+    elif kind == KINDS["policy"]:
+        from pendkit.device.policy_blob import parse_payload as parse_policy
+
+        blob = parse_policy(reader, BlobError, _parse_network)
     else:
         raise BlobError(f"unknown controller kind {kind}")
     if reader.at != len(reader.data):

@@ -38,6 +38,14 @@ def network_blob(agent) -> NetworkBlob:
                        weights, "argmax")
 
 
+def policy_blob(agent, params):
+    """A trained R-DQN as a policy the device runs itself: its network and the inputs the device makes."""
+    from pendkit.device.policy_blob import PolicyBlob
+
+    return PolicyBlob(network_blob(agent), params.control_step_ms / 1000.0, params.acting_period_ms / 1000.0,
+                      int(agent.q.head[-1].weight.shape[0]))
+
+
 def state_feedback_blob(gain, reference, output_limit: float) -> StateFeedbackBlob:
     return StateFeedbackBlob(np.asarray(gain, dtype=np.float32).ravel(),
                              np.asarray(reference, dtype=np.float32).ravel(), float(output_limit))

@@ -89,7 +89,8 @@ class McuLogic:
         self.watchdog_timeout_ms = params.watchdog_timeout_ms
         self.overspin_limit_rev_s = params.overspin_limit_rev_s
         self.device_filter = 0.0  # the kit filters on the host; `e<c>` restores the authors' device filter
-        self.onboard = OnboardController()  # kept across resets, as in the firmware's RAM
+        self.onboard = OnboardController(params)  # kept across resets, as in the firmware's RAM
+        self.last_observation: McuObservation | None = None
         self.reset(round_half_up(params.servo_centre_counts), 0)
 
     def reset(self, servo_counts: int, now_ms: int) -> None:
@@ -106,6 +107,7 @@ class McuLogic:
         self._servo_at_last_change = servo_counts
         self.flags: set[str] = set()
         self.onboard.stop()
+        self.last_observation = None
 
     # --- commands ---
     def receive(self, command: ServoCommand, now_ms: int) -> None:
@@ -160,7 +162,11 @@ class McuLogic:
         p = self.params
         if now_ms - self.last_command_ms > self.watchdog_timeout_ms:
             self.flags.add("watchdog")
-        if self.onboard.running and raw_counts is not None:
+        if self.onboard.running and self.onboard.runs_a_policy:
+            action = self.onboard.runtime.tick(self.last_observation, now_ms)
+            if action is not None:  # as a host's action command would, without feeding the watchdog
+                self.command = discrete_command(action, p)
+        if self.onboard.running and raw_counts is not None and not self.onboard.runs_a_policy:
             target_rad = self.onboard.tick(self.pendulum_rad(raw_counts), p.servo_counts_to_rad(self.servo_counts))
             wanted = round_half_up(p.servo_centre_counts + target_rad / p.servo_rad_per_count)
         elif self.command.mode == "continuous":
@@ -219,7 +225,8 @@ class McuLogic:
         arm_velocity = ((self.servo_counts - self._last_stream_servo) * 1000.0 / dt_ms) if dt_ms > 0 else 0.0
         self._last_stream_servo, self._last_stream_ms = self.servo_counts, now_ms
         flags = frozenset(self.flags | ({"frame_error"} if frame_error else set()))
-        return McuObservation(now_ms, position, self.servo_counts, omega, accel, arm_velocity, flags)
+        self.last_observation = McuObservation(now_ms, position, self.servo_counts, omega, accel, arm_velocity, flags)
+        return self.last_observation
 
 
 def calibrate_position(raw_counts: int, offset_counts: int, counts: int = 1024) -> int:

@@ -22,7 +22,7 @@ from pendkit.device.controller_blob import MAX_BLOB_BYTES, BlobError, parse
 CHUNK_MAGIC = b"PKUP"
 CHUNK_HEADER = struct.Struct("<4sII")
 MAX_CHUNK_BYTES = 1024
-RUNNABLE_KINDS = ("swing-up",)
+RUNNABLE_KINDS = ("swing-up", "policy")
 
 
 def blob_chunks(blob: bytes, start: int = 0, chunk_bytes: int = MAX_CHUNK_BYTES) -> list[bytes]:
@@ -38,7 +38,9 @@ def is_chunk(payload: bytes | str) -> bool:
 class OnboardController:
     """The device's side of uploads and of running an uploaded controller."""
 
-    def __init__(self) -> None:
+    def __init__(self, params=None) -> None:
+        """`params`: the rig's (a policy's inputs are made in its units; default the kit's rig)."""
+        self.params = params
         self.buffer = bytearray()
         self.total = 0
         self.blob = None
@@ -87,9 +89,16 @@ class OnboardController:
         if blob.kind not in RUNNABLE_KINDS:
             self._refuse(f"a {blob.kind} controller: this device runs {', '.join(RUNNABLE_KINDS)}")
             return
-        from pendkit.device.swingup_runtime import SwingUpRuntime
+        if blob.kind == "policy":
+            from pendkit.device.policy_runtime import DevicePolicy
+            from pendkit.rig import RigParams
 
-        self.blob, self.runtime = blob, SwingUpRuntime(blob)
+            runtime = DevicePolicy(blob, self.params or RigParams())
+        else:
+            from pendkit.device.swingup_runtime import SwingUpRuntime
+
+            runtime = SwingUpRuntime(blob)
+        self.blob, self.runtime = blob, runtime
         self.active_bytes, self.active_crc = len(data), zlib.crc32(data)
         self.running = False
         self.blobs_accepted += 1
@@ -107,7 +116,12 @@ class OnboardController:
         self.running = False
 
     def tick(self, pendulum_rad: float, target_in_force_rad: float) -> float:
+        """A swing-up's acting tick: the target (rad) to hold."""
         return self.runtime.tick(pendulum_rad, target_in_force_rad)
+
+    @property
+    def runs_a_policy(self) -> bool:
+        return self.blob is not None and self.blob.kind == "policy"
 
     def status(self) -> dict:
         return {"kind": None if self.blob is None else self.blob.kind, "bytes": self.active_bytes,

@@ -74,3 +74,41 @@ class StateFeedbackRuntime:
 
 def runtime_for(blob: NetworkBlob | StateFeedbackBlob):
     return NetworkRuntime(blob) if isinstance(blob, NetworkBlob) else StateFeedbackRuntime(blob)
+
+
+class DevicePolicy:
+    """A policy blob (`pendkit.device.policy_blob`) as the device runs it: every control step it makes the
+    network's inputs from its newest reading, as the host's env would from the same reading arriving at
+    once, and returns the action (None between steps: the last action goes on, as a host's would)."""
+
+    def __init__(self, blob, params) -> None:
+        from pendkit.features import resolve_features
+
+        self.blob, self.params = blob, params
+        self.network = NetworkRuntime(blob.network)
+        self.features = resolve_features("paper")
+        self.ticks_per_step = max(1, round(blob.period_s / blob.acting_period_s))
+        self.reset()
+
+    def reset(self, *_) -> None:
+        self.network.reset()
+        self.last_action, self.tick_count = 0, self.ticks_per_step - 1  # the first tick decides
+
+    def inputs(self, observation, now_ms: float) -> np.ndarray:
+        from pendkit.device.logic import observation_to_state
+
+        state = observation_to_state(observation, self.params, (now_ms - observation.millis) / 1000.0,
+                                     self.blob.period_s)
+        values = [min(max(f.read(state), f.low), f.high) for f in self.features]
+        one_hot = [0.0] * self.blob.actions
+        one_hot[self.last_action] = 1.0
+        return np.array(values + one_hot, dtype=F32)
+
+    def tick(self, observation, now_ms: float) -> int | None:
+        self.tick_count += 1
+        if self.tick_count < self.ticks_per_step or observation is None:
+            return None
+        self.tick_count = 0
+        _, action = self.network.step(self.inputs(observation, now_ms))
+        self.last_action = int(action)
+        return self.last_action

@@ -94,7 +94,7 @@ def test_the_vectors_are_the_shipped_policys():
     assert pack(network_blob(agent)) == (VECTORS / "r-dqn-realistic.pkcb").read_bytes()
 
 
-def test_export_writes_the_shipped_policy_as_the_vectors_blob(tmp_path):
+def test_export_writes_the_shipped_policy_as_the_devices_policy_blob(tmp_path):
     from click.testing import CliRunner
 
     from pendkit.cli import main
@@ -102,4 +102,5 @@ def test_export_writes_the_shipped_policy_as_the_vectors_blob(tmp_path):
     result = CliRunner().invoke(main, ["export", "--policy", "r-dqn-realistic", "--out", str(tmp_path / "p.pkcb")])
     assert result.exit_code == 0, result.output
     assert "11456 multiply-accumulates" in result.output
-    assert (tmp_path / "p.pkcb").read_bytes() == (VECTORS / "r-dqn-realistic.pkcb").read_bytes()
+    assert (tmp_path / "p.pkcb").read_bytes() == (VECTORS / "r-dqn-realistic-policy.pkcb").read_bytes()
+    assert parse((tmp_path / "p.pkcb").read_bytes()).network.input_dim == 12

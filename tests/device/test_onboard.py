@@ -156,3 +156,44 @@ def test_deploy_names_firmware_without_on_device_control():
         assert result.exit_code != 0 and "without on-device controllers (protocol 1)" in result.output, result.output
     finally:
         rig.stop()
+
+
+def test_python_device_policy_reproduces_the_shared_vectors():
+    from pendkit.device.logic import McuObservation
+    from pendkit.device.policy_runtime import DevicePolicy
+
+    blob = parse((VECTORS / "r-dqn-realistic-policy.pkcb").read_bytes())
+    assert blob.kind == "policy" and blob.network.input_dim == 12
+    policy = DevicePolicy(blob, RigParams())
+    rows = json.loads((VECTORS / "policy-device.json").read_text())["decisions"]
+    same = decisions = 0
+    for row in rows:
+        if "start" in row:
+            policy.reset()
+            continue
+        millis, position, servo, omega, accel, arm = row["reading"]
+        reading = McuObservation(millis, position, servo, omega, accel, arm, frozenset())
+        assert np.allclose(policy.inputs(reading, row["now_ms"]), row["inputs"], atol=1e-6)
+        action = None
+        while action is None:
+            action = policy.tick(reading, row["now_ms"])
+        decisions += 1
+        same += action == row["action"]
+    assert decisions > 900 and same == decisions
+
+
+def test_a_policy_on_the_device_holds_where_the_laptop_loses_it_on_poor_wifi():
+    from pendkit.agents.pretrained import policy_weights
+    from pendkit.agents.runs import build_run, evaluate_agent, held_fraction
+    from pendkit.device.export import policy_blob
+
+    spec, state = policy_weights("r-dqn-realistic")
+    fidelity = dataclasses.replace(FIDELITY_PRESETS["realistic"], network=IMPAIRMENTS["poor-wifi"])
+    env = pendkit.make(fidelity=fidelity, action_mode="discrete")
+    _, agent, inputs = build_run(spec, env)
+    agent.load_policy(state)
+    laptop = evaluate_agent(env, agent, inputs, 2, 10_000, "random").held_fractions
+    upload_to_twin(env, pack(policy_blob(agent, env.unwrapped.params)))
+    device = [held_fraction(onboard_episode(env, seed=10_000 + k, start="random")) for k in range(2)]
+    env.close()
+    assert min(f or 0.0 for f in device) > max(f or 0.0 for f in laptop) + 0.3, (laptop, device)

@@ -3,7 +3,10 @@
 - swing-up-energy/-trajopt.pkcb: the kit's designs for the default rig; .pktv: every acting tick's inputs
   (pendulum angle from the bottom, target in force) and the Python runtime's output (target, mode index)
   while that controller drove the realistic twin on poor WiFi (episodes from rest and random starts);
-- uploads.json: upload scenarios (chunks as hex) and the device's controller status after each chunk.
+- uploads.json: upload scenarios (chunks as hex) and the device's controller status after each chunk;
+- r-dqn-realistic-policy.pkcb: the shipped R-DQN as a policy the device runs (kind 4); policy-device.json:
+  every decision while it drove the twin's device on poor WiFi: the newest reading, the time, the inputs
+  the device made from it and the action the network chose.
 
 Run `python -m tests.vectors.make_onboard_vectors` (from the repository root) after a deliberate change.
 """
@@ -64,6 +67,50 @@ def record_swing_up(controller: str, ticks: int = TICKS, seed: int = 0) -> tuple
     return blob, np.array(rows[:ticks], dtype=np.float32)
 
 
+def record_policy(decisions: int = 1000, seed: int = 0) -> tuple[bytes, list[dict]]:
+    import pendkit
+    from pendkit.agents.pretrained import policy_weights
+    from pendkit.agents.runs import build_run
+    from pendkit.device.export import policy_blob
+    from pendkit.device.on_twin import onboard_episode, upload_to_twin
+    from pendkit.sim.fidelity import FIDELITY_PRESETS
+    from pendkit.sim.latency import IMPAIRMENTS
+
+    spec, state = policy_weights("r-dqn-realistic")
+    fidelity = dataclasses.replace(FIDELITY_PRESETS["realistic"], network=IMPAIRMENTS["poor-wifi"])
+    env = pendkit.make(fidelity=fidelity, action_mode="discrete")
+    _, agent, _ = build_run(spec, env)
+    agent.load_policy(state)
+    blob = pack(policy_blob(agent, env.unwrapped.params))
+    upload_to_twin(env, blob)
+    runtime = env.unwrapped.backend.device.mcu.onboard.runtime
+    rows: list[dict] = []
+    decide, reset = runtime.tick, runtime.reset
+
+    def recording_tick(observation, now_ms):
+        deciding = runtime.tick_count + 1 >= runtime.ticks_per_step and observation is not None
+        inputs = runtime.inputs(observation, now_ms) if deciding else None
+        action = decide(observation, now_ms)
+        if action is not None:
+            rows.append({"reading": [observation.millis, observation.position_counts, observation.servo_counts,
+                                     observation.omega_rev_s, observation.acceleration_rev_s2,
+                                     observation.arm_velocity_counts_s], "now_ms": int(now_ms),
+                         "inputs": [float(v) for v in inputs], "action": action})
+        return action
+
+    def recording_reset(*args):
+        reset(*args)
+        rows.append({"start": True})
+
+    runtime.tick, runtime.reset = recording_tick, recording_reset
+    episode = 0
+    while len(rows) < decisions:
+        onboard_episode(env, seed=seed + episode, start="random" if episode % 2 else "rest", steps=250)
+        episode += 1
+    env.close()
+    return blob, rows[:decisions]
+
+
 def upload_scenarios() -> list[dict]:
     blob = pack(design_swing_up(None, "trajopt"))
     chunks = blob_chunks(blob, chunk_bytes=256)
@@ -103,6 +150,11 @@ def main() -> None:
         (HERE / f"swing-up-{controller}.pkcb").write_bytes(blob)
         write_pktv(HERE / f"swing-up-{controller}.pktv", rows)
         print(f"wrote swing-up-{controller}: {len(blob)} bytes, {len(rows)} ticks")
+    blob, rows = record_policy()
+    (HERE / "r-dqn-realistic-policy.pkcb").write_bytes(blob)
+    (HERE / "policy-device.json").write_text(json.dumps({"description": "see make_onboard_vectors.py",
+                                                         "decisions": rows}) + "\n")
+    print(f"wrote the policy: {len(blob)} bytes, {len(rows)} decisions")
     (HERE / "uploads.json").write_text(json.dumps({"description": __doc__.split("\n\n")[0],
                                                    "scenarios": upload_scenarios()}, indent=1) + "\n")
     print("wrote uploads.json")

@@ -158,15 +158,24 @@ BlobStatus Controller::load(const uint8_t* blob, size_t length) {
   uint16_t kind = 0;
   const uint8_t* payload = nullptr;
   size_t payload_length = 0;
-  BlobStatus status = open_blob(blob, length, kind, payload, payload_length);
+  const BlobStatus status = open_blob(blob, length, kind, payload, payload_length);
+  return status == BlobStatus::kOk ? load_payload(payload, payload_length, kind) : status;
+}
+
+BlobStatus Controller::load_payload(const uint8_t* payload, size_t length, uint16_t kind, const NetworkShape* expected) {
+  NetworkShape shape;
+  const BlobStatus status = check(payload, length, kind, &shape);
   if (status != BlobStatus::kOk) return status;
-  status = check(payload, payload_length, kind);
-  if (status == BlobStatus::kOk) copy(payload, kind);
-  return status;
+  if (expected != nullptr && (shape.inputs != expected->inputs || shape.outputs != expected->outputs ||
+                              shape.argmax != expected->argmax)) {
+    return BlobStatus::kBadShape;
+  }
+  copy(payload, kind);
+  return BlobStatus::kOk;
 }
 
 // Validates the whole payload without touching the active controller.
-BlobStatus Controller::check(const uint8_t* payload, size_t length, uint16_t kind) const {
+BlobStatus Controller::check(const uint8_t* payload, size_t length, uint16_t kind, NetworkShape* found) const {
   Walker w{payload, length};
   if (kind == static_cast<uint16_t>(ControllerKind::kStateFeedback)) {
     const uint8_t* head = w.take(4);
@@ -207,6 +216,11 @@ BlobStatus Controller::check(const uint8_t* payload, size_t length, uint16_t kin
       w.floats(static_cast<size_t>(rows) * cols);
       w.floats(rows);
       width = rows;
+    }
+    if (found != nullptr) {
+      found->inputs = inputs;
+      found->outputs = width;
+      found->argmax = output == 0;
     }
   } else {
     return BlobStatus::kUnknownKind;

@@ -19,7 +19,7 @@ enum class BlobStatus : uint8_t {
   kOk, kTooShort, kTooLarge, kBadMagic, kBadVersion, kBadLength, kBadCrc, kBadShape, kNotFinite, kUnknownKind,
   kTrailingBytes,
 };
-enum class ControllerKind : uint8_t { kNone = 0, kNetwork = 1, kStateFeedback = 2, kSwingUp = 3 };
+enum class ControllerKind : uint8_t { kNone = 0, kNetwork = 1, kStateFeedback = 2, kSwingUp = 3, kPolicy = 4 };
 enum class Activation : uint8_t { kNone = 0, kRelu = 1, kTanh = 2, kSigmoid = 3 };
 
 const char* blob_status_name(BlobStatus status);
@@ -39,10 +39,18 @@ struct StepResult {
   float value = 0.0f;    // continuous networks and state feedback
 };
 
+struct NetworkShape {
+  size_t inputs = 0, outputs = 0;
+  bool argmax = true;
+};
+
 class Controller {
  public:
   // Replaces the active controller with the blob's, or returns why not (the active one stays).
   BlobStatus load(const uint8_t* blob, size_t length);
+  // The same from a payload already taken out of its envelope (a policy's network); `expected`, when given,
+  // is the shape the caller needs: another shape is refused before anything is copied.
+  BlobStatus load_payload(const uint8_t* payload, size_t length, uint16_t kind, const NetworkShape* expected = nullptr);
   void reset();  // an episode's start: the GRU state to zero
   // One control step; `outputs` (capacity `capacity`) receives the last layer (Q-values), if given.
   StepResult step(const float* inputs, size_t count, float* outputs = nullptr, size_t capacity = 0);
@@ -60,7 +68,7 @@ class Controller {
     const float* weight = nullptr;
     const float* bias = nullptr;
   };
-  BlobStatus check(const uint8_t* payload, size_t length, uint16_t kind) const;
+  BlobStatus check(const uint8_t* payload, size_t length, uint16_t kind, NetworkShape* found = nullptr) const;
   void copy(const uint8_t* payload, uint16_t kind);
 
   ControllerKind kind_ = ControllerKind::kNone;

@@ -39,6 +39,7 @@ void Device::reset(int32_t servo_counts, uint32_t now_ms) {
   servo_at_last_change_ = servo_counts;
   flags_ = 0;
   onboard_.stop();
+  has_observation_ = false;
 }
 
 float Device::pendulum_rad(int32_t raw_counts) const {
@@ -94,7 +95,13 @@ void Device::apply(const Command& command, uint32_t now_ms) {
 int32_t Device::act(uint32_t now_ms, int32_t raw_counts) {
   if (static_cast<double>(elapsed_ms(now_ms, last_command_ms_)) > watchdog_timeout_ms_) set(kFlagWatchdog, true);
   int32_t wanted;
-  if (onboard_.running() && raw_counts >= 0) {
+  int action = 0;
+  if (onboard_.running() && onboard_.runs_policy() &&
+      onboard_.policy_tick(has_observation_ ? &last_observation_ : nullptr, now_ms, action)) {
+    discrete_ = true;  // as a host's action command would, without feeding the watchdog
+    increment_counts_ = increment_for(action);
+  }
+  if (onboard_.running() && !onboard_.runs_policy() && raw_counts >= 0) {
     const float target_rad = onboard_.tick(pendulum_rad(raw_counts), servo_rad(servo_counts_));
     wanted = round_half_up(kServoCentreCounts + static_cast<double>(target_rad) * kServoSpanCounts / (2 * kServoRangeRad));
   } else if (!discrete_) {
@@ -144,7 +151,10 @@ Observation Device::stream_raw(int32_t raw_counts, uint32_t now_ms, bool frame_e
   last_stream_servo_ = servo_counts_;
   last_stream_ms_ = now_ms;
   const uint8_t flags = static_cast<uint8_t>(flags_ | (frame_error ? kFlagFrameError : 0));
-  return Observation{now_ms, position, servo_counts_, estimate.omega_rev_s, estimate.accel_rev_s2, arm_velocity, flags};
+  last_observation_ = Observation{now_ms, position, servo_counts_, estimate.omega_rev_s, estimate.accel_rev_s2,
+                                  arm_velocity, flags};
+  has_observation_ = true;
+  return last_observation_;
 }
 
 bool Schedule::due(uint32_t now_ms) {

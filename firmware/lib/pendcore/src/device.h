@@ -65,6 +65,8 @@ class Device {
   int32_t bad_frames_ = 0;
   int32_t servo_at_last_change_ = 0;
   uint8_t flags_ = 0;
+  bool has_observation_ = false;
+  Observation last_observation_{};  // the newest reading: a policy's inputs come from it
   Onboard onboard_;  // kept across resets, as in RAM
 };
 

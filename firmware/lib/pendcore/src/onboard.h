@@ -10,6 +10,7 @@
 #include <cstdint>
 
 #include "controller.h"
+#include "protocol.h"
 #include "swingup.h"
 
 namespace pend {
@@ -27,6 +28,11 @@ class Onboard {
   void stop() { running_ = false; }
   bool running() const { return running_; }
   float tick(float pendulum_rad, float target_in_force_rad) { return runtime_.tick(pendulum_rad, target_in_force_rad); }
+  bool runs_policy() const { return kind_ == ControllerKind::kPolicy; }
+  // A policy's acting tick: true (and the action) when a control step decides, from the newest reading.
+  bool policy_tick(const Observation* newest, uint32_t now_ms, int& action);
+  // The policy's inputs from a reading (layout 1: pendkit.device.policy_blob); `count` floats written.
+  size_t policy_inputs(const Observation& newest, uint32_t now_ms, float* out, size_t capacity) const;
   const SwingUp& runtime() const { return runtime_; }
   // The status's "controller" object as JSON; 0 if it does not fit.
   size_t status_json(char* buffer, size_t capacity) const;
@@ -34,11 +40,17 @@ class Onboard {
  private:
   void refuse(const char* reason);
   void install();
+  BlobStatus install_policy(const uint8_t* payload, size_t length);
 
   uint8_t buffer_[kMaxBlobBytes];
   size_t received_ = 0, total_ = 0;
   SwingUpParams params_;  // scratch for a checked blob, copied into the runtime when accepted
   SwingUp runtime_;
+  Controller policy_;  // a policy's network (71 KB)
+  uint16_t actions_ = 0;
+  float period_s_ = 0.06f;
+  int ticks_per_step_ = 6, tick_count_ = 0, last_action_ = 0;
+  ControllerKind kind_ = ControllerKind::kNone;
   bool has_controller_ = false, running_ = false;
   uint32_t active_bytes_ = 0, active_crc_ = 0, accepted_ = 0, refused_ = 0, ignored_ = 0;
   const char* last_refusal_ = "";
