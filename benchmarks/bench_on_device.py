@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import math
 import time
 
 import numpy as np
@@ -119,7 +118,7 @@ def rig_row(where: str, controller: str, network: str, starts: int, speed: float
 
 
 def device_on_virtual_rig(controller: str, network: str, starts: int, speed: float) -> Evaluation:
-    from pendkit.device.deploy_rig import RigSession, stop, upload_to_rig
+    from pendkit.device.deploy_rig import RigSession, device_episode, upload_to_rig
     from pendkit.link.driver import RigLink
     from pendkit.link.virtual_rig import LocalRig
 
@@ -132,49 +131,11 @@ def device_on_virtual_rig(controller: str, network: str, starts: int, speed: flo
         design = twin_env(network, controller)
         upload_to_rig(session, blob_for(controller, rig.virtual.params, design))
         design.close()
-        episodes = []
-        for _ in range(starts):
-            stop(session)
-            wait_until_still(session, speed)
-            episodes.append(run_started(session, speed, dt_s))
-        stop(session)
+        episodes = [device_episode(session, STEPS, dt_s, speed) for _ in range(starts)]
         return judged(episodes, dt_s)
     finally:
         link.close()
         rig.stop()
-
-
-def angle_from_upright(link) -> float:
-    counts = link.newest.received.observation.position_counts
-    return (counts * 2 * math.pi / 1024) % (2 * math.pi) - math.pi
-
-
-def wait_until_still(session, speed: float, still_counts: int = 3, still_s: float = 1.0) -> None:
-    """Hold the arm (heartbeats while the servo stays put) until the encoder stays within a few counts."""
-    window: list[int] = []
-    while True:
-        session.command("h")
-        time.sleep(0.05 / speed)
-        if session.link.newest is None:
-            continue
-        window = (window + [session.link.newest.received.observation.position_counts])[-round(still_s / 0.05):]
-        if len(window) == round(still_s / 0.05) and max(window) - min(window) <= still_counts:
-            return
-
-
-def run_started(session, speed: float, dt_s: float) -> list[float]:
-    """Start the device's controller (again until it runs) and sample its telemetry every control step."""
-    link = session.link
-    while not session.status().get("controller", {}).get("running"):
-        session.command("k1")
-    angles = [angle_from_upright(link)]
-    next_s = time.monotonic()
-    for _ in range(STEPS):
-        next_s += dt_s / speed
-        session.command("h")
-        time.sleep(max(0.0, next_s - time.monotonic()))
-        angles.append(angle_from_upright(link))
-    return angles
 
 
 def main() -> None:

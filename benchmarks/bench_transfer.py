@@ -103,11 +103,12 @@ def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str) -> str
     speed = found["servo_speed_s_per_60deg"] / true.servo_speed_s_per_60deg - 1
     omega = found["pendulum_natural_frequency_rad_s"] / true.pendulum_natural_frequency_rad_s - 1
     episode_s = 500 * true.control_step_ms / 1000
-    classical = report["classical_on_rig"]
+    classical, device = report["classical_on_rig"], report["classical_on_device"]
     return (f"adapt rig={rig_name} variant={variant} seed={seed} rig_s={report['rig_s_adaptation']:.0f} "
             f"rig_episodes={report['rig_s_adaptation'] / episode_s:.1f} wall_s={report['wall_s_adaptation']:.0f} "
             f"speed_error={speed:+.0%} omega_error={omega:+.0%} energy={classical['energy']['summary']} "
-            f"trajopt={classical['trajopt']['summary']} policy: {report['policy_on_rig']['summary']}")
+            f"trajopt={classical['trajopt']['summary']} device_energy={device['energy']['summary']} "
+            f"device_trajopt={device['trajopt']['summary']} policy: {report['policy_on_rig']['summary']}")
 
 
 def randomisation_only(rig_name: str, rig) -> str:

@@ -13,6 +13,9 @@ import gymnasium as gym
 from pendkit.adapt.session import Rig
 from pendkit.rig import RigParams
 
+DEVICE_SEED = 20_000  # the twin's episodes on its device (from rest; the seed draws the network's delays)
+EPISODE_STEPS = 500
+
 
 class _CountedSteps(gym.Wrapper):
     """Counts the commands that reached the twin (its rig time: one control step each)."""
@@ -43,9 +46,20 @@ def twin_rig(params, impairment="classroom-wifi", residual_offset_counts: int = 
     def make_env(**env_kwargs):
         return _CountedSteps(pendkit.make(fidelity=fidelity, params=params, start="rest", **env_kwargs), steps)
 
+    def run_on_device(blob: bytes, episodes: int) -> list[list[float]]:
+        from pendkit.device.on_twin import onboard_episode, upload_to_twin
+
+        env = make_env(action_mode="continuous")
+        upload_to_twin(env, blob)
+        runs = [onboard_episode(env, seed=DEVICE_SEED + k, start="rest") for k in range(episodes)]
+        steps[0] += sum(len(run) for run in runs)  # every step sent the rig a heartbeat
+        env.close()
+        return runs
+
     seconds = lambda: steps[0] * params.control_step_ms / 1000  # noqa: E731
     return Rig(make_env, seconds, name=f"twin ({impairment if isinstance(impairment, str) else 'own network'})",
-               prior=lambda: configured_prior(params.servo_min_counts, params.servo_max_counts))
+               prior=lambda: configured_prior(params.servo_min_counts, params.servo_max_counts),
+               run_on_device=run_on_device)
 
 
 def configured_prior(min_counts: int, max_counts: int) -> RigParams:
@@ -80,7 +94,22 @@ def mqtt_rig(rig_id: str, broker: str | None) -> Rig:
             return float(reported)
         return time.monotonic() - first[0] if first else 0.0
 
-    return Rig(make_env, seconds, name=f"rig {rig_id}", prior=prior)
+    def run_on_device(blob: bytes, episodes: int) -> list[list[float]]:
+        from pendkit.device.deploy_rig import RigSession, device_episode, upload_to_rig
+        from pendkit.link import DEFAULT_BROKER
+        from pendkit.link.driver import RigLink
+
+        link = RigLink(rig_id, broker or DEFAULT_BROKER)
+        link.connect()
+        try:
+            session = RigSession(link)
+            upload_to_rig(session, blob)
+            step_s = prior().control_step_ms / 1000
+            return [device_episode(session, EPISODE_STEPS, step_s) for _ in range(episodes)]
+        finally:
+            link.close()
+
+    return Rig(make_env, seconds, name=f"rig {rig_id}", prior=prior, run_on_device=run_on_device)
 
 
 def rig_status(rig_id: str, broker: str | None, wait_s: float = 2.0) -> dict:

@@ -120,6 +120,29 @@ def classical_on_env(design_env, env, controller: str, episodes: int, seed: int 
     return outcome
 
 
+def classical_on_device(rig, identification: Identification, episodes: int) -> dict:
+    """The same two designs for the rig's own device (`pendkit.device.swingup_design`, on the identified
+    parameters), uploaded and run there from rest: the network carries heartbeats and telemetry only."""
+    if episodes == 0 or rig.run_on_device is None:
+        return {name: {"summary": "not evaluated"} for name in CLASSICAL}
+    from pendkit.agents.runs import SOLVED_TAIL_STEPS
+    from pendkit.device.controller_blob import pack
+    from pendkit.device.swingup_design import design_swing_up
+    from pendkit.episode import time_to_upright_s
+    from pendkit.features import holds_upright
+
+    step_s = identification.params.control_step_ms / 1000
+    outcomes = {}
+    for name in CLASSICAL:
+        runs = rig.run_on_device(pack(design_swing_up(identification.params, name)), episodes)
+        outcome = Evaluation([], [], [], [])
+        for angles in runs:
+            outcome += Evaluation([holds_upright(angles, SOLVED_TAIL_STEPS)], [time_to_upright_s(angles, step_s)],
+                                  [0.0], [held_fraction(angles)])
+        outcomes[name] = _as_report(outcome)
+    return outcomes
+
+
 def classical_on_rig(rig, identification: Identification, episodes: int) -> dict:
     """Energy swing-up + LQR and the minimum-time swing-up, designed on the identified twin, run on the rig."""
     if episodes == 0:

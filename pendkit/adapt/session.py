@@ -19,7 +19,7 @@ from pathlib import Path
 from pendkit.adapt.excitation import Excitation, record, schedule
 from pendkit.adapt.identify import PRIOR_LATENCY_MS, identify, rig_values
 from pendkit.adapt.plots import plot_identification
-from pendkit.adapt.routes import classical_on_rig, fine_tune_on_rig, train_on_twin
+from pendkit.adapt.routes import classical_on_device, classical_on_rig, fine_tune_on_rig, train_on_twin
 from pendkit.errors import ConfigError
 from pendkit.rig import RigParams
 
@@ -34,6 +34,9 @@ class Rig:
     seconds: Callable[[], float]
     name: str = "rig"
     prior: Callable[[], RigParams] = RigParams
+    # run_on_device(blob, episodes) -> each episode's angles from upright (one per control step), the blob
+    # uploaded to the rig's own device and run there from a pendulum hanging still; None: not supported
+    run_on_device: Callable[[bytes, int], list[list[float]]] | None = None
 
 
 @dataclass(frozen=True)
@@ -91,10 +94,12 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     report["wall_s_adaptation"] = time.perf_counter() - started
     report["policy_on_rig"] = agent_run.evaluate(rig, config.evaluation_episodes)
     report["classical_on_rig"] = classical_on_rig(rig, identification, config.evaluation_episodes)
+    report["classical_on_device"] = classical_on_device(rig, identification, config.evaluation_episodes)
     report["rig_s_total"] = rig.seconds()
-    classical = report["classical_on_rig"]
-    say(f"(d) on the rig: policy {report['policy_on_rig']['summary']}; energy swing-up "
-        f"{classical['energy']['summary']}; minimum-time {classical['trajopt']['summary']}")
+    classical, device = report["classical_on_rig"], report["classical_on_device"]
+    say(f"(d) on the rig: policy {report['policy_on_rig']['summary']}; from the laptop, energy swing-up "
+        f"{classical['energy']['summary']}, minimum-time {classical['trajopt']['summary']}; on the rig's device, "
+        f"energy swing-up {device['energy']['summary']}, minimum-time {device['trajopt']['summary']}")
 
     report["plots"] = [str(plot_identification(recordings, identification, out / "identification.png"))]
     (out / "report.json").write_text(json.dumps(report, indent=1, default=float))
@@ -114,5 +119,7 @@ def report_markdown(report: dict) -> str:
             f"identified {report['matching_cost']['identified']:.4f}.\n\n"
             f"On the rig: the adapted policy {report['policy_on_rig']['summary']}; designed on the identified twin, "
             f"energy swing-up + LQR {report['classical_on_rig']['energy']['summary']}, minimum-time swing-up "
-            f"{report['classical_on_rig']['trajopt']['summary']}.\n\n"
+            f"{report['classical_on_rig']['trajopt']['summary']} (run from the laptop); the same designs run by the "
+            f"rig's own device: {report['classical_on_device']['energy']['summary']} and "
+            f"{report['classical_on_device']['trajopt']['summary']}.\n\n"
             "![recorded and simulated swings](identification.png)\n")

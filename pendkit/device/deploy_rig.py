@@ -124,6 +124,50 @@ def stop(session: RigSession, attempts: int = 3) -> bool:
     return False
 
 
+def angle_from_upright_rad(link) -> float:
+    """The newest reading's pendulum angle from upright, in [-pi, pi)."""
+    counts = link.newest.received.observation.position_counts
+    return (counts * 2 * math.pi / 1024) % (2 * math.pi) - math.pi
+
+
+def wait_until_still(session: RigSession, speed: float = 1.0, still_counts: int = 3, still_s: float = 1.0,
+                     timeout_s: float = 60.0) -> bool:
+    """Hold the arm (heartbeats while the servo stays put) until the encoder stays within a few counts for
+    `still_s` of the rig's time; False if it does not within `timeout_s`."""
+    window: list[int] = []
+    wanted = round(still_s / 0.05)
+    deadline = time.monotonic() + timeout_s / speed
+    while time.monotonic() < deadline:
+        session.command("h")
+        time.sleep(0.05 / speed)
+        if session.link.newest is None:
+            continue
+        window = (window + [session.link.newest.received.observation.position_counts])[-wanted:]
+        if len(window) == wanted and max(window) - min(window) <= still_counts:
+            return True
+    return False
+
+
+def device_episode(session: RigSession, steps: int, step_s: float, speed: float = 1.0) -> list[float]:
+    """One episode of the uploaded controller from a pendulum hanging still: stop, wait until still, start
+    (again until the rig says it runs), then heartbeats; the pendulum's angle from upright every control
+    step, from the telemetry. `speed`: a virtual rig's time per wall second."""
+    stop(session)
+    wait_until_still(session, speed)
+    link = session.link
+    while not session.status().get("controller", {}).get("running"):
+        session.command("k1")
+    angles = [angle_from_upright_rad(link)]
+    next_s = time.monotonic()
+    for _ in range(steps):
+        next_s += step_s / speed
+        session.command("h")
+        time.sleep(max(0.0, next_s - time.monotonic()))
+        angles.append(angle_from_upright_rad(link))
+    stop(session)
+    return angles
+
+
 def _telemetry_line(link, elapsed_s: float) -> str:
     observation = link.newest.received.observation
     from_upright = math.degrees(((observation.position_counts / 1024) * 2 * math.pi) % (2 * math.pi) - math.pi)

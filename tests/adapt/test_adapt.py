@@ -99,7 +99,10 @@ def test_an_adaptation_session_writes_rig_policy_and_report(tmp_path):
     assert saved["rig_s_adaptation"] == pytest.approx((2 * (REST_STEPS - 1 + 102) + 500) * 0.06)
     assert saved["rig_s_total"] > saved["rig_s_adaptation"]  # the evaluation came after, on the same rig
     assert report["policy_on_rig"]["summary"].startswith("solved=")
+    assert set(report["classical_on_device"]) == {"energy", "trajopt"}  # the same designs on the rig's device
+    assert all(len(o["solved"]) == 1 for o in report["classical_on_device"].values())
     assert "| servo_speed_s_per_60deg |" in (tmp_path / "report.md").read_text()
+    assert "run by the rig's own device" in (tmp_path / "report.md").read_text()
 
 
 def test_a_rig_over_mqtt_reports_the_commands_it_received():
