@@ -47,7 +47,10 @@ def _blob(run_dir: Path | None, policy_name: str | None, controller: str | None,
         return _learned_blob(run_dir, policy_name)
     from pendkit.device.swingup_design import design_swing_up
 
-    return design_swing_up(_rig_params(params_path), controller)
+    blob = design_swing_up(_rig_params(params_path), controller)
+    if controller == "trajopt" and not blob.plan_steps:
+        click.echo("no swing-up from rest within 40 steps for this rig: the blob pumps energy from the start")
+    return blob
 
 
 def _describe(blob) -> str:
