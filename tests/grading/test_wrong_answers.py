@@ -193,11 +193,12 @@ def next_mode(mode, theta, w, catch=0.8, fall=1.1, check_velocity=True):
     return mode
 
 
-def upright_matrices_with(model, gravity_sign=1.0, coupling=True):
-    mass = np.array([[model.arm_inertia_kg_m2, -model.coupling_kg_m2 if coupling else 0.0],
-                     [-model.coupling_kg_m2 if coupling else 0.0, model.pendulum_inertia_kg_m2]])
+def upright_matrices_with(model, gravity_sign=1.0, coupling=True, coupling_sign=-1.0, arm_damping=True):
+    off_diagonal = coupling_sign * model.coupling_kg_m2 if coupling else 0.0
+    mass = np.array([[model.arm_inertia_kg_m2, off_diagonal], [off_diagonal, model.pendulum_inertia_kg_m2]])
+    damping = model.servo_kv_n_m_s_per_rad + (model.arm_damping_n_m_s_per_rad if arm_damping else 0.0)
     forces = np.array([
-        [-model.servo_kp_n_m_per_rad, 0, -(model.servo_kv_n_m_s_per_rad + model.arm_damping_n_m_s_per_rad), 0],
+        [-model.servo_kp_n_m_per_rad, 0, -damping, 0],
         [0, gravity_sign * model.gravity_torque_n_m, 0, -model.pendulum_damping_n_m_s_per_rad]])
     a = np.zeros((4, 4))
     a[0, 2] = a[1, 3] = 1
@@ -361,6 +362,10 @@ MISTAKES = [
     ("08.augmented_state", lambda o, r, n: augmented_state(o, r, n, oldest_first=True), "wrong order"),
     ("08.augmented_state", lambda o, r, n: augmented_state(o, r, n, one_hot=False), "one-hot codes"),
     ("08.breaking_delay", lambda d, p, r, t=0.5: d[int(np.argmin(p))], "first breaks"),
+    ("04.upright_matrices", lambda model: upright_matrices_with(model, coupling_sign=1.0), "coupling's sign"),
+    ("04.upright_matrices", lambda model: upright_matrices_with(model, arm_damping=False), "back-EMF"),
+    ("04.closed_loop_poles", lambda a, b, k: np.abs(np.linalg.eigvals(np.asarray(a) - np.asarray(b) @ k)),
+     "magnitudes"),
     ("09.time_to_upright_s", lambda a, dt: first_upright_entry(a, dt), "only the final run counts"),
     ("09.time_to_upright_s", lambda a, dt: None if final_upright_start(a, dt) is None
      else round(final_upright_start(a, dt) / dt), "step index"),

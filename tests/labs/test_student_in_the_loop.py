@@ -155,3 +155,27 @@ def test_lab10_the_students_chunks_reach_the_rig_and_big_endian_ones_do_not():
     wrong = printed_by_lab("10_on_device.ipynb", "chunker=lambda", {"upload_chunks": BIG_ENDIAN_CHUNKS})
     assert "the rig took the controller: 1260 bytes in 2 chunks" in right and "1 accepted" in right, right
     assert "the upload failed" in wrong and "0 accepted" in wrong, wrong
+
+
+HANGING_A = '''
+def upright_matrices(model):
+    mass = np.array([[model.arm_inertia_kg_m2, -model.coupling_kg_m2],
+                     [-model.coupling_kg_m2, model.pendulum_inertia_kg_m2]])
+    forces = np.array([
+        [-model.servo_kp_n_m_per_rad, 0.0, -(model.servo_kv_n_m_s_per_rad + model.arm_damping_n_m_s_per_rad), 0.0],
+        [0.0, -model.gravity_torque_n_m, 0.0, -model.pendulum_damping_n_m_s_per_rad],  # -mgl: the hanging model
+    ])
+    inverse = np.linalg.inv(mass)
+    a = np.zeros((4, 4))
+    a[0, 2] = a[1, 3] = 1.0
+    a[2:, :] = inverse @ forces
+    b = np.zeros((4, 1))
+    b[2:, 0] = inverse @ np.array([model.servo_kp_n_m_per_rad, 0.0])
+    return a, b
+'''
+
+
+def test_lab04_k_is_designed_on_the_students_a_and_b_and_the_hanging_model_falls():
+    right = worst_error_deg(printed_by_lab("04_lqr.ipynb", "StateFeedback(K"))
+    wrong = worst_error_deg(printed_by_lab("04_lqr.ipynb", "StateFeedback(K", {"upright_matrices": HANGING_A}))
+    assert right < 1.0 and wrong > 30.0, (right, wrong)

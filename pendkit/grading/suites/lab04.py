@@ -20,6 +20,27 @@ def _reference(model: FurutaModel):
     return np.asarray(system.A), np.asarray(system.B)
 
 
+def _variant(model: FurutaModel, coupling_sign: float = -1.0, arm_damping: bool = True):
+    """A and B as the lab's derivation gives them, with one common slip: the coupling's sign about upright
+    (cos(pi) = -1) or the arm's back-EMF damping left out."""
+    mass = np.array([[model.arm_inertia_kg_m2, coupling_sign * model.coupling_kg_m2],
+                     [coupling_sign * model.coupling_kg_m2, model.pendulum_inertia_kg_m2]])
+    damping = model.servo_kv_n_m_s_per_rad + (model.arm_damping_n_m_s_per_rad if arm_damping else 0.0)
+    forces = np.array([[-model.servo_kp_n_m_per_rad, 0.0, -damping, 0.0],
+                       [0.0, model.gravity_torque_n_m, 0.0, -model.pendulum_damping_n_m_s_per_rad]])
+    inverse = np.linalg.inv(mass)
+    a = np.zeros((4, 4))
+    a[0, 2] = a[1, 3] = 1.0
+    a[2:] = inverse @ forces
+    b = np.zeros((4, 1))
+    b[2:, 0] = inverse @ np.array([model.servo_kp_n_m_per_rad, 0.0])
+    return a, b
+
+
+def _same(pair, reference) -> bool:
+    return all(np.allclose(x, y, rtol=1e-6, atol=1e-9) for x, y in zip(pair, reference))
+
+
 def _pair(got, name: str):
     if not is_sequence_of(got, 2):
         raise Failed(f"{name} should return a pair (A, B), got {type(got).__name__}")
@@ -39,6 +60,11 @@ def match_the_linearisation(fn, rng):
         message += ": the gravity column has the wrong sign (upright is unstable: gravity pushes away from it)"
     elif abs(a[2, 1]) < 1e-9 and abs(ref_a[2, 1]) > 1e-3:
         message += ": the arm row has no gravity term; you left out the coupling through the mass matrix"
+    elif _same((a, b), _variant(model, coupling_sign=1.0)):
+        message += (": the coupling's sign: about upright cos(alpha) = -1, so the mass matrix's off-diagonal is "
+                    "-m r l")
+    elif _same((a, b), _variant(model, arm_damping=False)):
+        message += ": the arm's damping is the servo's kv plus the back-EMF damping (arm_damping_n_m_s_per_rad)"
     elif not np.allclose(a[:2], ref_a[:2]):
         message += ": the top two rows say that the angles' rates are the rate states"
     expect(np.allclose(a, ref_a, rtol=1e-6, atol=1e-9) and np.allclose(b, ref_b, rtol=1e-6, atol=1e-9), message)
@@ -91,6 +117,9 @@ def eigenvalues_of_the_closed_loop(fn, rng):
     message = f"expected poles with magnitudes {np.round(np.abs(expected), 3).tolist()}"
     if got.shape == expected.shape and np.allclose(got, np.sort_complex(np.linalg.eigvals(a + b @ k)), atol=1e-9):
         message += ": you used A + B K; the feedback is u = -K x"
+    elif got.shape == expected.shape and np.allclose(np.sort(got.real), np.sort(np.abs(expected)), atol=1e-9) \
+            and np.allclose(got.imag, 0):
+        message += ": those are the poles' magnitudes; return the eigenvalues themselves (complex where they are)"
     expect(got.shape == expected.shape and np.allclose(got, expected, atol=1e-9), message)
 
 
