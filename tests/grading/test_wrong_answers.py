@@ -428,9 +428,17 @@ def test_check_prints_and_strict_mode_raises(all_tests_loaded, monkeypatch, caps
 
 @pytest.mark.parametrize("task_id, fn, misleading", [
     ("02.velocity_rev_s", velocity_no_wrap, "Intervals need not be equal"),
+    ("03.period_from_crossings", lambda t, a: period_counting_both_directions(t, a), "without interpolation"),
     ("04.upright_matrices", lambda model: upright_matrices_with(model, gravity_sign=-1.0), "Use the model's fields"),
 ])
 def test_one_mistake_is_not_blamed_on_something_else(all_tests_loaded, task_id, fn, misleading):
     """A single bug fails the test about it; the other tests either pass or say they depend on it."""
     _, _, messages = score(task_id, fn)
     assert misleading not in messages, messages
+
+
+def test_a_damping_ratio_near_the_answer_shows_how_far_off_it_is(all_tests_loaded):
+    """Rounding must not hide the difference: 0.0199 against 0.02 reads as different numbers."""
+    _, _, messages = score("03.damping_ratio", lambda p: 0.995 * log_decrement(p) / math.sqrt(
+        4 * math.pi**2 + log_decrement(p) ** 2))
+    assert "got 0.0199" in messages and "-0.50%" in messages, messages
