@@ -45,3 +45,16 @@ def test_an_answer_is_collected_for_the_instructor_and_scores_nothing_by_itself(
     column = next(k for k in rows["ann"] if k.startswith("00.reflection"))
     assert column == "00.reflection (by hand, /2)"
     assert rows["ann"][column] == "" and rows["bob"][column] == "0 (no answer)"
+
+
+def test_every_questions_points_agree_with_its_heading():
+    """A heading that says 3 points where the grader counts 2 (lab 05's, once) misleads students."""
+    import re
+
+    for path in sorted((ROOT / "solutions").glob("*.ipynb")):
+        for cell in nbformat.read(path, as_version=4).cells:
+            meta = cell.metadata.get("pendkit", {})
+            if "question" in meta:
+                heading = cell.source.splitlines()[0]
+                said = re.search(r"(\d+) points?", heading)
+                assert said and int(said.group(1)) == meta["points"], f"{path.name}: {heading!r} vs {meta['points']}"
