@@ -150,11 +150,12 @@ class StudentInputs:
 
 
 def train_with_parts(env, parts: StudentParts, episodes: int, seed: int = 0, learning_starts: int = 500,
-                     inputs=None):
+                     inputs=None, progress: bool = True):
     """Train the kit's DQN with a student's pieces on `env`: (agent, returns), or (None, None) with a
     one-line note when a piece is not written yet or breaks (the note says which and how). Torch runs on one
     thread here: as fast for these small networks, and the same run gives the same curve on any laptop
-    (several threads sum in a varying order, and a 50-episode run is chaotic enough to show it)."""
+    (several threads sum in a varying order, and a 50-episode run is chaotic enough to show it). A progress
+    bar shows the episodes (a training cell runs for minutes)."""
     from pendkit.agents.train import train_sync
 
     inputs = inputs or StepInputs.for_env(env)
@@ -163,7 +164,7 @@ def train_with_parts(env, parts: StudentParts, episodes: int, seed: int = 0, lea
     try:
         agent = student_dqn(inputs.dim, env.action_space.n, DqnConfig(seed=seed, learning_starts=learning_starts),
                             parts)
-        returns = run_or_note(train_sync, env, agent, episodes, inputs, seed=seed, progress=False)
+        returns = run_or_note(train_sync, env, agent, episodes, inputs, seed=seed, progress=progress)
     finally:
         torch.set_num_threads(threads)
     return (agent, returns) if returns is not None else (None, None)

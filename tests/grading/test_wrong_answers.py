@@ -366,6 +366,9 @@ MISTAKES = [
     ("04.upright_matrices", lambda model: upright_matrices_with(model, arm_damping=False), "back-EMF"),
     ("04.closed_loop_poles", lambda a, b, k: np.abs(np.linalg.eigvals(np.asarray(a) - np.asarray(b) @ k)),
      "magnitudes"),
+    ("07.td_target", lambda r, done, online, target, gamma, double: td_target(r, 1 - np.asarray(done), online,
+                                                                               target, gamma, double),
+     "kept it only where it ended"),
     ("09.time_to_upright_s", lambda a, dt: first_upright_entry(a, dt), "only the final run counts"),
     ("09.time_to_upright_s", lambda a, dt: None if final_upright_start(a, dt) is None
      else round(final_upright_start(a, dt) / dt), "step index"),

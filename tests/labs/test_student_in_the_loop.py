@@ -181,3 +181,18 @@ def test_lab04_k_is_designed_on_the_students_a_and_b_and_the_hanging_model_falls
     right = worst_error_deg(printed_by_lab("04_lqr.ipynb", "StateFeedback(K"))
     wrong = worst_error_deg(printed_by_lab("04_lqr.ipynb", "StateFeedback(K", {"upright_matrices": HANGING_A}))
     assert right < 1.0 and wrong > 30.0, (right, wrong)
+
+
+MYOPIC_TARGET = '''
+def td_target(rewards, dones, next_q_online, next_q_target, gamma, double):
+    return np.asarray(rewards, dtype=float)  # no future
+'''
+
+
+def test_lab07_a_target_without_the_future_is_named_under_its_curve_and_greedy_runs_say_if_they_held():
+    right = printed_by_lab("07_dqn.ipynb", "def myopic_target(")
+    wrong = printed_by_lab("07_dqn.ipynb", "def myopic_target(", {"td_target": MYOPIC_TARGET})
+    assert "is the myopic one" not in right, right
+    assert "your curve is the myopic one, episode for episode" in wrong, wrong
+    greedy = printed_by_lab("07_dqn.ipynb", "def greedy_return(")
+    assert re.search(r"held upright at the end in \d+ of \d+", greedy), greedy

@@ -49,6 +49,9 @@ def double_and_plain_targets(fn, rng):
         message += ": that is the plain max; let the online network choose the action"
     elif np.allclose(got_double, rewards + gamma * target_q[np.arange(3), online.argmax(axis=1)]):
         message += ": a terminal step has no future: multiply by (1 - done)"
+    elif np.allclose(got_double, rewards + gamma * dones * target_q[np.arange(3), online.argmax(axis=1)]):
+        message += (": done is 1 at a terminal step, so (1 - done) keeps the future where the episode goes on; "
+                    "you kept it only where it ended")
     expect(np.allclose(got_double, double), message)
     expect(np.allclose(got_plain, plain), f"plain targets should be {plain.tolist()}, got {got_plain.tolist()}")
 
