@@ -46,6 +46,16 @@ class GradingError(PendkitError):
     """Strict mode: a check scored less than full marks."""
 
 
+def shown(value) -> str:
+    """A student's value as feedback shows it: numbers to 6 significant digits whatever their type
+    (`np.float64(0.24)` reads 0.24), anything else as Python writes it."""
+    import numbers
+
+    if isinstance(value, numbers.Real) and not isinstance(value, bool):
+        return f"{float(value):.6g}"
+    return repr(value)
+
+
 def as_number(got, call: str) -> float:
     """A student's return value as a float, or a failure saying what came back instead."""
     try:

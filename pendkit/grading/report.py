@@ -104,17 +104,17 @@ def gradescope_results(grade: SubmissionGrade) -> dict:
         for result in task.results:
             tests.append({
                 "name": f"{task.task} {task.title}: {result.name}",
-                "score": result.points,
-                "max_score": result.max_points,
+                "score": float(result.points),  # one number type in every results.json
+                "max_score": float(result.max_points),
                 "output": result.message or "passed",
                 "visibility": "after_published" if result.hidden else "visible",
             })
     for answer in grade.written:  # shown to the grader; its points are given by hand
         question = answer.question
         tests.append({"name": f"{question.id} {question.title} (written, {question.points:g} points, graded by hand)",
-                      "score": 0, "max_score": 0, "output": answer.text or "(no answer)", "visibility": "visible"})
+                      "score": 0.0, "max_score": 0.0, "output": answer.text or "(no answer)", "visibility": "visible"})
     output = "\n".join(grade.notes) if grade.notes else "Every cell ran."
-    return {"score": grade.score, "execution_time": round(grade.execution_time_s), "output": output,
+    return {"score": float(grade.score), "execution_time": round(grade.execution_time_s), "output": output,
             "tests": tests}
 
 

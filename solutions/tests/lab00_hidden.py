@@ -5,6 +5,7 @@ import math
 import numpy as np
 
 from pendkit.grading import expect, task
+from pendkit.grading.core import shown
 from pendkit.grading.prelab import prelab_answers
 
 reward = task("00.reward", function="reward", title="The paper's reward")
@@ -22,7 +23,7 @@ def reward_is_symmetric(fn, rng):
 @fraction.test(points=1, hidden=True, hint="Accept lists as well as arrays; the bound is strict.")
 def lists_and_the_boundary(fn, rng):
     got = fn([0.3, -0.3, 0.2999])
-    expect(abs(float(got) - 1 / 3) < 1e-9, f"upright_fraction([0.3, -0.3, 0.2999]) should be 1/3, got {got!r}")
+    expect(abs(float(got) - 1 / 3) < 1e-9, f"upright_fraction([0.3, -0.3, 0.2999]) should be 1/3, got {shown(got)}")
     expect(abs(float(fn(np.zeros(7))) - 1.0) < 1e-9, "all-upright traces should give 1.0")
 
 

@@ -4,6 +4,7 @@ import math
 
 from pendkit import encoder
 from pendkit.grading import Failed, expect, outcomes, task
+from pendkit.grading.core import shown
 from pendkit.grading.prelab import prelab_answers
 
 decode = task("01.decode_frame", function="decode_frame", title="Decode an EMS-22A SSI frame")
@@ -22,7 +23,7 @@ def random_frames_match_the_reference(fn, rng):
         if outcome.error is not None:
             raise Failed(f"decode_frame(0x{frame:04X}) raised {type(outcome.error).__name__} instead of ValueError")
         expect(status == "ok", f"decode_frame(0x{frame:04X}) accepted a frame with {status}")
-        expect(got == frame >> 6, f"decode_frame(0x{frame:04X}) should be {frame >> 6}, got {got!r}")
+        expect(got == frame >> 6, f"decode_frame(0x{frame:04X}) should be {frame >> 6}, got {shown(got)}")
 
 
 @decode.test(points=1, hidden=True, hint="Every one of the 1024 positions must decode.")
@@ -40,7 +41,7 @@ def whole_range(fn, rng):
         if outcome.error is not None:
             raise Failed(f"counts_to_angle({raw}, {offset}) raised {type(outcome.error).__name__}: {outcome.error}")
         got = outcome.value
-        expect(0 <= got < 2 * math.pi, f"counts_to_angle({raw}, {offset}) = {got!r} is outside [0, 2 pi)")
+        expect(0 <= got < 2 * math.pi, f"counts_to_angle({raw}, {offset}) = {shown(got)} is outside [0, 2 pi)")
         expect(abs(got - float(encoder.counts_to_rad(raw, offset))) < 1e-9,
                f"counts_to_angle({raw}, {offset}) is wrong")
 
@@ -51,7 +52,7 @@ def every_short_step(fn, rng):
     calls = [((start + step) % 1024, start) for start, step in pairs]
     for (start, step), outcome in zip(pairs, outcomes(fn, calls)):
         got = outcome.error or outcome.value
-        expect(got == step, f"wrap_delta({(start + step) % 1024}, {start}) should be {step}, got {got!r}")
+        expect(got == step, f"wrap_delta({(start + step) % 1024}, {start}) should be {step}, got {shown(got)}")
 
 
 upright = task("01.angle_from_upright", function="angle_from_upright", title="Angle from upright")

@@ -5,6 +5,7 @@ import math
 import numpy as np
 
 from pendkit.grading import expect, task
+from pendkit.grading.core import shown
 from pendkit.grading.prelab import prelab_answers
 from pendkit.rig import RigParams
 from pendkit.sim.lab_readings import free_swing_readings
@@ -19,7 +20,7 @@ def the_rigs_own_pendulum(fn, rng):
     p = RigParams()
     got = fn(p.pendulum_mass_kg, p.pendulum_com_from_pivot_m, p.pendulum_inertia_about_pivot_kg_m2)
     expect(abs(got - p.pendulum_natural_frequency_rad_s) < 1e-6, f"the rig's pendulum should give "
-           f"{p.pendulum_natural_frequency_rad_s:.4f} rad/s, got {got!r}")
+           f"{p.pendulum_natural_frequency_rad_s:.4f} rad/s, got {shown(got)}")
 
 
 @period.test(points=1, hidden=True, hint="It must work on a real (twin) swing sampled every 25 ms.")
@@ -28,7 +29,8 @@ def a_twin_swing(fn, rng):
     angles = (readings.raw_counts * 2 * math.pi / 1024 + math.pi) % (2 * math.pi) - math.pi
     got = fn(readings.times_ms / 1000, angles)
     expected = 2 * math.pi / RigParams().pendulum_natural_frequency_rad_s
-    expect(abs(got - expected) < 0.01, f"the twin's small swing has a period of about {expected:.3f} s, got {got!r}")
+    expect(abs(got - expected) < 0.01,
+           f"the twin's small swing has a period of about {expected:.3f} s, got {shown(got)}")
 
 
 @damping.test(points=1, hidden=True, hint="Average the decrement over all cycles, not just the first.")
@@ -37,7 +39,7 @@ def noisy_peaks(fn, rng):
     delta = 2 * math.pi * zeta / math.sqrt(1 - zeta**2)
     peaks = 0.6 * np.exp(-delta * np.arange(8)) * (1 + 0.002 * rng.standard_normal(8))
     got = fn(peaks)
-    expect(abs(got - zeta) < 0.003, f"slightly noisy peaks with zeta = 0.07 gave {got!r}")
+    expect(abs(got - zeta) < 0.003, f"slightly noisy peaks with zeta = 0.07 gave {shown(got)}")
 
 
 slew = task("03.slew_rate", function="slew_rate", title="Servo slew rate from a step log")
@@ -56,7 +58,7 @@ def random_ramps(fn, rng):
                                      duration_s=1.0)
         got = fn(t, command, arm)
         expect(abs(got - speed) < 0.01 * speed, f"a {speed:.2f} rad/s ramp from {start:.2f} to {target:.2f} rad "
-               f"sampled every {1000 * dt:.0f} ms gave {got!r}")
+               f"sampled every {1000 * dt:.0f} ms gave {shown(got)}")
 
 
 @slew.test(points=1, hidden=True, hint="Check it on the twin's own servo.")
@@ -69,7 +71,7 @@ def the_twins_servo(fn, rng):
     expected = identify_servo_steps(t, command, arm).slew_rate_rad_s  # the kit's own 10-90 % slope
     got = fn(t, command, arm)
     expect(abs(got - expected) < 0.01 * expected, f"the twin's servo stepping 0.6 rad should give "
-           f"{expected:.3f} rad/s, got {got!r}")
+           f"{expected:.3f} rad/s, got {shown(got)}")
 
 
 prelab_answers("03", {"period_s": 1.185507, "log_decrement": 0.693147})

@@ -3,6 +3,7 @@
 import math
 
 from pendkit.grading import expect, outcomes, task
+from pendkit.grading.core import shown
 from pendkit.grading.prelab import prelab_answers
 
 energy = task("05.pendulum_energy", function="pendulum_energy", title="Normalised pendulum energy")
@@ -39,7 +40,7 @@ def random_states(fn, rng):
         else:
             want = "swing" if abs(theta) > FALL_ANGLE_RAD else "balance"
         expect(outcome.error is None and outcome.value == want,
-               f"next_mode({mode!r}, {theta:.3f}, {omega:.3f}) should be {want!r}, "
+               f"next_mode({shown(mode)}, {theta:.3f}, {omega:.3f}) should be {shown(want)}, "
                f"got {outcome.error or outcome.value!r}")
 
 

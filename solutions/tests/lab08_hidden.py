@@ -4,6 +4,7 @@ import numpy as np
 import torch
 
 from pendkit.grading import expect, task
+from pendkit.grading.core import shown
 from pendkit.grading.prelab import prelab_answers
 
 gru = task("08.gru_step", function="gru_step", title="One step of a GRU cell")
@@ -59,7 +60,8 @@ def random_sweeps(fn, rng):
         threshold = float(rng.choice([0.5, 0.8]))
         want = next((d for d, p, o in zip(delays, plain, other) if p < threshold <= o), None)
         got = fn(delays, plain, other, threshold)
-        expect(got == want, f"breaking_delay({delays}, {plain}, {other}, {threshold}) should be {want}, got {got!r}")
+        expect(got == want,
+               f"breaking_delay({delays}, {plain}, {other}, {threshold}) should be {want}, got {shown(got)}")
 
 
 prelab_answers("08", {"gru_blocks": 3, "delay_steps": 3})

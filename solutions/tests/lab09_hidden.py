@@ -6,6 +6,7 @@ import numpy as np
 
 from pendkit.episode import time_to_upright_s
 from pendkit.grading import expect, task
+from pendkit.grading.core import shown
 from pendkit.grading.prelab import prelab_answers
 from pendkit.grading.suites.lab09 import ARM_LIMIT_RAD, SPIN_LIMIT_RAD_S, STALE_AFTER_S
 
@@ -37,7 +38,7 @@ def random_swing_ups(fn, rng):
         got = fn(angles, dt)
         expected = None if start is None else start * dt
         ok = got is None if expected is None else got is not None and abs(got - expected) < 1e-9
-        expect(ok, f"a random run of {len(angles)} steps at {dt} s: expected {expected!r}, got {got!r}")
+        expect(ok, f"a random run of {len(angles)} steps at {dt} s: expected {shown(expected)}, got {shown(got)}")
 
 
 @balance.test(points=1, hidden=True, hint="Check it on random swing-ups.")
@@ -48,7 +49,7 @@ def random_balance_tails(fn, rng):
         got = fn(angles, 0.06)
         expected = None if start is None else float(np.degrees(np.sqrt(np.mean(angles[start:] ** 2))))
         ok = got is None if expected is None else got is not None and abs(got - expected) < 1e-6
-        expect(ok, f"a random run of {len(angles)} steps: expected {expected!r}, got {got!r}")
+        expect(ok, f"a random run of {len(angles)} steps: expected {shown(expected)}, got {shown(got)}")
 
 
 @watchdog.test(points=1, hidden=True, hint="Right at and just past each limit, and for readings that never came.")
@@ -65,7 +66,7 @@ def at_the_limits(fn, rng):
         got = fn(*args)
         expect(bool(got) == stop and (got is None or isinstance(got, str)),
                f"should_stop{tuple(round(a, 4) for a in args)} should {'stop' if stop else 'return None'}, "
-               f"got {got!r}")
+               f"got {shown(got)}")
 
 
 @matching.test(points=1, hidden=True, hint="Check it on random swings that cross the wrap, of any length.")
@@ -78,7 +79,7 @@ def random_swings(fn, rng):
         expected = float(np.mean(gap ** 2))
         got = fn(simulated.copy(), recorded.copy())
         expect(got is not None and abs(float(got) - expected) < 1e-9 * max(1.0, expected),
-               f"{n} steps of a random swing: expected {expected:.6g}, got {got!r}")
+               f"{n} steps of a random swing: expected {expected:.6g}, got {shown(got)}")
 
 
 prelab_answers("09", {"speed_ratio": 1.4, "stale_steps": 5.0})

@@ -88,6 +88,13 @@ def test_correct_submission_gets_full_marks(graded):
     assert {t["visibility"] for t in results["alice"]["tests"]} == {"visible", "after_published"}
 
 
+def test_every_score_in_results_json_is_one_number_type(graded):
+    _, results = graded
+    for student in results.values():  # once 11.0 in one file and 14 in another
+        assert isinstance(student["score"], float)
+        assert all(isinstance(t["score"], float) and isinstance(t["max_score"], float) for t in student["tests"])
+
+
 def test_untouched_lab_scores_zero(graded):
     rows, results = graded
     assert results["bob"]["score"] == 0

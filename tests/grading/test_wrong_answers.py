@@ -445,3 +445,10 @@ def test_a_damping_ratio_near_the_answer_shows_how_far_off_it_is(all_tests_loade
     _, _, messages = score("03.damping_ratio", lambda p: 0.995 * log_decrement(p) / math.sqrt(
         4 * math.pi**2 + log_decrement(p) ** 2))
     assert "got 0.0199" in messages and "-0.50%" in messages, messages
+
+
+def test_feedback_shows_numpy_numbers_as_numbers(all_tests_loaded):
+    _, _, messages = score("09.time_to_upright_s", lambda angles, dt: np.float64(0.24))
+    assert "got 0.24" in messages and "np.float64" not in messages, messages
+    _, _, messages = score("09.balance_error_deg", lambda angles, dt: 76.9508191732133)
+    assert "got 76.9508" in messages and "76.9508191732133" not in messages, messages

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from pendkit.grading.core import expect, is_real, task
+from pendkit.grading.core import expect, is_real, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
@@ -19,7 +19,7 @@ def reward_values(fn, rng):
     for theta, omega_rad_s in [(0.0, 0.0), (math.pi, 0.0), (0.3, 0.0), (0.0, 2 * math.pi), (-0.5, -math.pi)]:
         expected = -theta**2 - 0.5 * (omega_rad_s / (2 * math.pi)) ** 2
         got = fn(theta, omega_rad_s)
-        message = f"reward({theta:.3f}, {omega_rad_s:.3f}) should be {expected:.4f}, got {got!r}"
+        message = f"reward({theta:.3f}, {omega_rad_s:.3f}) should be {expected:.4f}, got {shown(got)}"
         if is_real(got) and omega_rad_s and abs(got - (-theta**2 - 0.5 * omega_rad_s**2)) < 1e-9:
             message += ": convert the velocity from rad/s to rev/s first"
         elif is_real(got) and got > 0:
@@ -32,7 +32,7 @@ def fraction_of_steps(fn, rng):
     angles = np.array([0.0, 0.1, -0.2, 0.29, -0.31, 1.0, -3.0, 0.5])
     expected = 4 / 8
     got = fn(angles)
-    message = f"upright_fraction({angles.tolist()}) should be {expected}, got {got!r}"
+    message = f"upright_fraction({angles.tolist()}) should be {expected}, got {shown(got)}"
     if is_real(got) and abs(got - float(np.mean(angles < 0.3))) < 1e-9:
         message += ": use the absolute value: -3.0 rad is far from upright"
     if is_real(got) and abs(got - 4) < 1e-9:
@@ -45,7 +45,7 @@ def random_traces(fn, rng):
     angles = rng.uniform(-math.pi, math.pi, 200)
     expected = float(np.mean(np.abs(angles) < 0.3))
     got = fn(angles)
-    expect(abs(float(got) - expected) < 1e-9, f"for 200 random angles expected {expected:.3f}, got {got!r}")
+    expect(abs(float(got) - expected) < 1e-9, f"for 200 random angles expected {expected:.3f}, got {shown(got)}")
 
 
 prelab_task("00", ("steps_per_second", "episode_seconds",))

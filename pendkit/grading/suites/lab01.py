@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 from pendkit.encoder import encode_ssi_frame
-from pendkit.grading.core import Failed, expect, is_real, task
+from pendkit.grading.core import Failed, expect, is_real, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
@@ -20,7 +20,7 @@ def _reversed_10_bits(value: int) -> int:
 
 
 def _diagnose_position(frame: int, position: int, got) -> str:
-    message = f"decode_frame(0x{frame:04X}) should return {position}, got {got!r}"
+    message = f"decode_frame(0x{frame:04X}) should return {position}, got {shown(got)}"
     if got == _reversed_10_bits(position):
         return message + ": that is the position with its bits reversed; the first bit clocked out (bit 15) " \
                          "is the most significant"
@@ -102,7 +102,7 @@ def one_magnet_bit_alone_is_valid(fn, rng):
 
 
 def _angle_message(call: str, expected: float, got) -> str:
-    message = f"{call} should be {expected:.4f} rad, got {got!r}"
+    message = f"{call} should be {expected:.4f} rad, got {shown(got)}"
     if is_real(got) and math.isfinite(got):
         if abs(got - math.degrees(expected)) < 1e-3:
             return message + ": that is degrees; the lab uses radians"
@@ -129,7 +129,7 @@ def readings_below_the_offset_wrap(fn, rng):
         got = fn(raw, offset)
         ok = is_real(got) and abs(got - expected) < 1e-9
         if not ok and is_real(got) and abs(got - (raw + offset) % 1024 * 2 * math.pi / 1024) < 1e-9:
-            raise Failed(f"counts_to_angle({raw}, offset={offset}) should be {expected:.4f}, got {got!r}: "
+            raise Failed(f"counts_to_angle({raw}, offset={offset}) should be {expected:.4f}, got {shown(got)}: "
                          "you added the offset; subtract it")
         expect(ok, _angle_message(f"counts_to_angle({raw}, offset={offset})", expected, got))
 
@@ -141,7 +141,7 @@ def upright_is_zero_and_sides_have_signs(fn, rng):
                             (3 * math.pi + 0.1, 0.1), (-math.pi / 2, math.pi / 2), (-5 * math.pi, 0.0)]:
         got = fn(angle)
         ok = is_real(got) and abs(got - expected) < 1e-9
-        message = f"angle_from_upright({angle:.3f}) should be {expected:.4f} rad, got {got!r}"
+        message = f"angle_from_upright({angle:.3f}) should be {expected:.4f} rad, got {shown(got)}"
         if not ok and is_real(got):
             if abs(got - (angle - math.pi)) < 1e-9:
                 message += ": close, but the angle may have wound several turns: wrap into [-pi, pi)"
@@ -154,14 +154,14 @@ def upright_is_zero_and_sides_have_signs(fn, rng):
 def plain_differences(fn, rng):
     for new, old in [(10, 5), (5, 10), (600, 400), (0, 0)]:
         got = fn(new, old)
-        expect(got == new - old, f"wrap_delta({new}, {old}) should be {new - old}, got {got!r}")
+        expect(got == new - old, f"wrap_delta({new}, {old}) should be {new - old}, got {shown(got)}")
 
 
 @wrap.test(points=3, hint="A jump of more than half a turn really went the short way across 1023/0.")
 def differences_across_the_seam(fn, rng):
     for new, old, expected in [(0, 1023, 1), (1023, 0, -1), (10, 1010, 24), (1010, 10, -24), (3, 1020, 7)]:
         got = fn(new, old)
-        message = f"wrap_delta({new}, {old}) should be {expected}, got {got!r}"
+        message = f"wrap_delta({new}, {old}) should be {expected}, got {shown(got)}"
         if got == new - old:
             message += ": that is the long way round; take the shorter way across the 1023 -> 0 seam"
         elif is_real(got) and got == -expected:
@@ -174,7 +174,7 @@ def half_a_turn_keeps_its_sign(fn, rng):
     for new, old in [(512, 0), (0, 512)]:
         got = fn(new, old)
         expect(got == new - old, f"wrap_delta({new}, {old}) should be {new - old} (the firmware keeps exactly "
-               f"half a turn as it is), got {got!r}")
+               f"half a turn as it is), got {shown(got)}")
 
 
 prelab_task("01", ("counts_per_turn", "degrees_per_count",))

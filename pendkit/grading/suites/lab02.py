@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from pendkit import encoder
-from pendkit.grading.core import Failed, expect, is_sequence_of, task
+from pendkit.grading.core import Failed, expect, is_sequence_of, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
@@ -118,7 +118,7 @@ def quantisation_and_aliasing(fn, rng):
     for period_ms in (5.0, 25.0, 100.0):
         got = fn(period_ms)
         expect(is_sequence_of(got, 2), f"period_limits({period_ms}) should return a pair "
-               f"(quantisation step, aliasing limit), got {got!r}")
+               f"(quantisation step, aliasing limit), got {shown(got)}")
         step, limit = float(got[0]), float(got[1])
         want_step, want_limit = 1 / 1024 / (period_ms / 1000), 0.5 / (period_ms / 1000)
         message = (f"period_limits({period_ms}) should be ({want_step:.4f}, {want_limit:.2f}) rev/s, "

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from pendkit.grading.core import as_number, expect, is_sequence_of, task
+from pendkit.grading.core import as_number, expect, is_sequence_of, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
@@ -40,7 +40,7 @@ def against_velocity_times_cosine(fn, rng):
     cases = [(0.2, 3.0, -1), (0.2, -3.0, 1), (2.8, 3.0, 1), (2.8, -3.0, -1), (-0.5, 1.0, -1), (-2.5, 1.0, 1)]
     for alpha, omega, expected in cases:
         got = fn(alpha, omega)
-        message = f"pumping_direction({alpha}, {omega}) should be {expected:+d}, got {got!r}"
+        message = f"pumping_direction({alpha}, {omega}) should be {expected:+d}, got {shown(got)}"
         if got == -expected:
             if abs(alpha) > math.pi / 2:
                 message += ": above horizontal cos(alpha) < 0 and the pumping direction reverses"
@@ -60,14 +60,14 @@ def hand_over_with_hysteresis(fn, rng):
     ]
     for mode, theta, omega, expected, why in cases:
         got = fn(mode, theta, omega)
-        expect(got == expected, f"next_mode({mode!r}, {theta}, {omega}) should be {expected!r} ({why}), "
-               f"got {got!r}")
+        expect(got == expected, f"next_mode({shown(mode)}, {theta}, {omega}) should be {shown(expected)} ({why}), "
+               f"got {shown(got)}")
 
 
 @limits.test(points=1, hint="The over-spin limit is in revolutions per second; the plan's rates are in rad/s.")
 def targets_and_rates(fn, rng):
     got = fn(1.4, 2.0)
-    expect(is_sequence_of(got, 2), f"path_limits(1.4, 2.0) should return a pair, got {got!r}")
+    expect(is_sequence_of(got, 2), f"path_limits(1.4, 2.0) should return a pair, got {shown(got)}")
     target, rate = (as_number(x, "path_limits(1.4, 2.0)") for x in got)
     expect(abs(target - 1.4) < 1e-9, f"the target limit should be the arm limit 1.4 rad, got {target}")
     message = f"2 rev/s is {4 * math.pi:.3f} rad/s, got {rate}"

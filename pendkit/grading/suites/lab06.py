@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from pendkit.grading.core import Failed, as_number, expect, is_sequence_of, task
+from pendkit.grading.core import Failed, as_number, expect, is_sequence_of, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
@@ -32,7 +32,7 @@ def percentile_of_absolute_error(fn, rng):
 
 def _fit_result(got):
     if not is_sequence_of(got, 3):
-        raise Failed(f"fit_latency should return (floor_ms, median_ms, spread), got {got!r}")
+        raise Failed(f"fit_latency should return (floor_ms, median_ms, spread), got {shown(got)}")
     return tuple(float(x) for x in got)
 
 

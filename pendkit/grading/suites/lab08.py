@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pendkit.grading.core import Failed, expect, task
+from pendkit.grading.core import Failed, expect, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
@@ -108,7 +108,7 @@ def first_contrast(fn, rng):
     plain = [1.0, 0.9, 0.4, 0.0, 0.1]
     recurrent = [1.0, 0.9, 0.8, 0.3, 0.1]
     got = fn(delays, plain, recurrent, 0.5)
-    message = f"with plain {plain} and recurrent {recurrent}, expected 60, got {got!r}"
+    message = f"with plain {plain} and recurrent {recurrent}, expected 60, got {shown(got)}"
     if got == 90:
         message += ": that is where plain is worst; the question is where it first breaks"
     expect(got == 60, message)

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from pendkit.grading.core import Failed, as_number, expect, task
+from pendkit.grading.core import Failed, as_number, expect, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
@@ -34,7 +34,7 @@ def the_final_upright_run(fn, rng):
     swing = [180, 120, 40, 10, 25, 5, 2, 1, 0, 0]  # 25 deg is outside 0.3 rad (17 deg)
     angles, dt = run_of(swing)
     got = _optional_number(fn(angles, dt), "time_to_upright_s(angles, 0.06)")
-    message = f"upright for good from step 5 (0.30 s), got {got!r}"
+    message = f"upright for good from step 5 (0.30 s), got {shown(got)}"
     if got is not None and abs(got - 0.18) < 1e-9:
         message += ": the pendulum left the upright band again at step 4; only the final run counts"
     elif got is not None and abs(got - 5) < 1e-9:
@@ -46,10 +46,10 @@ def the_final_upright_run(fn, rng):
 def never_or_always(fn, rng):
     angles, dt = run_of([180, 150, 90, 30, 10, 40])
     got = fn(angles, dt)
-    expect(got is None, f"a run that ends 40 deg from upright has no time to upright (None), got {got!r}")
+    expect(got is None, f"a run that ends 40 deg from upright has no time to upright (None), got {shown(got)}")
     angles, dt = run_of([3, 2, 1, 0])
     got = _optional_number(fn(angles, dt), "time_to_upright_s")
-    expect(got is not None and abs(got) < 1e-9, f"a run upright from the start is upright at 0 s, got {got!r}")
+    expect(got is not None and abs(got) < 1e-9, f"a run upright from the start is upright at 0 s, got {shown(got)}")
 
 
 @balance.test(points=2, hint="RMS over the final upright run only, in degrees.")
@@ -57,7 +57,7 @@ def rms_over_the_final_run(fn, rng):
     angles, dt = run_of([180, 90, 30, 4, -3, 4, -3])
     got = _optional_number(fn(angles, dt), "balance_error_deg(angles, 0.06)")
     expected = math.sqrt((16 + 9 + 16 + 9) / 4)
-    message = f"the final upright run [4, -3, 4, -3] deg has an RMS error of {expected:.3f} deg, got {got!r}"
+    message = f"the final upright run [4, -3, 4, -3] deg has an RMS error of {expected:.3f} deg, got {shown(got)}"
     if got is not None and abs(got - 0.5) < 1e-9:
         message += ": that is the mean; square, average, then take the root"
     elif got is not None and abs(got - math.radians(expected)) < 1e-6:
@@ -65,7 +65,7 @@ def rms_over_the_final_run(fn, rng):
     expect(got is not None and abs(got - expected) < 1e-6, message)
     angles, dt = run_of([0, 20, 60, 120])
     got = fn(angles, dt)
-    expect(got is None, f"a run that ends fallen has no balance error (None), got {got!r}")
+    expect(got is None, f"a run that ends fallen has no balance error (None), got {shown(got)}")
 
 
 def _stops(fn, call, *args) -> bool:
@@ -104,16 +104,16 @@ def _cost(fn, simulated, recorded) -> float:
 def a_mean_of_squares(fn, rng):
     recorded = np.linspace(0.0, 1.0, 20)
     got = _cost(fn, recorded, recorded)
-    expect(abs(got) < 1e-12, f"identical trajectories should cost 0, got {got!r}")
+    expect(abs(got) < 1e-12, f"identical trajectories should cost 0, got {shown(got)}")
     got = _cost(fn, recorded + 0.1, recorded)
-    message = f"a gap of 0.1 rad at every step should cost 0.01 rad^2, got {got!r}"
+    message = f"a gap of 0.1 rad at every step should cost 0.01 rad^2, got {shown(got)}"
     if abs(got - 0.2) < 1e-9:
         message += ": that is a sum over the 20 steps; take the mean"
     elif abs(got - 0.1) < 1e-9:
         message += ": square the differences"
     expect(abs(got - 0.01) < 1e-9, message)
     longer = _cost(fn, np.linspace(0.0, 1.0, 80) + 0.1, np.linspace(0.0, 1.0, 80))
-    expect(abs(longer - 0.01) < 1e-9, f"the same gap over 80 steps should still cost 0.01, got {longer!r}")
+    expect(abs(longer - 0.01) < 1e-9, f"the same gap over 80 steps should still cost 0.01, got {shown(longer)}")
 
 
 @matching.test(points=1, hint="Gaps either way count the same: a mean of signed differences lets them cancel.")
@@ -121,7 +121,7 @@ def gaps_either_way_add_up(fn, rng):
     recorded = np.zeros(10)
     simulated = np.array([0.2, -0.2] * 5)
     got = _cost(fn, simulated, recorded)
-    expect(abs(got - 0.04) < 1e-9, f"gaps of +0.2 and -0.2 rad in turn should cost 0.04, got {got!r}")
+    expect(abs(got - 0.04) < 1e-9, f"gaps of +0.2 and -0.2 rad in turn should cost 0.04, got {shown(got)}")
 
 
 @matching.test(points=2, hint="The encoder reads from the bottom in [0, 2 pi): 0.05 and 6.23 rad are 0.1 rad "
@@ -130,7 +130,7 @@ def the_wrap_at_the_bottom(fn, rng):
     recorded = np.array([0.05, 0.02, 2 * math.pi - 0.01, 2 * math.pi - 0.04])
     simulated = np.array([2 * math.pi - 0.05, 0.12, 0.09, 0.06])
     got = _cost(fn, simulated, recorded)
-    message = f"every pair here is 0.1 rad apart across the wrap at the bottom: 0.01 rad^2 expected, got {got!r}"
+    message = f"every pair here is 0.1 rad apart across the wrap at the bottom: 0.01 rad^2 expected, got {shown(got)}"
     if got > 1.0:
         message += ": the pendulum swings through 0 = 2 pi all the time; wrap the difference"
     expect(abs(got - 0.01) < 1e-9, message)
