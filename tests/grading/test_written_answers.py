@@ -58,3 +58,11 @@ def test_every_questions_points_agree_with_its_heading():
                 heading = cell.source.splitlines()[0]
                 said = re.search(r"(\d+) points?", heading)
                 assert said and int(said.group(1)) == meta["points"], f"{path.name}: {heading!r} vs {meta['points']}"
+
+
+def test_students_see_how_every_written_answer_is_graded():
+    for path in sorted((ROOT / "labs").glob("*.ipynb")):
+        for cell in nbformat.read(path, as_version=4).cells:
+            if "question" in cell.metadata.get("pendkit", {}):
+                shown = "How it is graded" in cell.source or "**Criteria" in cell.source
+                assert shown, f"{path.name}: {cell.source[:60]}"
