@@ -96,8 +96,10 @@ def grade(ctx: click.Context, submissions: Path | None, lab: str | None, autogra
     hidden = hidden_dir if hidden_dir.is_dir() else None
     if hidden is None and ctx.get_parameter_source("hidden_dir") != click.core.ParameterSource.DEFAULT:
         raise click.BadParameter(f"{hidden_dir} is not a folder of hidden tests", param_hint="--hidden")
+    public_only = (f"no hidden tests at {hidden_dir}: graded with the public tests only, so every score below is "
+                   "out of the public points; pass --hidden with the kit's solutions/tests to grade out of all of them")
     if hidden is None:
-        click.echo(f"no hidden tests at {hidden_dir}: grading with public tests only", err=True)
+        click.echo(public_only, err=True)
     if autograder_zip is not None:
         from pendkit.grading.gradescope import build_autograder
 
@@ -120,6 +122,8 @@ def grade(ctx: click.Context, submissions: Path | None, lab: str | None, autogra
         click.echo(f"{result.student:<24} lab {result.lab}  {result.score:g}/{result.max_score:g}"
                    + (f"  ({len(result.notes)} notes)" if result.notes else ""))
     click.echo(f"reports: {out_dir / 'grades.csv'} and {out_dir}/<student>/results.json")
+    if hidden is None:  # said again at the end, where an instructor reads the scores
+        click.echo(f"NOTE: {public_only}", err=True)
 
 
 @click.command("autograder-run")

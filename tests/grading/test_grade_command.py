@@ -165,3 +165,13 @@ def test_invert_untouched_labs_score_zero_on_every_task(lab_file):
     for task in grade.tasks:
         assert task.score == 0, f"{task.task} scored {task.score} on the untouched lab"
     assert not any("raised" in note for note in grade.notes), grade.notes
+
+
+def test_grading_without_hidden_tests_says_so_where_the_scores_are_read(tmp_path, monkeypatch):
+    (tmp_path / "class").mkdir()
+    shutil.copy(ROOT / "labs" / "00_tour.ipynb", tmp_path / "class" / "zoe.ipynb")
+    monkeypatch.chdir(tmp_path)  # outside the kit's folder: no solutions/tests here
+    result = CliRunner().invoke(main, ["grade", "class", "--lab", "00", "--out", "out", "--quiet"])
+    assert result.exit_code == 0, result.output
+    last = result.output.strip().splitlines()[-1]
+    assert last.startswith("NOTE: no hidden tests") and "out of the public points" in last, result.output
