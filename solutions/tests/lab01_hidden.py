@@ -77,4 +77,4 @@ def the_seam_exactly(fn, rng):
                f"wrap_delta({new}, {old}) should be {want}, got {outcome.error or outcome.value!r}")
 
 
-prelab_answers("01", {"counts_per_turn": 1024, "degrees_per_count": 0.351562})
+prelab_answers("01", {"counts_per_turn": 1024, "counts_between_readings": 25.6})

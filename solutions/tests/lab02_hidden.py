@@ -54,4 +54,4 @@ def random_periods(fn, rng):
                and abs(float(got[1]) - 0.5 / period_s) < 1e-9, f"period_limits({period_ms:.2f}) is wrong")
 
 
-prelab_answers("02", {"slowest_rev_s": 0.039062, "fastest_rev_s": 20.0})
+prelab_answers("02", {"slowest_rev_s": 0.097656, "fastest_rev_s": 20.0})

@@ -50,4 +50,4 @@ def random_rigs(fn, rng):
                f"{1000 * params.dowel_length_m:.0f} mm dowel")
 
 
-prelab_answers("04", {"growth_per_step": 1.349859, "states": 4})
+prelab_answers("04", {"growth_per_step": 1.3498588075760032, "steps_to_tenfold": 7.675283643313486})

@@ -78,4 +78,4 @@ def other_limits(fn, rng):
                f"path_limits({arm:.3f}, {overspin:.3f}) is wrong")
 
 
-prelab_answers("05", {"energy_hanging": -1.0, "energy_upright": 1.0, "energy_horizontal": 0.0})
+prelab_answers("05", {"energy_bottom_fast": 1.0, "energy_tilted_at_rest": -0.5, "energy_horizontal_moving": 0.5})

@@ -45,11 +45,11 @@ def test_missing_keys_and_non_numbers_are_named_and_no_value_is_shown(all_tests_
     right = solution_prelab("04")()
     results = run_task("04.prelab", lambda: {"growth_per_step": "about 1.3"})
     message = " ".join(r.message for r in results)
-    assert "'states'" in message and "not numbers" not in message  # the missing key comes first
-    results = run_task("04.prelab", lambda: dict(right, states="four"))
-    assert "['states']" in " ".join(r.message for r in results)
-    assert not any(str(round(v, 3)) in r.message for r in results for v in right.values() if v not in (4,))
-    assert run_task("04.prelab", lambda: [1.35, 4])[0].message.startswith("prelab() should return a dict")
+    assert "'steps_to_tenfold'" in message and "not numbers" not in message  # the missing key comes first
+    results = run_task("04.prelab", lambda: dict(right, steps_to_tenfold="about eight"))
+    assert "['steps_to_tenfold']" in " ".join(r.message for r in results)
+    assert not any(str(round(v, 3)) in r.message for r in results for v in right.values())
+    assert run_task("04.prelab", lambda: [1.35, 7.7])[0].message.startswith("prelab() should return a dict")
 
 
 def test_the_student_copy_asks_without_answering():
@@ -58,3 +58,18 @@ def test_the_student_copy_asks_without_answering():
     student = strip_solutions(cell.source, "05 prelab")
     assert "NotImplementedError" in student and "energy_hanging" not in student
     assert TASKS["05.prelab"].function == "prelab"
+
+
+@pytest.mark.parametrize("lab", LABS)
+def test_the_notebook_does_not_print_or_state_its_prelab_answers(lab):
+    """A pre-lab answered by the lab itself asks for look-up, not thought (04's 1.35 per step once sat in a
+    markdown cell; 09's stale steps in Task 3's text)."""
+    path = next((ROOT / "solutions").glob(f"{lab}_*.ipynb"))
+    answers = solution_prelab(lab)()
+    cells = [c for c in nbformat.read(path, as_version=4).cells
+             if not c.source.startswith("def prelab(") and "instructor" not in c.metadata.get("tags", [])]
+    text = " ".join(c.source for c in cells)
+    for key, value in answers.items():
+        if isinstance(value, float) and not float(value).is_integer():
+            for shown in {f"{value:.2f}", f"{value:.3f}"}:
+                assert shown not in text, f"lab {lab} states {key} = {shown} outside the pre-lab"

@@ -177,6 +177,6 @@ def half_a_turn_keeps_its_sign(fn, rng):
                f"half a turn as it is), got {shown(got)}")
 
 
-prelab_task("01", ("counts_per_turn", "degrees_per_count",))
+prelab_task("01", ("counts_per_turn", "counts_between_readings",))
 
 written("01.reflection", "Reflection", points=2)

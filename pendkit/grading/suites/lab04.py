@@ -123,6 +123,6 @@ def eigenvalues_of_the_closed_loop(fn, rng):
     expect(got.shape == expected.shape and np.allclose(got, expected, atol=1e-9), message)
 
 
-prelab_task("04", ("growth_per_step", "states",))
+prelab_task("04", ("growth_per_step", "steps_to_tenfold"))
 
 written("04.reflection", "Reflection", points=3)

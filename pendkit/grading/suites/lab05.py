@@ -112,6 +112,6 @@ def distance_from_upright(fn, rng):
         expect(abs(got - expected) < 1e-9, message)
 
 
-prelab_task("05", ("energy_hanging", "energy_upright", "energy_horizontal",))
+prelab_task("05", ("energy_bottom_fast", "energy_tilted_at_rest", "energy_horizontal_moving"))
 
 written("05.reflection", "Reflection", points=3)

@@ -117,6 +117,6 @@ def first_contrast(fn, rng):
     expect(fn(delays, [1.0] * 5, recurrent, 0.5) is None, "when plain DQN never breaks, return None")
 
 
-prelab_task("08", ("gru_blocks", "delay_steps",))
+prelab_task("08", ("gru_input_weights", "delay_steps"))
 
 written("08.reflection", "Reflection", points=3)
