@@ -69,12 +69,11 @@ def run_demo(fidelity: str = "realistic", seed: int = 0, start: str = "rest", ou
 
 
 def _draw_plans(axis, plans, trace: EpisodeTrace) -> None:
-    """Each plan's pendulum angle from upright (degrees), dotted, from the step it was made."""
+    """Each plan's pendulum |angle from upright| (degrees, as the episode plot), dotted, from the step it was made."""
     times = np.asarray(trace.time_s)
     for number, plan in enumerate(plans):
         start_s = plan.notes.get("made_at_s", 0.0)
-        planned = np.degrees(plan.states[:, 1] % (2 * np.pi) - np.pi)
-        planned[1:][np.abs(np.diff(planned)) > 180] = np.nan  # no line across the +-180 deg wrap
+        planned = np.degrees(np.abs(plan.states[:, 1] % (2 * np.pi) - np.pi))
         axis.plot(start_s + np.arange(len(planned)) * plan.period_s, planned, color="black", linestyle=":",
                   lw=1.2, label="plan" if number == 0 else None)
     if plans:

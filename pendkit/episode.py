@@ -125,9 +125,11 @@ def plot_episode(trace: EpisodeTrace, path: str | Path | None = None, title: str
     figure = Figure(figsize=(9, 2.2 * rows), layout="constrained")
     axes = figure.subplots(rows, 1, sharex=True)
     t = data["time_s"]
-    axes[0].plot(t, np.degrees(data["pendulum_from_upright_rad"]), color=PALETTE["pendulum"],
-                 label="pendulum from upright")
+    # |angle| from upright (0 upright, 180 hanging): a signed angle jumps between +-180 at every bottom pass
+    axes[0].plot(t, np.degrees(np.abs(data["pendulum_from_upright_rad"])), color=PALETTE["pendulum"],
+                 label="pendulum, |from upright|")
     axes[0].plot(t, np.degrees(data["arm_angle_rad"]), color=PALETTE["arm"], linestyle="--", label="arm")
+    axes[0].axhspan(0, np.degrees(UPRIGHT_RAD), color=PALETTE["limit"], alpha=0.2, lw=0)
     axes[0].axhline(0, color=PALETTE["limit"], lw=0.8)
     axes[0].set_ylabel("angle (deg)")
     axes[0].legend(loc="upper right")

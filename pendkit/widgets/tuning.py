@@ -119,13 +119,16 @@ class GainTuner:
         self.r = w.FloatLogSlider(value=3.0, base=10, min=-1, max=2, step=0.1, description="R action", **common)
         self.gain = w.FloatSlider(value=1.0, min=0.2, max=4.0, step=0.1, description="swing-up energy gain",
                                   **common)
-        self.image = w.Image(format="png")
-        self.zoom = w.Image(format="png")
+        # scaled to the notebook's width (a PNG image widget is otherwise drawn at its pixel size: the zoom
+        # beside the episode ran off the right edge)
+        self.image = w.Image(format="png", layout=w.Layout(width="60%", height="auto"))
+        self.zoom = w.Image(format="png", layout=w.Layout(width="40%", height="auto"))
         self.text = w.HTML()  # the plots in words, for screen readers
         self._show_result()
         for slider in (self.q, self.r, self.gain):
             slider.observe(self._changed, names="value")
-        self.widget = w.VBox([self.q, self.r, self.gain, w.HBox([self.image, self.zoom]), self.text])
+        row = w.HBox([self.image, self.zoom], layout=w.Layout(width="100%", align_items="flex-start"))
+        self.widget = w.VBox([self.q, self.r, self.gain, row, self.text])
 
     def _show_result(self) -> None:
         self.image.value = trace_png(self.result.trace, "Swing-up and balance", self.result.natural_frequency_rad_s)

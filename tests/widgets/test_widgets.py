@@ -122,3 +122,29 @@ def test_q_and_r_visibly_change_the_balance_the_tuner_shows():
     text = describe(stiff)
     assert "K = [" in text and "largest closed-loop pole" in text and "arm travels over" in text
     assert balance_png(stiff)[:4] == b"\x89PNG"
+
+
+def test_the_tuners_two_plots_fit_the_notebooks_width(monkeypatch):
+    """Both images scale to the notebook's width together: the zoom once ran off the right edge in Chromium."""
+    pytest.importorskip("ipywidgets")
+    monkeypatch.setattr("pendkit.widgets.tuning.live_frontend", lambda: True)
+    tuner = GainTuner(fidelity="ideal", steps=60)
+    widths = [float(image.layout.width.rstrip("%")) for image in (tuner.image, tuner.zoom)]
+    assert sum(widths) <= 100 and all(image.layout.height == "auto" for image in (tuner.image, tuner.zoom))
+
+
+def test_the_episode_plot_draws_the_pendulum_without_a_wrap_sawtooth():
+    from pendkit.episode import EpisodeTrace, plot_episode
+
+    trace = EpisodeTrace()
+    for k, angle in enumerate(np.linspace(0, 6 * np.pi, 120)):  # three whole turns from the bottom
+        from_upright = (angle % (2 * np.pi)) - np.pi
+        trace.time_s.append(k * 0.06)
+        trace.pendulum_from_upright_rad.append(from_upright)
+        trace.pendulum_velocity_rad_s.append(1.0)
+        trace.arm_angle_rad.append(0.0)
+        trace.action.append(0.0)
+        trace.reward.append(0.0)
+    line = plot_episode(trace).axes[0].get_lines()[0]
+    jumps = np.abs(np.diff(line.get_ydata()))
+    assert jumps.max() < 20, "the pendulum's line jumps by a full turn at a bottom pass"
