@@ -128,3 +128,17 @@ def test_a_students_augmented_state_is_what_the_delay_aware_agent_sees():
     assert any(not np.array_equal(a, c) for a, _, c in xs)  # a wrong one feeds the agent something else
     with pytest.raises(StudentCodeError, match="expected \\(18,\\)"):
         StudentInputs(lambda o, r, n: o, 3, 5, 3).reset(observation)
+
+
+def test_lab08_states_the_delay_range_its_sweep_file_holds():
+    import re
+    from pathlib import Path
+
+    import nbformat
+
+    from pendkit.agents.results import delay_sweep
+
+    root = Path(__file__).resolve().parents[2]
+    text = " ".join(c.source for c in nbformat.read(root / "solutions" / "08_gru_rdqn.ipynb", as_version=4).cells)
+    stated = [int(m) for m in re.findall(r"from 0 to (\d+) ms", text)]
+    assert stated and all(ms == delay_sweep().delays_ms[-1] for ms in stated), stated
