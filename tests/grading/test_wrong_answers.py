@@ -123,6 +123,18 @@ def upload_chunks(blob, start=0, size=1024, order="<", whole_size=True):
             + blob[offset:offset + size] for offset in range(start, len(blob), size)]
 
 
+def shared_buffer_augmented_state():
+    """The aliasing bug: one array for the codes, made once and filled again on every call."""
+    buffer = {}
+
+    def augmented(observation, recent, n):
+        codes = buffer.setdefault((len(recent), n), np.zeros((len(recent), n)))
+        codes[np.arange(len(recent)), list(recent)] = 1.0
+        return np.concatenate([np.asarray(observation, dtype=float).ravel(), codes.ravel()])
+
+    return augmented
+
+
 def augmented_state(observation, recent, n, oldest_first=False, one_hot=True):
     recent = list(recent)[::-1] if oldest_first else list(recent)
     codes = np.eye(n)[recent].ravel() if one_hot else np.asarray(recent, dtype=float)
@@ -362,6 +374,7 @@ MISTAKES = [
     ("08.augmented_state", lambda o, r, n: augmented_state(o, r, n, oldest_first=True), "wrong order"),
     ("08.augmented_state", lambda o, r, n: augmented_state(o, r, n, one_hot=False), "one-hot codes"),
     ("08.breaking_delay", lambda d, p, r, t=0.5: d[int(np.argmin(p))], "first breaks"),
+    ("08.augmented_state", shared_buffer_augmented_state(), "shared between calls"),
     ("04.upright_matrices", lambda model: upright_matrices_with(model, coupling_sign=1.0), "coupling's sign"),
     ("04.upright_matrices", lambda model: upright_matrices_with(model, arm_damping=False), "back-EMF"),
     ("04.closed_loop_poles", lambda a, b, k: np.abs(np.linalg.eigvals(np.asarray(a) - np.asarray(b) @ k)),

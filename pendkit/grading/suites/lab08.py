@@ -63,11 +63,20 @@ def observation_then_one_hot_actions(fn, rng):
     if flat is not None and flat.shape == (6,) and np.allclose(flat, [0.5, -1.0, 2.0, *recent]):
         raise Failed(f"{call} should have 18 values: use one-hot codes, not the action numbers (action 4 is not "
                      "'twice' action 2)")
-    got = _array(raw, call, (18,))
-    message = f"{call} should be {expected.tolist()}, got {got.tolist()}"
+    got = _array(raw, call, (18,)).copy()
+    fn(observation.copy(), [1, 3, 0], 5)  # other actions in between: a buffer kept between calls shows now
+    again = _array(fn(observation.copy(), list(recent), 5), call, (18,))
+    expect(np.allclose(again, got), f"{call} gave a different answer the second time: something is shared between "
+                                    "calls (an array made once and filled again, or the input changed in place)")
     if np.allclose(got, reference_augmented_state(observation, recent[::-1], 5)):
-        message += ": the actions are in the wrong order; keep recent_actions as given, newest first"
-    expect(np.allclose(got, expected), message)
+        raise Failed(f"{call}: the actions are in the wrong order; keep recent_actions as given, newest first")
+    parts = []
+    if not np.allclose(got[:3], expected[:3]):
+        parts.append(f"the observation part should be {expected[:3].tolist()}, got {np.round(got[:3], 6).tolist()}")
+    ones_wanted, ones_got = np.flatnonzero(expected[3:] == 1).tolist(), np.flatnonzero(got[3:] != 0).tolist()
+    if ones_wanted != ones_got or not np.allclose(got[3:], expected[3:]):
+        parts.append(f"after it, one 1 per action in blocks of 5: 1s at {ones_wanted}, got non-zeros at {ones_got}")
+    expect(not parts, f"{call}: " + "; ".join(parts))
     single = _array(fn(np.zeros(2), [1], 3), "augmented_state([0, 0], [1], 3)", (5,))
     expect(np.allclose(single, [0, 0, 0, 1, 0]), f"augmented_state([0, 0], [1], 3) should be [0, 0, 0, 1, 0], "
                                                  f"got {single.tolist()}")
