@@ -26,17 +26,21 @@ class RigSession:
         self.seq += 1
         self.link.publish(frame_command(body, 2, self.seq, int(time.monotonic() * 1000)))
 
-    def status(self, wait_s: float = 2.0) -> dict:
-        """A status the rig publishes now (after `r`); {} when none comes (a rig that is off)."""
-        self.link.status_is_live = False
-        self.command("r")
-        deadline = time.monotonic() + wait_s
-        while time.monotonic() < deadline and not self.link.status_is_live:
-            time.sleep(0.01)
-        try:
-            return json.loads(self.link.status) if self.link.status_is_live else {}
-        except ValueError:
-            return {}
+    def status(self, wait_s: float = 2.0, asks: int = 3) -> dict:
+        """A status the rig publishes now (after `r`, asked again up to `asks` times: a lost request or a busy
+        laptop must not look like a rig that is off); {} when none comes."""
+        for _ in range(asks):
+            self.link.status_is_live = False
+            self.command("r")
+            deadline = time.monotonic() + wait_s
+            while time.monotonic() < deadline and not self.link.status_is_live:
+                time.sleep(0.01)
+            if self.link.status_is_live:
+                try:
+                    return json.loads(self.link.status)
+                except ValueError:
+                    return {}
+        return {}
 
 
 def controller_status(session: RigSession) -> dict:
@@ -118,7 +122,7 @@ def stop(session: RigSession, attempts: int = 3) -> bool:
     for _ in range(attempts):
         session.command("k0")
         session.command("d")
-        status = session.status(wait_s=1.0)
+        status = session.status(wait_s=1.0, asks=1)
         if status and not status.get("controller", {}).get("running", False):
             return True
     return False

@@ -51,7 +51,9 @@ kernel.serve_call = lambda request: '{"list": [' + '{"list": []},' * 250_000 + '
 PRINTS_ENVIRONMENT = """
 import os
 def reward(angle_from_upright_rad, velocity_rad_s):
-    raise ValueError(repr(dict(os.environ)))
+    # short, so that no truncation of the feedback can hide it: what this kernel can see of the grader's
+    leaked = [k for k, v in os.environ.items() if "TOKEN" in k or "pendkit-secret" in v]
+    raise ValueError("PENDKIT_MODE=" + os.environ.get("PENDKIT_MODE", "-") + " leaked=" + repr(leaked))
 """
 LISTS_FILES = """
 import os
@@ -170,7 +172,7 @@ def test_oversized_replies_are_refused_before_they_are_decoded(graded):
 def test_the_graders_environment_does_not_reach_student_code(graded):
     grades, *_ = graded
     text = feedback(grades["d-environment"])
-    assert "PENDKIT_MODE" in text  # the function ran and printed its environment
+    assert "PENDKIT_MODE=" in text and "leaked=[]" in text, text  # it ran, and saw nothing of the grader's
     assert SECRET not in text
 
 
