@@ -10,29 +10,18 @@
 #include <vector>
 
 #include "controller.h"
+#include "vector_files.h"
 
 namespace {
-
-std::vector<uint8_t> read_bytes(const std::string& name) {
-  std::ifstream file(std::string(VECTORS_DIR) + "/" + name, std::ios::binary);
-  REQUIRE_MESSAGE(file.good(), "cannot open vector file " << name);
-  return std::vector<uint8_t>(std::istreambuf_iterator<char>(file), {});
-}
-
-float f32_at(const std::vector<uint8_t>& bytes, size_t offset) {
-  float value;
-  std::memcpy(&value, bytes.data() + offset, sizeof value);
-  return value;
-}
 
 pend::Controller controller;  // 71 KB: static, as on the device
 
 }  // namespace
 
 TEST_CASE("the device runtime gives torch's outputs on the recorded inputs") {
-  const std::vector<uint8_t> blob = read_bytes("r-dqn-realistic.pkcb");
+  const std::vector<uint8_t> blob = read_vector_file("r-dqn-realistic.pkcb");
   REQUIRE(controller.load(blob.data(), blob.size()) == pend::BlobStatus::kOk);
-  const std::vector<uint8_t> vectors = read_bytes("r-dqn-realistic.pktv");
+  const std::vector<uint8_t> vectors = read_vector_file("r-dqn-realistic.pktv");
   REQUIRE(std::memcmp(vectors.data(), "PKTV", 4) == 0);
   uint32_t steps;
   uint16_t n_in, n_out;
@@ -66,7 +55,7 @@ TEST_CASE("the device runtime gives torch's outputs on the recorded inputs") {
 }
 
 TEST_CASE("a damaged, cut or oversized blob is refused and the active controller stays") {
-  std::vector<uint8_t> blob = read_bytes("r-dqn-realistic.pkcb");
+  std::vector<uint8_t> blob = read_vector_file("r-dqn-realistic.pkcb");
   REQUIRE(controller.load(blob.data(), blob.size()) == pend::BlobStatus::kOk);
   const size_t weights = controller.weight_count();
   CHECK(controller.load(blob.data(), blob.size() - 1) == pend::BlobStatus::kBadLength);

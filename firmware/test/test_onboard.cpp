@@ -14,22 +14,11 @@
 
 #include "onboard.h"
 #include "swingup.h"
+#include "vector_files.h"
 
 using json = nlohmann::json;
 
 namespace {
-
-std::vector<uint8_t> read_file(const std::string& name) {
-  std::ifstream file(std::string(VECTORS_DIR) + "/" + name, std::ios::binary);
-  REQUIRE_MESSAGE(file.good(), "cannot open vector file " << name);
-  return std::vector<uint8_t>(std::istreambuf_iterator<char>(file), {});
-}
-
-float f32_at(const std::vector<uint8_t>& bytes, size_t offset) {
-  float value;
-  std::memcpy(&value, bytes.data() + offset, sizeof value);
-  return value;
-}
 
 std::vector<uint8_t> from_hex(const std::string& hex) {
   std::vector<uint8_t> out;
@@ -44,7 +33,7 @@ pend::SwingUpParams params;
 pend::SwingUp runtime;
 
 void replay(const std::string& name) {
-  const std::vector<uint8_t> blob = read_file("swing-up-" + name + ".pkcb");
+  const std::vector<uint8_t> blob = read_vector_file("swing-up-" + name + ".pkcb");
   uint16_t kind = 0;
   const uint8_t* payload = nullptr;
   size_t length = 0;
@@ -52,7 +41,7 @@ void replay(const std::string& name) {
   REQUIRE(kind == 3);
   REQUIRE(pend::parse_swing_up(payload, length, params) == pend::BlobStatus::kOk);
   runtime.set_params(params);
-  const std::vector<uint8_t> vectors = read_file("swing-up-" + name + ".pktv");
+  const std::vector<uint8_t> vectors = read_vector_file("swing-up-" + name + ".pktv");
   uint32_t rows;
   std::memcpy(&rows, vectors.data() + 4, 4);
   size_t ticks = 0, same_mode = 0;
@@ -81,7 +70,7 @@ TEST_CASE("the device's swing-up follows the Python runtime: energy") { replay("
 TEST_CASE("the device's swing-up follows the Python runtime: minimum-time plan") { replay("trajopt"); }
 
 TEST_CASE("uploads: the controller status after every chunk") {
-  const std::vector<uint8_t> text = read_file("uploads.json");
+  const std::vector<uint8_t> text = read_vector_file("uploads.json");
   const json vectors = json::parse(text.begin(), text.end());
   for (const json& scenario : vectors["scenarios"]) {
     CAPTURE(scenario["name"].get<std::string>());
@@ -101,7 +90,7 @@ TEST_CASE("uploads: the controller status after every chunk") {
 }
 
 TEST_CASE("the device's policy makes the Python device's inputs and takes torch's actions") {
-  const std::vector<uint8_t> blob = read_file("r-dqn-realistic-policy.pkcb");
+  const std::vector<uint8_t> blob = read_vector_file("r-dqn-realistic-policy.pkcb");
   onboard = pend::Onboard();
   for (size_t offset = 0; offset < blob.size(); offset += pend::kMaxChunkBytes) {
     const size_t bytes = std::min(pend::kMaxChunkBytes, blob.size() - offset);
@@ -112,7 +101,7 @@ TEST_CASE("the device's policy makes the Python device's inputs and takes torch'
     onboard.chunk(chunk.data(), chunk.size());
   }
   REQUIRE(onboard.runs_policy());
-  const std::vector<uint8_t> text = read_file("policy-device.json");
+  const std::vector<uint8_t> text = read_vector_file("policy-device.json");
   const json vectors = json::parse(text.begin(), text.end());
   size_t decisions = 0, same_action = 0;
   double worst_input = 0.0;
