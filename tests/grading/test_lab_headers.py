@@ -41,6 +41,15 @@ def test_every_points_mention_is_the_graders_total(all_tests_loaded, lab):
 
 
 @pytest.mark.parametrize("lab", sorted(LABS))
+def test_every_task_mention_reads_as_points(lab):
+    """A task's points are written "(N points)" (a header once said "(3None)")."""
+    for cell in nbformat.read(LABS[lab], as_version=4).cells:
+        if cell.cell_type == "markdown":
+            for said in re.findall(r"`\d\d\.[a-z_0-9]+` \(([^)]*)\)", cell.source):
+                assert re.fullmatch(r"\d+ points?", said), f"lab {lab}: a task's points read ({said})"
+
+
+@pytest.mark.parametrize("lab", sorted(LABS))
 def test_time_and_points_agree_with_the_syllabus(all_tests_loaded, lab):
     notebook = nbformat.read(LABS[lab], as_version=4)
     row = syllabus_rows()[lab]
