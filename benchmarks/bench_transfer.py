@@ -1,12 +1,17 @@
 """Learning and designs that carry to rigs they were not built for: the evidence for issue 23.
 
     python benchmarks/bench_transfer.py zero-shot [--starts 5]        # each controller x presets and random rigs
+    python benchmarks/bench_transfer.py ceiling [--starts 5]          # the classical designs as oracles
     python benchmarks/bench_transfer.py adapt [--rigs 6] [--seeds 0 1 2] [--jobs 2]
     python benchmarks/bench_transfer.py ablations [--rigs 6] [--jobs 2]
 
 zero-shot: the shipped policies and the classical controllers (energy swing-up + LQR, minimum-time swing-up),
 all designed or trained without the rig, on the five servo presets and the 10 held-out rigs
 (`pendkit.agents.rig_suite`, seed 2026), one episode from rest and `--starts` random starts each.
+
+ceiling: the same rigs, the classical controllers designed on each rig's true parameters and acting on the
+twin's true state, with the rig's network and without one: what the kit's model-based control reaches
+when it knows everything (a bound to read the robust policy's goal against).
 
 adapt: `pendkit adapt` on `--rigs` hidden rigs drawn from the held-out ranges with seed 2027 (another draw
 than zero-shot's, written as RigParams files beside the results; the network and calibration error stay
@@ -23,9 +28,9 @@ from __future__ import annotations
 
 import argparse
 import tempfile
-from concurrent.futures import ProcessPoolExecutor
-from multiprocessing import get_context
 from pathlib import Path
+
+from pendkit.sweep.ray_runner import map_on_ray
 
 ADAPT_RIG_SEED = 2027
 EVALUATION_EPISODES = 3
@@ -60,16 +65,64 @@ def zero_shot(starts: int) -> None:
         _report(controller, outcomes)
 
 
-def _report(controller: str, outcomes: dict) -> None:
+def ceiling(starts: int) -> None:
+    """The classical designs with everything the kit could know: each rig's true parameters, acting on the
+    twin's true state (no estimate, no reading delay), with the rig's own network and with none. What they
+    cannot solve is beyond the kit's model-based control on the laptop, a bound for any policy's goal."""
+    import dataclasses
+    import math
+
+    from pendkit.adapt.routes import CLASSICAL
+    from pendkit.agents.rig_suite import preset_rigs, random_rigs, rig_env
+    from pendkit.agents.runs import SOLVED_TAIL_STEPS, Evaluation
+    from pendkit.demo import CONTROLLERS
+    from pendkit.episode import time_to_upright_s
+    from pendkit.features import holds_upright
+    from pendkit.sim.latency import NetworkImpairment
+
+    def true_state(env, shown):
+        truth = env.unwrapped.backend.true_state()
+        return shown._replace(pendulum_angle_rad=truth["pendulum_angle_rad"] % (2 * math.pi),
+                              pendulum_velocity_rad_s=truth["pendulum_velocity_rad_s"],
+                              arm_angle_rad=truth["arm_angle_rad"], arm_velocity_rad_s=truth["arm_velocity_rad_s"],
+                              observation_age_s=0.0)
+
+    def episode(env, policy, seed: int, start: str) -> Evaluation:
+        _, info = env.reset(seed=seed, options={"start": start})
+        policy.reset(true_state(env, info["state"]))
+        angles = []
+        for _ in range(500):
+            _, _, _, _, info = env.step(policy(None, true_state(env, info["state"])))
+            angles.append(info["angle_from_upright_rad"])
+        return Evaluation([holds_upright(angles, SOLVED_TAIL_STEPS)], [time_to_upright_s(angles, env.unwrapped.dt)],
+                          [0.0], [None])
+
+    rigs = {**preset_rigs(), **random_rigs()}
+    for network in ("rig", "none"):
+        for controller in CLASSICAL:
+            outcomes = {}
+            for rig_name, rig in rigs.items():
+                rig = rig if network == "rig" else dataclasses.replace(rig, network=NetworkImpairment())
+                env = rig_env(rig, action_mode="continuous", filter_coefficient=0.0)
+                design = rig_env(rig, action_mode="continuous", filter_coefficient=0.0)
+                policy = CONTROLLERS[controller](design)
+                outcomes[rig_name] = sum((episode(env, policy, 10_000 + k, start) for k, start in
+                                          enumerate(["rest"] + ["random"] * starts)), Evaluation([], [], [], []))
+                env.close()
+                design.close()
+            _report(f"{controller}-oracle-network-{network}", outcomes, "ceiling")
+
+
+def _report(controller: str, outcomes: dict, mode: str = "zero-shot") -> None:
     from pendkit.agents.rig_suite import summary
 
     for rig_name, outcome in outcomes.items():
-        print(f"zero-shot controller={controller} rig={rig_name} {outcome.summary()}", flush=True)
+        print(f"{mode} controller={controller} rig={rig_name} {outcome.summary()}", flush=True)
     for group in ("presets", "random"):
         chosen = {k: v for k, v in outcomes.items() if k.startswith("random") == (group == "random")}
         total = summary(chosen)
         held = total["min_held_fraction"]
-        print(f"zero-shot controller={controller} rigs={group} solved={total['solved']}/{total['episodes']} "
+        print(f"{mode} controller={controller} rigs={group} solved={total['solved']}/{total['episodes']} "
               f"share={total['solved_share']:.2f} median_upright_s={_shown(total['median_upright_s'])} "
               f"min_held_fraction={_shown(held)}", flush=True)
 
@@ -124,15 +177,16 @@ def randomisation_only(rig_name: str, rig) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("mode", choices=["zero-shot", "adapt", "ablations"])
+    parser.add_argument("mode", choices=["zero-shot", "ceiling", "adapt", "ablations"])
     parser.add_argument("--starts", type=int, default=5)
     parser.add_argument("--rigs", type=int, default=6)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0])
-    parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--jobs", type=int, default=None, help="CPUs of the local Ray (default: all)")
+    parser.add_argument("--address", default=None, help="an existing Ray cluster (auto, or ray://HOST:10001)")
     parser.add_argument("--out", default=None, help="Where the adaptations write (default: a temporary folder).")
     args = parser.parse_args()
-    if args.mode == "zero-shot":
-        zero_shot(args.starts)
+    if args.mode in ("zero-shot", "ceiling"):
+        (zero_shot if args.mode == "zero-shot" else ceiling)(args.starts)
         return
     rigs = adapt_rigs(args.rigs)
     variants = ["full"] if args.mode == "adapt" else ["identification-only", "full", "dqn+estimated"]
@@ -141,9 +195,8 @@ def main() -> None:
         for rig_name, rig in rigs:
             print(randomisation_only(rig_name, rig), flush=True)
     work = [(name, rig, seed, variant, out_root) for variant in variants for seed in args.seeds for name, rig in rigs]
-    with ProcessPoolExecutor(args.jobs, mp_context=get_context("spawn")) as pool:
-        for line in pool.map(adapt_one, *zip(*work)):
-            print(line, flush=True)
+    for line in map_on_ray(adapt_one, work, args.address, args.jobs):  # the sweeps' Ray, one CPU per rig
+        print(line, flush=True)
 
 
 if __name__ == "__main__":

@@ -39,10 +39,12 @@ def agent_episode(env, agent: Agent, inputs: StepInputs, buffer=None, seed: int 
 
 def train_sync(env, agent: Agent, episodes: int, inputs: StepInputs | None = None, buffer=None, seed: int = 0,
                progress: bool = True, csv_path: str | Path | None = None, checkpoint_path: str | Path | None = None,
-               checkpoint_every: int = 10, resume: bool = False) -> list[float]:
+               checkpoint_every: int = 10, resume: bool = False, on_episode=None) -> list[float]:
     """Train until `episodes` episodes are done; return all their returns. `inputs` says what the agent sees
     (default: observation and last action). Returns are appended to `csv_path` as they come; with
-    `checkpoint_path`, a checkpoint every `checkpoint_every` episodes, and `resume=True` continues from it."""
+    `checkpoint_path`, a checkpoint every `checkpoint_every` episodes, and `resume=True` continues from it.
+    `on_episode(episodes_done, returns)` runs after each episode, before its checkpoint; False stops training
+    there (with a checkpoint)."""
     inputs = inputs if inputs is not None else StepInputs.for_env(env)
     buffer = buffer if buffer is not None else agent.new_buffer(seed)
     first, returns = 0, []
@@ -69,11 +71,14 @@ def train_sync(env, agent: Agent, episodes: int, inputs: StepInputs | None = Non
             if writer is not None:
                 writer.writerow([episode, f"{total:.4f}"])
                 handle.flush()
-            if checkpoint_path is not None and (episode + 1) % checkpoint_every == 0:
+            stop = on_episode is not None and on_episode(episode + 1, returns) is False
+            if checkpoint_path is not None and ((episode + 1) % checkpoint_every == 0 or stop):
                 save_checkpoint(checkpoint_path, agent, buffer, episode + 1, returns, {"seed": seed})
             if bar is not None:
                 bar.set_postfix(ret=f"{total:.1f}")
                 bar.update(1)
+            if stop:
+                break
     finally:
         if bar is not None:
             bar.close()

@@ -6,14 +6,15 @@
 | labs.py     | labs build/check, grade, autograder-run                         |
 | learning.py | train, eval, plot, policies list/build                          |
 | link.py     | broker, broker-config, virtual-rig                              |
-| device.py   | export                                                          |
+| device.py   | export, deploy                                                  |
+| sweep.py    | sweep, sweep report                                             |
 """
 
 from __future__ import annotations
 
 import click
 
-from pendkit.cli import device, kit, labs, learning, link
+from pendkit.cli import device, kit, labs, learning, link, sweep
 from pendkit.errors import PendkitError
 
 
@@ -37,6 +38,6 @@ def main() -> None:
     """pendkit: the swing-up pendulum teaching kit (twin, rig link, labs, grader)."""
 
 
-for _module in (kit, labs, learning, link, device):
+for _module in (kit, labs, learning, link, device, sweep):
     for _command in _module.COMMANDS:
         main.add_command(_command)

@@ -1,0 +1,170 @@
+"""A sweep folder's results as one tidy table (table.csv and table.json: one row per trial), the summary
+lines the benchmarks print, a figure, and lab 08's delay-sweep file (`pendkit.agents.results`' format)."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+from pendkit.errors import ConfigError
+from pendkit.features import UPRIGHT_RAD
+from pendkit.sweep.ray_runner import SPEC_COPY, trial_line
+from pendkit.sweep.trial import RESULT
+
+COLUMNS = ("trial_id", "learner", "setting_name", "seed", "solved", "episodes_to_solve", "wall_s_to_solve",
+           "episodes", "wall_s", "max_episodes", "max_wall_s", "resumed_from_episode", "host", "node_id", "curve",
+           "source")
+
+
+def gather_many(folders: list[Path]) -> tuple[list[dict], list[str]]:
+    """Several sweep folders as one table (a class's runs, each student's seeds): each row says its folder."""
+    rows, missing = [], []
+    for folder in folders:
+        found, absent = gather(folder)
+        rows += [row | {"source": str(folder), "curve": str(Path(folder) / row["curve"])} for row in found]
+        missing += absent
+    return rows, missing
+
+
+def gather(out: str | Path) -> tuple[list[dict], list[str]]:
+    """(finished rows in the spec's order, ids of trials not finished yet)."""
+    out = Path(out)
+    if not (out / SPEC_COPY).exists():
+        raise ConfigError(f"{out} is not a sweep folder (no {SPEC_COPY}): run `pendkit sweep SPEC --out {out}`")
+    trials = json.loads((out / SPEC_COPY).read_text())["trials"]
+    rows, missing = [], []
+    for trial in trials:
+        path = out / "trials" / trial["trial_id"] / RESULT
+        if path.exists():
+            row = json.loads(path.read_text())
+            budget = row["budget"]
+            rows.append(row | {"max_episodes": budget["max_episodes"], "max_wall_s": budget["max_wall_s"]})
+        else:
+            missing.append(trial["trial_id"])
+    return rows, missing
+
+
+def write_table(out: str | Path, rows: list[dict]) -> None:
+    out = Path(out)
+    with (out / "table.csv").open("w", newline="") as handle:
+        writer = csv.DictWriter(handle, COLUMNS, extrasaction="ignore")
+        writer.writeheader()
+        writer.writerows(rows)
+    (out / "table.json").write_text(json.dumps([{k: row.get(k) for k in COLUMNS} for row in rows], indent=1) + "\n")
+
+
+def summary_lines(rows: list[dict], missing: list[str]) -> list[str]:
+    """A line per trial, a line per learner and setting (the benchmarks' format), a line per learner."""
+    import numpy as np
+
+    lines = [trial_line(row) for row in rows]
+    groups: dict[tuple[str, str], list[dict]] = {}
+    for row in rows:
+        groups.setdefault((row["learner"], row["setting_name"]), []).append(row)
+    for (learner, setting), members in groups.items():
+        won = [r for r in members if r["solved"]]
+        episodes = f"{np.median([r['episodes_to_solve'] for r in won]):.0f}" if won else "nan"
+        wall = f"{np.median([r['wall_s_to_solve'] for r in won]):.0f}" if won else "nan"
+        lines.append(f"algo={learner} fidelity={setting} solved={len(won)}/{len(members)} "
+                     f"median_episodes_to_solve={episodes} median_wall_s={wall}")
+    for learner in dict.fromkeys(r["learner"] for r in rows):
+        parts = " ".join(f"{setting}={sum(r['solved'] for r in members)}/{len(members)}"
+                         for (name, setting), members in groups.items() if name == learner)
+        lines.append(f"summary algo={learner} {parts}")
+    cpu_s = sum(r["wall_s"] for r in rows)
+    lines.append(f"sweep trials={len(rows) + len(missing)} finished={len(rows)} unfinished={len(missing)} "
+                 f"cpu_hours={cpu_s / 3600:.2f} mean_trial_s={cpu_s / max(1, len(rows)):.0f}")
+    return lines
+
+
+def plot_summary(rows: list[dict], path: str | Path) -> Path:
+    """Share of seeds solved per learner: against the delay when the settings are delays, else per setting."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    delays = _delays_ms(rows)
+    figure, axis = plt.subplots(figsize=(7, 3.5))
+    learners = list(dict.fromkeys(r["learner"] for r in rows))
+    settings = list(dict.fromkeys(r["setting_name"] for r in rows))
+    for k, learner in enumerate(learners):
+        shares = [_share(rows, learner, s) for s in settings]
+        if delays is not None:
+            axis.plot([delays[s] for s in settings], shares, "o-", label=learner)
+        else:
+            width = 0.8 / len(learners)
+            axis.bar([i + k * width for i in range(len(settings))], shares, width, label=learner)
+    if delays is not None:
+        axis.set_xlabel("observation delay (ms)")
+    else:
+        axis.set_xticks([i + 0.4 - 0.4 / len(learners) for i in range(len(settings))], settings, rotation=15)
+    seeds = len({r["seed"] for r in rows})
+    axis.set_ylabel(f"share of the {seeds} seeds solved")
+    axis.set_ylim(-0.05, 1.05)
+    axis.legend()
+    figure.tight_layout()
+    figure.savefig(path, dpi=120)
+    plt.close(figure)
+    return Path(path)
+
+
+def delay_sweep_record(rows: list[dict], command: str) -> dict:
+    """Lab 08's file (read by `pendkit.agents.results.delay_sweep`) from a sweep over delays."""
+    if _delays_ms(rows) is None:
+        raise ConfigError("a delay-sweep file needs a sweep whose settings are all delay_steps or all delay_ms")
+    return runs_record(rows, command)
+
+
+def runs_record(rows: list[dict], command: str) -> dict:
+    """Every learner's result per setting and seed (episodes to solve or null); a delay sweep's delays in ms
+    (null for other settings): the benchmarks' --json format."""
+    delays = _delays_ms(rows)
+    settings = (sorted(delays, key=delays.get) if delays is not None
+                else list(dict.fromkeys(r["setting_name"] for r in rows)))
+    budget = rows[0]["budget"]
+    runs = []
+    for setting in settings:
+        for learner in dict.fromkeys(r["learner"] for r in rows):
+            members = sorted((r for r in rows if r["learner"] == learner and r["setting_name"] == setting),
+                             key=lambda r: r["seed"])
+            runs.append({"algo": learner, "setting": setting,
+                         "episodes": [r["episodes_to_solve"] if r["solved"] else None for r in members],
+                         "wall_s": [r["wall_s_to_solve"] if r["solved"] else r["wall_s"] for r in members]})
+    return {"command": command,
+            "solved_rule": f"greedy from hanging, |theta| < {UPRIGHT_RAD:g} rad for the last 200 of 500 steps, "
+                           f"checked every {budget['check_every']} episodes",
+            "max_episodes": budget["max_episodes"], "max_wall_s": budget["max_wall_s"],
+            "delays_ms": [delays[s] for s in settings] if delays is not None else None, "runs": runs}
+
+
+def _delays_ms(rows: list[dict]) -> dict[str, float] | None:
+    kinds = {r["setting"]["kind"] for r in rows}
+    if kinds == {"delay_ms"}:
+        return {r["setting_name"]: float(r["setting"]["value"]) for r in rows}
+    if kinds == {"delay_steps"}:
+        from pendkit.rig import RigParams
+
+        step_ms = RigParams().control_step_ms
+        return {r["setting_name"]: float(r["setting"]["value"]) * step_ms for r in rows}
+    return None
+
+
+def _share(rows: list[dict], learner: str, setting: str) -> float:
+    members = [r for r in rows if r["learner"] == learner and r["setting_name"] == setting]
+    return sum(r["solved"] for r in members) / len(members) if members else float("nan")
+
+
+def report(out: str | Path, say=print, figure: bool = True, more: list[Path] = ()) -> list[dict]:
+    """Gather, write table.csv/json (and summary.png) into `out`, print the summary lines; returns the rows.
+    With `more` folders, their trials join `out`'s in one table (a class's seeds side by side)."""
+    rows, missing = gather_many([Path(out), *more]) if more else gather(out)
+    write_table(out, rows)
+    for line in summary_lines(rows, missing):
+        say(line)
+    if missing:
+        say(f"not finished: {', '.join(missing)} (continue with `pendkit sweep SPEC --out {out} --resume`)")
+    if figure and rows:
+        say(f"figure: {plot_summary(rows, Path(out) / 'summary.png')}")
+    return rows

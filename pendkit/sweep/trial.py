@@ -1,0 +1,136 @@
+"""One trial of a sweep, in its own folder: learn, check the greedy policy every `check_every` episodes with
+the kit's "solved" rule, stop when solved or out of budget. Everything it needs to resume is on disk:
+
+    trials/<id>/checkpoint.pt   the kit's training checkpoint (pendkit.agents.checkpoint), every check
+    trials/<id>/curve.csv       return of every training episode (the learning curve)
+    trials/<id>/checks.csv      every check: episodes, wall seconds, solved, greedy return
+    trials/<id>/weights.pt      the final agent (pendkit eval reads it)
+    trials/<id>/result.json     written last: a trial with it is finished and never run again
+
+Wall time counts learning and checks, across resumes (a resumed trial adds to what it had spent).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import socket
+import time
+from pathlib import Path
+
+from pendkit.sweep.spec import Trial
+
+RESULT = "result.json"
+
+
+def run_spec_and_params(trial: Trial):
+    """(RunSpec, RigParams or None) of a trial's setting."""
+    from pendkit.agents.runs import RunSpec
+    from pendkit.rig import RigParams
+    from pendkit.sim.fidelity import observation_delay_fidelity
+
+    kind, value = trial.setting.kind, trial.setting.value
+    common = {"seed": trial.seed, "randomize": trial.randomize, "agent": dict(trial.agent)}
+    if kind == "delay_steps":
+        return RunSpec(trial.learner, "ideal", delay_steps=int(value), **common), None
+    if kind == "delay_ms":
+        return RunSpec(trial.learner, observation_delay_fidelity(float(value)), **common), None
+    if kind == "rigs":
+        return RunSpec(trial.learner, "realistic", **common), RigParams.load(value)
+    return RunSpec(trial.learner, str(value), **common), None
+
+
+def where_am_i() -> dict:
+    """The host, process and (under Ray) node a trial ran on."""
+    node = None
+    try:
+        import ray
+
+        if ray.is_initialized():
+            node = ray.get_runtime_context().get_node_id()
+    except ImportError:
+        pass
+    return {"host": socket.gethostname(), "pid": os.getpid(), "node_id": node}
+
+
+def run_trial(trial: Trial, folder: str | Path) -> dict:
+    """Run (or resume) `trial` in `folder`; return its result row (also written to result.json)."""
+    import torch
+
+    from pendkit.agents.runs import build_run, greedy_episode, make_env, save_weights, solved
+    from pendkit.agents.train import train_sync
+
+    folder = Path(folder)
+    if (folder / RESULT).exists():
+        return json.loads((folder / RESULT).read_text())
+    folder.mkdir(parents=True, exist_ok=True)
+    torch.set_num_threads(1)  # one trial per CPU: threads would fight over the same cores
+    spec, params = run_spec_and_params(trial)
+    env = make_env(spec, params=params)
+    _, agent, inputs = build_run(spec, env)
+    probe = make_env(spec, params=params)
+    _, _, probe_inputs = build_run(spec, probe)
+    checks = _read_checks(folder / "checks.csv")
+    spent_s = checks[-1]["wall_s"] if checks else 0.0
+    resumed_from = checks[-1]["episodes"] if checks else 0
+    started = time.perf_counter() - spent_s
+    budget = trial.budget
+    outcome: dict = {"solved_at": None}
+
+    def check(episodes_done: int, returns: list[float]):
+        if episodes_done % budget.check_every and episodes_done < budget.max_episodes:
+            return True
+        total, infos = greedy_episode(probe, agent, probe_inputs)
+        held = solved(infos)
+        wall_s = time.perf_counter() - started
+        _append_check(folder / "checks.csv", episodes_done, wall_s, held, total)
+        if held:
+            outcome["solved_at"] = (episodes_done, wall_s)
+            return False
+        return wall_s <= budget.max_wall_s
+
+    returns = train_sync(env, agent, budget.max_episodes, inputs, seed=trial.seed, progress=False,
+                         csv_path=folder / "curve.csv", checkpoint_path=folder / "checkpoint.pt",
+                         checkpoint_every=budget.check_every, resume=True, on_episode=check)
+    if outcome["solved_at"] is None and checks and checks[-1]["solved"]:
+        outcome["solved_at"] = (checks[-1]["episodes"], checks[-1]["wall_s"])  # solved just before a kill
+    save_weights(folder / "weights.pt", agent, spec if isinstance(spec.fidelity, str) else _named(spec),
+                 {"trial": trial.trial_id})
+    env.close()
+    probe.close()
+    solved_at = outcome["solved_at"]
+    result = {**trial.to_dict(), "solved": solved_at is not None,
+              "episodes_to_solve": solved_at[0] if solved_at else None,
+              "wall_s_to_solve": round(solved_at[1], 1) if solved_at else None,
+              "episodes": len(returns), "wall_s": round(time.perf_counter() - started, 1),
+              "resumed_from_episode": resumed_from, "curve": f"trials/{folder.name}/curve.csv", **where_am_i()}
+    temporary = folder / (RESULT + ".tmp")
+    temporary.write_text(json.dumps(result, indent=1) + "\n")
+    os.replace(temporary, folder / RESULT)  # atomic: a trial is finished or it is not
+    return result
+
+
+def _named(spec):
+    """A spec on a custom Fidelity (the delay_ms sweeps) saved under the realistic preset's name: the
+    weights load on any realistic env; the trial's own record says which latency it learned under."""
+    import dataclasses
+
+    return dataclasses.replace(spec, fidelity="realistic")
+
+
+def _read_checks(path: Path) -> list[dict]:
+    if not path.exists():
+        return []
+    with path.open() as handle:
+        return [{"episodes": int(row["episodes"]), "wall_s": float(row["wall_s"]), "solved": row["solved"] == "1"}
+                for row in csv.DictReader(handle)]
+
+
+def _append_check(path: Path, episodes: int, wall_s: float, held: bool, greedy_return: float) -> None:
+    new = not path.exists()
+    with path.open("a", newline="") as handle:
+        writer = csv.writer(handle)
+        if new:
+            writer.writerow(["episodes", "wall_s", "solved", "greedy_return"])
+        writer.writerow([episodes, f"{wall_s:.2f}", int(held), f"{greedy_return:.2f}"])

@@ -1,0 +1,120 @@
+"""`pendkit sweep` through Ray on this machine: the smoke spec, a killed sweep resumed, and a two-node cluster
+(`ray start --head` and a second `ray start --address`) whose trials land on both nodes. One file: the
+tests run one after another on one worker, so their Ray instances never meet."""
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("ray", reason='the sweep needs the cluster extra: pip install -e ".[cluster]"')
+
+ROOT = Path(__file__).resolve().parents[2]
+SMOKE = ROOT / "benchmarks" / "sweeps" / "smoke.yaml"
+PENDKIT = [sys.executable, "-m", "pendkit.cli"]
+RAY = str(Path(sys.executable).parent / "ray")
+
+
+def pendkit(*args, env=None, timeout=300) -> subprocess.CompletedProcess:
+    return subprocess.run([*PENDKIT, *args], capture_output=True, text=True, timeout=timeout, env=env, cwd=ROOT)
+
+
+def rows(out: Path) -> dict[str, dict]:
+    return {p.parent.name: json.loads(p.read_text()) for p in (out / "trials").glob("*/result.json")}
+
+
+def test_the_smoke_spec_runs_through_ray_and_reports_a_line_per_trial(tmp_path):
+    out = tmp_path / "smoke"
+    run = pendkit("sweep", str(SMOKE), "--out", str(out))
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "Ray up in" in run.stdout and "1 node(s)" in run.stdout
+    finished = rows(out)
+    assert sorted(finished) == ["dqn--ideal--seed0", "dqn--ideal--seed1"]
+    for row in finished.values():
+        assert row["episodes"] == 4 and row["solved"] is False and row["node_id"]
+        curve = (out / row["curve"]).read_text().splitlines()
+        assert curve[0] == "episode,return" and len(curve) == 1 + 4
+    report = pendkit("sweep", "report", str(out))
+    assert report.returncode == 0, report.stderr
+    trial_lines = [line for line in report.stdout.splitlines() if line.startswith("trial=")]
+    assert len(trial_lines) == 2 and all("solved=False" in line for line in trial_lines)
+    assert "algo=dqn fidelity=ideal solved=0/2" in report.stdout
+    table = (out / "table.csv").read_text().splitlines()
+    assert table[0].startswith("trial_id,learner,setting_name,seed,solved") and len(table) == 3
+    assert (out / "summary.png").stat().st_size > 1000
+    again = pendkit("sweep", str(SMOKE), "--out", str(out))
+    assert again.returncode != 0 and "--resume" in again.stderr  # never overwrites a sweep by accident
+
+
+def _spec(path: Path, max_episodes: int) -> Path:
+    path.write_text("name: resume\nlearners: [dqn]\nfidelities: [ideal]\nseeds: 2\n"
+                    f"budget: {{max_episodes: {max_episodes}, max_wall_s: 600, check_every: 2}}\n"
+                    "agent: {learning_starts: 200}\n")
+    return path
+
+
+def test_a_killed_sweep_resumes_without_redoing_finished_trials(tmp_path):
+    spec, out = _spec(tmp_path / "resume.yaml", 12), tmp_path / "resume"
+    # two CPUs per trial on a two-CPU machine: one trial at a time, seed 0 then seed 1
+    sweep = subprocess.Popen([*PENDKIT, "sweep", str(spec), "--out", str(out), "--cpus-per-trial", "2"],
+                             cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    first, second = out / "trials" / "dqn--ideal--seed0", out / "trials" / "dqn--ideal--seed1"
+    deadline = time.monotonic() + 240
+    while not ((first / "result.json").exists() and (second / "checks.csv").exists()):
+        assert sweep.poll() is None, "the sweep ended before it could be killed"
+        assert time.monotonic() < deadline, "the sweep never reached its second trial"
+        time.sleep(0.2)
+    os.killpg(sweep.pid, signal.SIGKILL)  # the driver and everything it started
+    sweep.wait()
+    assert not (second / "result.json").exists()
+    finished_before = (first / "result.json").read_text()
+    stamp = (first / "result.json").stat().st_mtime_ns
+    resumed = pendkit("sweep", str(spec), "--out", str(out), "--resume")
+    assert resumed.returncode == 0, resumed.stdout + resumed.stderr
+    assert "1 of 2 trials already finished" in resumed.stdout
+    assert (first / "result.json").read_text() == finished_before
+    assert (first / "result.json").stat().st_mtime_ns == stamp
+    row = json.loads((second / "result.json").read_text())
+    assert row["resumed_from_episode"] >= 2 and row["episodes"] == 12
+    episodes = [line.split(",")[0] for line in (second / "curve.csv").read_text().splitlines()[1:]]
+    assert episodes == [str(k) for k in range(12)]  # continued from the checkpoint: no episode twice or lost
+
+
+def _free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+@pytest.fixture
+def two_node_cluster():
+    # Ray's token authentication (the head writes ~/.ray/auth_token; every process must be told to use it)
+    env = {**os.environ, "RAY_AUTH_MODE": "token"}
+    port = _free_port()
+    common = ["--num-cpus", "1", "--disable-usage-stats"]
+    try:
+        head = subprocess.run([RAY, "start", "--head", "--port", str(port), "--include-dashboard", "false",
+                               "--node-ip-address", "127.0.0.1", *common], capture_output=True, text=True, env=env)
+        assert head.returncode == 0, head.stdout + head.stderr
+        worker = subprocess.run([RAY, "start", "--address", f"127.0.0.1:{port}", "--node-ip-address", "127.0.0.1",
+                                 *common], capture_output=True, text=True, env=env)
+        assert worker.returncode == 0, worker.stdout + worker.stderr
+        yield f"127.0.0.1:{port}", env
+    finally:
+        subprocess.run([RAY, "stop", "--force"], capture_output=True, env=env)
+
+
+def test_a_two_node_cluster_runs_trials_on_both_nodes(two_node_cluster, tmp_path):
+    address, env = two_node_cluster
+    out = tmp_path / "cluster"
+    run = pendkit("sweep", str(SMOKE), "--out", str(out), "--address", address, env=env)
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "2 node(s), 2 CPUs" in run.stdout
+    nodes = {row["node_id"] for row in rows(out).values()}
+    assert len(nodes) == 2, f"both trials ran on {nodes}"
