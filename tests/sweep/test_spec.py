@@ -68,7 +68,8 @@ def test_a_delay_sweep_becomes_lab_08s_file_and_the_benchmarks_lines(tmp_path):
     assert sweep.delays_ms == [0.0, 120.0] and sweep.seeds == 2
     assert sweep.success_rate == {"dqn": [1.0, 0.0], "r-dqn": [0.5, 1.0]}
     lines = summary_lines(rows, ["r-dqn--ideal-delayed-4-steps--seed0"])
-    assert "algo=r-dqn fidelity=ideal-delayed-2-steps solved=2/2 median_episodes_to_solve=175 median_wall_s=350" in lines
+    assert ("algo=r-dqn fidelity=ideal-delayed-2-steps solved=2/2 median_episodes_to_solve=175 "
+            "median_wall_s=350") in lines
     assert "summary algo=dqn ideal-delayed-0-steps=2/2 ideal-delayed-2-steps=0/2" in lines
     assert lines[-1].startswith("sweep trials=9 finished=8 unfinished=1")
 
