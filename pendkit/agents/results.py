@@ -1,7 +1,9 @@
 """Measured results that ship with the kit, read by the labs: written by the benchmarks, never typed in.
 
-`delay_sweep()` reads `pendkit/data/delay_sweep.json`, the output of
-`benchmarks/bench_learning.py --sweep-delay-steps ... --json pendkit/data/delay_sweep.json`.
+`delay_sweep()` reads `pendkit/data/delay_sweep.json`, written by
+`pendkit sweep report DIR --delay-sweep-json pendkit/data/delay_sweep.json` after a sweep of
+`benchmarks/sweeps/lab08-delay.yaml` (docs/sweeps.md; `bench_learning.py --sweep-delay-steps ... --json`
+writes the same format).
 """
 
 from __future__ import annotations

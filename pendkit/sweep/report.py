@@ -159,7 +159,12 @@ def _share(rows: list[dict], learner: str, setting: str) -> float:
 def report(out: str | Path, say=print, figure: bool = True, more: list[Path] = ()) -> list[dict]:
     """Gather, write table.csv/json (and summary.png) into `out`, print the summary lines; returns the rows.
     With `more` folders, their trials join `out`'s in one table (a class's seeds side by side)."""
-    rows, missing = gather_many([Path(out), *more]) if more else gather(out)
+    out = Path(out)
+    if more:  # DIR may be a sweep of its own or just where the class's table goes
+        out.mkdir(parents=True, exist_ok=True)
+        rows, missing = gather_many(([out] if (out / SPEC_COPY).exists() else []) + list(more))
+    else:
+        rows, missing = gather(out)
     write_table(out, rows)
     for line in summary_lines(rows, missing):
         say(line)

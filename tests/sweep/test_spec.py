@@ -101,6 +101,8 @@ def test_a_class_gathers_each_students_seeds_into_one_table(tmp_path):
     assert "algo=dqn fidelity=ideal solved=3/4 median_episodes_to_solve=50 median_wall_s=35" in lines
     table = (tmp_path / "ana" / "table.csv").read_text().splitlines()
     assert len(table) == 5 and table[2].endswith(str(tmp_path / "ben"))
+    report(tmp_path / "class", say=lines.append, figure=False, more=[tmp_path / "ben", tmp_path / "chloe"])
+    assert len((tmp_path / "class" / "table.csv").read_text().splitlines()) == 1 + 3  # a folder for the table
 
 
 def test_a_sweep_folder_is_never_overwritten_nor_resumed_with_another_spec(tmp_path):
@@ -118,3 +120,12 @@ def test_seeds_from_the_command_line_replace_the_specs(tmp_path):
     (tmp_path / "s.yaml").write_text("learners: [dqn]\nfidelities: [ideal]\nseeds: 3\n")
     assert [t.seed for t in load_spec(tmp_path / "s.yaml", [7]).trials] == [7]
     assert [t.seed for t in load_spec(tmp_path / "s.yaml").trials] == [0, 1, 2]
+
+
+def test_every_spec_the_kit_ships_parses():
+    from pathlib import Path
+
+    specs = sorted((Path(__file__).resolve().parents[2] / "benchmarks" / "sweeps").glob("*.yaml"))
+    assert {p.stem for p in specs} >= {"smoke", "lab08-delay", "paper-grid", "delay-full", "delay-ms", "cost"}
+    for path in specs:
+        assert load_spec(path).trials, path
