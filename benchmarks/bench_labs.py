@@ -44,15 +44,15 @@ def _all_solved(text: str) -> bool:
 
 
 def _delay_aware_holds(text: str) -> bool:
-    found = re.search(r"held upright from hanging: (\{.*\})", text)
-    return bool(found) and "'dqn+actions': True" in found.group(1)
+    return all(re.search(rf"^{re.escape(name)} +held after \d+ episodes", text, re.M)
+               for name in ("dqn+actions", "r-dqn"))
 
 
 # What each lab's text promises a correct notebook shows (labs without a number: that it ran to the end).
 OUTCOMES = {
     "04": _worst_below(1.0),  # "your K holds the pendulum within a fraction of a degree"
     "05": lambda text: re.search(r"time to upright: [\d.]+ s", text) is not None,
-    "08": _delay_aware_holds,  # the delay-aware agent holds from hanging
+    "08": _delay_aware_holds,  # the delay-aware and the recurrent agents hold from hanging
     "10": _all_solved,  # the device's swing-up solves every start on the busy WiFi
 }
 

@@ -20,7 +20,8 @@ BOM = ROOT / "hardware_bom" / "bom.csv"
 PINS = ROOT / "firmware" / "include" / "pins.h"
 # Commands that cannot run here, by the reason their line gives.
 NOT_HERE = ("# hardware-only", "# windows-only", "# online-only", "# classroom-only", "# interactive",
-            "# long-running", "# cluster-only")  # long-running servers are exercised as processes by tests/cli/test_link_commands.py
+            "# long-running", "# cluster-only")
+# long-running servers are exercised as processes by tests/cli/test_link_commands.py
 
 
 def test_bom_columns_and_totals():

@@ -110,11 +110,13 @@ def run_sweep(spec: SweepSpec, out: str | Path, address: str | None = None, resu
             tune_config=tune.TuneConfig(reuse_actors=False, trial_name_creator=_trial_name,
                                         trial_dirname_creator=_trial_name),
             run_config=tune.RunConfig(storage_path=str(out / "ray"), name=spec.name, verbose=0,
-                                      callbacks=[_TrialLines(out, say)],
+                                      callbacks=[lines := _TrialLines(out, say, len(pending))],
                                       failure_config=tune.FailureConfig(max_failures=2)))
         results = tuner.fit()
         errors = [r.error for r in results if r.error is not None]
     finally:
+        if "lines" in locals():
+            lines.bar.close()
         ray.shutdown()
     if errors:
         raise RuntimeError(f"{len(errors)} trials failed; the first: {errors[0]}")
@@ -122,13 +124,18 @@ def run_sweep(spec: SweepSpec, out: str | Path, address: str | None = None, resu
 
 
 class _TrialLines:
-    """A line per finished trial, as it finishes (a tune.Callback, built lazily so Ray stays optional)."""
+    """A line per finished trial as it finishes, under a progress bar of the trials (a tune.Callback, built
+    lazily so that Ray stays optional)."""
 
-    def __new__(cls, out: Path, say):
+    def __new__(cls, out: Path, say, total: int):
         from ray import tune
+        from tqdm.auto import tqdm
 
         class TrialLines(tune.Callback):
+            bar = tqdm(total=total, desc="trials", unit="trial")
+
             def on_trial_complete(self, iteration, trials, trial, **info):
+                self.bar.update(1)
                 trial_id = trial.config["trial"]["trial_id"]
                 path = out / "trials" / trial_id / RESULT
                 row = (trial.last_result or {}).get("row")

@@ -14,7 +14,12 @@ from pendkit.sweep.trial import RESULT
 
 COLUMNS = ("trial_id", "learner", "setting_name", "seed", "solved", "episodes_to_solve", "wall_s_to_solve",
            "episodes", "wall_s", "max_episodes", "max_wall_s", "resumed_from_episode", "host", "node_id", "curve",
-           "source")
+           "source", "solved_rule")
+SOLVED_RULE = f"greedy from hanging: |theta| < {UPRIGHT_RAD:g} rad for the last 200 of 500 steps"
+
+
+def solved_rule(budget: dict) -> str:
+    return f"{SOLVED_RULE}, checked every {budget['check_every']} episodes"
 
 
 def gather_many(folders: list[Path]) -> tuple[list[dict], list[str]]:
@@ -39,7 +44,8 @@ def gather(out: str | Path) -> tuple[list[dict], list[str]]:
         if path.exists():
             row = json.loads(path.read_text())
             budget = row["budget"]
-            rows.append(row | {"max_episodes": budget["max_episodes"], "max_wall_s": budget["max_wall_s"]})
+            rows.append(row | {"max_episodes": budget["max_episodes"], "max_wall_s": budget["max_wall_s"],
+                               "solved_rule": solved_rule(budget)})
         else:
             missing.append(trial["trial_id"])
     return rows, missing
@@ -133,8 +139,7 @@ def runs_record(rows: list[dict], command: str) -> dict:
                          "episodes": [r["episodes_to_solve"] if r["solved"] else None for r in members],
                          "wall_s": [r["wall_s_to_solve"] if r["solved"] else r["wall_s"] for r in members]})
     return {"command": command,
-            "solved_rule": f"greedy from hanging, |theta| < {UPRIGHT_RAD:g} rad for the last 200 of 500 steps, "
-                           f"checked every {budget['check_every']} episodes",
+            "solved_rule": solved_rule(budget),
             "max_episodes": budget["max_episodes"], "max_wall_s": budget["max_wall_s"],
             "delays_ms": [delays[s] for s in settings] if delays is not None else None, "runs": runs}
 

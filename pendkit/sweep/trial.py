@@ -58,8 +58,8 @@ def run_trial(trial: Trial, folder: str | Path) -> dict:
     """Run (or resume) `trial` in `folder`; return its result row (also written to result.json)."""
     import torch
 
-    from pendkit.agents.runs import build_run, greedy_episode, make_env, save_weights, solved
-    from pendkit.agents.train import train_sync
+    from pendkit.agents.runs import build_run, make_env, save_weights
+    from pendkit.agents.train import train_until_solved
 
     folder = Path(folder)
     if (folder / RESULT).exists():
@@ -74,35 +74,27 @@ def run_trial(trial: Trial, folder: str | Path) -> dict:
     checks = _read_checks(folder / "checks.csv")
     spent_s = checks[-1]["wall_s"] if checks else 0.0
     resumed_from = checks[-1]["episodes"] if checks else 0
+    solved_at: dict = {}
+
+    def record(episodes: int, wall_s: float, held: bool, greedy_return: float) -> None:
+        _append_check(folder / "checks.csv", episodes, wall_s, held, greedy_return)
+        if held:
+            solved_at["episodes"], solved_at["wall_s"] = episodes, wall_s
+
     started = time.perf_counter() - spent_s
     budget = trial.budget
-    outcome: dict = {"solved_at": None}
-
-    def check(episodes_done: int, returns: list[float]):
-        if episodes_done % budget.check_every and episodes_done < budget.max_episodes:
-            return True
-        total, infos = greedy_episode(probe, agent, probe_inputs)
-        held = solved(infos)
-        wall_s = time.perf_counter() - started
-        _append_check(folder / "checks.csv", episodes_done, wall_s, held, total)
-        if held:
-            outcome["solved_at"] = (episodes_done, wall_s)
-            return False
-        return wall_s <= budget.max_wall_s
-
-    returns = train_sync(env, agent, budget.max_episodes, inputs, seed=trial.seed, progress=False,
-                         csv_path=folder / "curve.csv", checkpoint_path=folder / "checkpoint.pt",
-                         checkpoint_every=budget.check_every, resume=True, on_episode=check)
-    if outcome["solved_at"] is None and checks and checks[-1]["solved"]:
-        outcome["solved_at"] = (checks[-1]["episodes"], checks[-1]["wall_s"])  # solved just before a kill
+    returns, _ = train_until_solved(env, agent, inputs, budget.max_episodes, budget.check_every, probe, probe_inputs,
+                                    budget.max_wall_s, record, spent_s, seed=trial.seed, progress=False,
+                                    csv_path=folder / "curve.csv", checkpoint_path=folder / "checkpoint.pt",
+                                    checkpoint_every=budget.check_every, resume=True)
+    if not solved_at and checks and checks[-1]["solved"]:  # solved just before a kill
+        solved_at.update(episodes=checks[-1]["episodes"], wall_s=checks[-1]["wall_s"])
     save_weights(folder / "weights.pt", agent, spec if isinstance(spec.fidelity, str) else _named(spec),
                  {"trial": trial.trial_id})
     env.close()
     probe.close()
-    solved_at = outcome["solved_at"]
-    result = {**trial.to_dict(), "solved": solved_at is not None,
-              "episodes_to_solve": solved_at[0] if solved_at else None,
-              "wall_s_to_solve": round(solved_at[1], 1) if solved_at else None,
+    result = {**trial.to_dict(), "solved": bool(solved_at), "episodes_to_solve": solved_at.get("episodes"),
+              "wall_s_to_solve": round(solved_at["wall_s"], 1) if solved_at else None,
               "episodes": len(returns), "wall_s": round(time.perf_counter() - started, 1),
               "resumed_from_episode": resumed_from, "curve": f"trials/{folder.name}/curve.csv", **where_am_i()}
     temporary = folder / (RESULT + ".tmp")
