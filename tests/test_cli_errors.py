@@ -25,6 +25,7 @@ BAD = {
     "labs": ["labs", "build", "--solutions", "not-a-run"],
     "plot": ["plot", "not-a-run"],
     "policies": ["policies", "build", "no-such-policy"],
+    "sweep": ["sweep", "no-such-spec.yaml", "--out", "s"],
     "train": ["train", "--episodes", "0"],
     "virtual-rig": ["virtual-rig", "--rig", "+"],
     "wiring": ["wiring", "--pins", "no-such-pins.h"],
@@ -43,6 +44,8 @@ MORE_BAD = [
     (["export", "--controller", "energy", "--policy", "r-dqn-realistic", "--out", "x.pkcb"], "give one of"),
     (["deploy", "--rig", "r01", "--blob", "not-a-run"], "is a directory"),
     (["broker", "--port", "99999"], "65535"),
+    (["sweep", "no-such-spec.yaml", "--out", "s"], "no sweep spec at"),
+    (["sweep", "report", "not-a-run"], "not a sweep folder"),
 ]
 
 
