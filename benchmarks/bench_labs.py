@@ -5,7 +5,8 @@ and of grading one submission with `pendkit grade`'s runner.
     python benchmarks/bench_labs.py --interactive [--labs 04 05 10]
 
 `--interactive` runs each solution notebook with the budgets a class runs (PENDKIT_MODE=interactive) and
-prints one line a lab: `lab=NN interactive_compute_s=X stated_min=Y outcome=ok|short`, the outcome being the
+prints one line a lab: `lab=NN interactive_compute_s=X stated_min=Y outcome=ok|short` and the cells that
+computed over 10 s without a progress bar (there should be none), the outcome being the
 result the lab's text promises (OUTCOMES: read from what its cells print; "ran" where the lab promises no
 number), so the time a class waits on the machine and the text's claims are measured, not estimated.
 """
@@ -57,17 +58,33 @@ OUTCOMES = {
 }
 
 
-def run_interactive(path: Path) -> tuple[float, str]:
-    """(wall seconds, everything the cells printed) of a notebook run with the class's budgets."""
+BAR_SECONDS = 10.0  # a cell that computes longer shows a progress bar (issue 27)
+
+
+def run_interactive(path: Path) -> tuple[float, str, list[str]]:
+    """(wall seconds, everything the cells printed, the cells over BAR_SECONDS that showed no progress
+    bar) of a notebook run with the class's budgets."""
+    from datetime import datetime
+
     os.environ.update({"PENDKIT_MODE": "interactive", "MPLBACKEND": "Agg", "PENDKIT_GRADER_STRICT": "0"})
     notebook = nbformat.read(path, as_version=4)
     started = time.perf_counter()
-    NotebookClient(notebook, timeout=3600, kernel_name="python3",
+    NotebookClient(notebook, timeout=3600, kernel_name="python3", record_timing=True,
                    resources={"metadata": {"path": str(path.parent)}}).execute()
     seconds = time.perf_counter() - started
     printed = "".join(o.get("text", "") for c in notebook.cells if c.cell_type == "code" for o in c.outputs
                       if o.get("output_type") == "stream" and o.get("name") == "stdout")
-    return seconds, printed
+    silent = []
+    for index, cell in enumerate(notebook.cells):
+        timing = cell.get("metadata", {}).get("execution", {})
+        if cell.cell_type != "code" or "iopub.execute_input" not in timing:
+            continue
+        took = (datetime.fromisoformat(timing["shell.execute_reply"].replace("Z", "+00:00"))
+                - datetime.fromisoformat(timing["iopub.execute_input"].replace("Z", "+00:00"))).total_seconds()
+        shown = " ".join(o.get("text", "") + str(o.get("data", {})) for o in cell.outputs)
+        if took > BAR_SECONDS and not re.search(r"\d+%\||it/s|episode/s|s/episode|FloatProgress|IntProgress", shown):
+            silent.append(f"cell{index}:{took:.0f}s")
+    return seconds, printed, silent
 
 
 def interactive(labs: list[str] | None) -> None:
@@ -76,10 +93,11 @@ def interactive(labs: list[str] | None) -> None:
         if labs is not None and lab not in labs:
             continue
         stated = re.search(r"about (\d+) minutes", nbformat.read(path, as_version=4).cells[0].source)
-        seconds, printed = run_interactive(path)
+        seconds, printed, silent = run_interactive(path)
         reached = OUTCOMES.get(lab, lambda text: True)(printed)
         print(f"lab={lab} interactive_compute_s={seconds:.0f} stated_min={stated.group(1) if stated else '-'} "
-              f"outcome={'ok' if reached else 'short'}", flush=True)
+              f"outcome={'ok' if reached else 'short'} cells_over_{BAR_SECONDS:.0f}s_without_bar="
+              f"{','.join(silent) or 'none'}", flush=True)
 
 
 def main() -> None:
