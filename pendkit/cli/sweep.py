@@ -69,8 +69,10 @@ def report_command(out: Path, more: tuple[Path, ...], delay_sweep_json: Path | N
     if delay_sweep_json is not None:
         command_file = Path(out) / "command.txt"
         command = command_file.read_text().strip() if command_file.exists() else f"pendkit sweep ... --out {out}"
-        record = delay_sweep_record(rows, f"{command}; pendkit sweep report {out} --delay-sweep-json "
-                                          f"{delay_sweep_json}")
+        command = f"{command}; pendkit sweep report {out} --delay-sweep-json {delay_sweep_json}"
+        for where in (str(Path(out).resolve()), str(out)):  # the folder's name on this machine says nothing
+            command = command.replace(where, "DIR")
+        record = delay_sweep_record(rows, command)
         delay_sweep_json.parent.mkdir(parents=True, exist_ok=True)
         delay_sweep_json.write_text(json.dumps(record, indent=1) + "\n")
         click.echo(f"wrote {delay_sweep_json}")

@@ -86,11 +86,16 @@ def test_estimated_features_are_closer_to_the_truth_than_the_readings(action_mod
         pendkit.make(features="guessed")
 
 
-def test_the_shipped_delay_sweep_is_a_benchmark_output_with_every_point():
+def test_the_shipped_delay_sweep_is_a_sweep_output_with_every_point():
+    from pathlib import Path
+
     from pendkit.agents.results import delay_sweep
+    from pendkit.sweep.spec import load_spec
 
     sweep = delay_sweep()
-    assert "bench_learning.py" in sweep.command and "--sweep-delay-steps" in sweep.command
+    assert sweep.command.startswith("pendkit sweep benchmarks/sweeps/lab08-delay.yaml --out DIR")
+    spec = load_spec(Path(__file__).resolve().parents[2] / "benchmarks" / "sweeps" / "lab08-delay.yaml")
+    assert set(sweep.success_rate) == set(spec.learners)  # the file is the spec's sweep, every learner
     assert {"dqn", "dqn+actions", "r-dqn"} <= set(sweep.success_rate)
     assert sweep.delays_ms == sorted(sweep.delays_ms) and sweep.delays_ms[0] == 0 and sweep.seeds >= 3
     for rates in sweep.success_rate.values():
