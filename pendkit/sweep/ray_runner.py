@@ -142,8 +142,10 @@ class _TrialLines:
                 if not path.exists() and row:  # run on a node that does not share DIR: its row, not its files
                     path.parent.mkdir(parents=True, exist_ok=True)
                     path.write_text(row + "\n")
-                if path.exists():
+                if path.exists():  # above the bar, not through it
+                    self.bar.clear()
                     say(trial_line(json.loads(path.read_text())))
+                    self.bar.refresh()
 
         return TrialLines()
 
