@@ -94,8 +94,9 @@ def _free_port() -> int:
 
 @pytest.fixture
 def two_node_cluster():
-    # Ray's token authentication (the head writes ~/.ray/auth_token; every process must be told to use it)
+    # Ray's token authentication: a token in ~/.ray/auth_token (made if missing), every process told to use it
     env = {**os.environ, "RAY_AUTH_MODE": "token"}
+    subprocess.run([RAY, "get-auth-token", "--generate"], capture_output=True, env=env)  # older Rays: no-op
     port = _free_port()
     common = ["--num-cpus", "1", "--disable-usage-stats"]
     try:
