@@ -36,10 +36,12 @@ def sweep() -> None:
               help="an existing Ray cluster: auto (this machine's) or ray://HOST:10001; default: a local Ray")
 @click.option("--resume", is_flag=True, help="continue the sweep in --out: finished trials are not run again")
 @click.option("--cpus-per-trial", type=float, default=1.0, show_default=True)
+@click.option("--cpus", type=click.IntRange(min=1), default=None,
+              help="CPUs the local Ray may use (default: all of this machine's); not with --address")
 @click.option("--seeds", "seeds", type=click.IntRange(min=0), multiple=True,
               help="run these seeds instead of the spec's (repeat: --seeds 4 --seeds 5)")
 def run(spec_path: Path, out: Path, address: str | None, resume: bool, cpus_per_trial: float,
-        seeds: tuple[int, ...]) -> None:
+        cpus: int | None, seeds: tuple[int, ...]) -> None:
     """Run SPEC's trials through Ray Tune into --out, then print the summary."""
     from pendkit.sweep.ray_runner import run_sweep
     from pendkit.sweep.report import report
@@ -47,7 +49,9 @@ def run(spec_path: Path, out: Path, address: str | None, resume: bool, cpus_per_
 
     spec = load_spec(spec_path, list(seeds))
     click.echo(f"sweep {spec.name}: {len(spec.trials)} trials ({', '.join(spec.learners)})")
-    facts = run_sweep(spec, out, address, resume, cpus_per_trial, say=click.echo)
+    if cpus is not None and address is not None:
+        raise click.UsageError("--cpus sizes a local Ray; a cluster at --address has its own")
+    facts = run_sweep(spec, out, address, resume, cpus_per_trial, say=click.echo, num_cpus=cpus)
     (Path(out) / "command.txt").write_text(shlex.join(["pendkit", "sweep", *sys.argv[2:]]) + "\n")
     click.echo(f"ran {facts['ran']} trials, skipped {facts['skipped']} finished ones; Ray's start-up "
                f"{facts['ray_start_s']:.1f} s")
