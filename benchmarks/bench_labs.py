@@ -61,9 +61,9 @@ OUTCOMES = {
 BAR_SECONDS = 10.0  # a cell that computes longer shows a progress bar (issue 27)
 
 
-def run_interactive(path: Path) -> tuple[float, str, list[str]]:
+def run_interactive(path: Path) -> tuple[float, str, list[str], list[str]]:
     """(wall seconds, everything the cells printed, the cells over BAR_SECONDS that showed no progress
-    bar) of a notebook run with the class's budgets."""
+    bar, the three slowest cells) of a notebook run with the class's budgets."""
     from datetime import datetime
 
     os.environ.update({"PENDKIT_MODE": "interactive", "MPLBACKEND": "Agg", "PENDKIT_GRADER_STRICT": "0"})
@@ -74,17 +74,19 @@ def run_interactive(path: Path) -> tuple[float, str, list[str]]:
     seconds = time.perf_counter() - started
     printed = "".join(o.get("text", "") for c in notebook.cells if c.cell_type == "code" for o in c.outputs
                       if o.get("output_type") == "stream" and o.get("name") == "stdout")
-    silent = []
+    silent, took_s = [], {}
     for index, cell in enumerate(notebook.cells):
         timing = cell.get("metadata", {}).get("execution", {})
         if cell.cell_type != "code" or "iopub.execute_input" not in timing:
             continue
         took = (datetime.fromisoformat(timing["shell.execute_reply"].replace("Z", "+00:00"))
                 - datetime.fromisoformat(timing["iopub.execute_input"].replace("Z", "+00:00"))).total_seconds()
+        took_s[index] = took
         shown = " ".join(o.get("text", "") + str(o.get("data", {})) for o in cell.outputs)
         if took > BAR_SECONDS and not re.search(r"\d+%\||it/s|episode/s|s/episode|FloatProgress|IntProgress", shown):
             silent.append(f"cell{index}:{took:.0f}s")
-    return seconds, printed, silent
+    slowest = sorted(took_s, key=took_s.get, reverse=True)[:3]
+    return seconds, printed, silent, [f"cell{k}:{took_s[k]:.0f}s" for k in slowest]
 
 
 def interactive(labs: list[str] | None) -> None:
@@ -93,11 +95,11 @@ def interactive(labs: list[str] | None) -> None:
         if labs is not None and lab not in labs:
             continue
         stated = re.search(r"about (\d+) minutes", nbformat.read(path, as_version=4).cells[0].source)
-        seconds, printed, silent = run_interactive(path)
+        seconds, printed, silent, slowest = run_interactive(path)
         reached = OUTCOMES.get(lab, lambda text: True)(printed)
         print(f"lab={lab} interactive_compute_s={seconds:.0f} stated_min={stated.group(1) if stated else '-'} "
               f"outcome={'ok' if reached else 'short'} cells_over_{BAR_SECONDS:.0f}s_without_bar="
-              f"{','.join(silent) or 'none'}", flush=True)
+              f"{','.join(silent) or 'none'} slowest={','.join(slowest)}", flush=True)
 
 
 def main() -> None:
