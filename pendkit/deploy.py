@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pendkit.backend_contract import RigState
-from pendkit.episode import EpisodeTrace, Policy
+from pendkit.episode import EpisodeTrace, Policy, _progress
 
 CENTRED_RAD, CENTRING_S = 0.1, 1.5
 Watchdog = Callable[[float, float, float], object]  # (arm rad, pendulum rate rad/s, observation age s) -> reason
@@ -35,9 +35,20 @@ def hold_action(env, state: RigState):
 
 
 def run_guarded(env, policy: Policy, should_stop: Watchdog, *, steps: int, seed: int | None = None,
-                options: dict | None = None) -> GuardedRun:
+                options: dict | None = None, progress: bool = False) -> GuardedRun:
     """`run_episode` with a watchdog: `should_stop(arm_angle_rad, pendulum_velocity_rad_s,
-    observation_age_s)` returns a reason (any non-empty text) to stop, or None to go on."""
+    observation_age_s)` returns a reason (any non-empty text) to stop, or None to go on. `progress`: a bar
+    over the steps (a rig runs in real time: 500 steps are 30 s)."""
+    bar = _progress(steps, "steps") if progress else None
+    try:
+        return _run_guarded(env, policy, should_stop, steps, seed, options, bar)
+    finally:
+        if bar is not None:
+            bar.close()
+
+
+def _run_guarded(env, policy: Policy, should_stop: Watchdog, steps: int, seed: int | None, options: dict | None,
+                 bar) -> GuardedRun:
     observation, info = env.reset(seed=seed, options=options)
     if env.unwrapped.action_mode == "continuous" and abs(info["state"].arm_angle_rad) > CENTRED_RAD:
         for _ in range(int(CENTRING_S / env.unwrapped.dt)):
@@ -60,6 +71,8 @@ def run_guarded(env, policy: Policy, should_stop: Watchdog, *, steps: int, seed:
         action = policy(observation, state)
         observation, reward, terminated, truncated, info = env.step(action)
         trace.add(info["state"], step * dt, float(np.asarray(action, dtype=float).reshape(-1)[0]), reward)
+        if bar is not None:
+            bar.update(1)
         if terminated or truncated:
             break
     return GuardedRun(trace, None, None)
