@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 
 pytest.importorskip("ray", reason='the sweep needs the cluster extra: pip install -e ".[cluster]"')
+pytestmark = pytest.mark.expensive  # about 90 s, mostly waiting on Ray: scheduled first (conftest.py)
 
 ROOT = Path(__file__).resolve().parents[2]
 SMOKE = ROOT / "benchmarks" / "sweeps" / "smoke.yaml"
