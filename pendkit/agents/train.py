@@ -86,33 +86,3 @@ def train_sync(env, agent: Agent, episodes: int, inputs: StepInputs | None = Non
             handle.close()
     return returns
 
-
-def train_until_solved(env, agent: Agent, inputs: StepInputs, max_episodes: int, check_every: int = 10,
-                       probe=None, probe_inputs: StepInputs | None = None, max_wall_s: float = float("inf"),
-                       on_check=None, spent_s: float = 0.0, **train_options) -> tuple[list[float], int | None]:
-    """Train, and every `check_every` episodes run the greedy policy from hanging on `probe` (default: `env`)
-    with the kit's "solved" rule; stop once it holds or after `max_episodes` (or `max_wall_s` seconds, counted
-    from `spent_s` before a resume). Returns (every episode's return, the episodes it took, or None).
-    `on_check(episodes, wall_s, solved, greedy_return)` sees each check; `train_options` go to train_sync."""
-    import time
-
-    from pendkit.agents.runs import greedy_episode, solved
-
-    probe, probe_inputs = (probe, probe_inputs) if probe is not None else (env, inputs)
-    started = time.perf_counter() - spent_s
-    outcome = {"solved_at": None}
-
-    def check(episodes_done: int, returns: list[float]):
-        if episodes_done % check_every and episodes_done < max_episodes:
-            return True
-        total, infos = greedy_episode(probe, agent, probe_inputs)
-        held, wall_s = solved(infos), time.perf_counter() - started
-        if on_check is not None:
-            on_check(episodes_done, wall_s, held, total)
-        if held:
-            outcome["solved_at"] = episodes_done
-            return False
-        return wall_s <= max_wall_s
-
-    returns = train_sync(env, agent, max_episodes, inputs, on_episode=check, **train_options)
-    return returns, outcome["solved_at"]

@@ -15,9 +15,9 @@ acting tick from the encoder read on that tick; the same stops apply to it.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
-from pendkit.backend_contract import FLAG_BITS, STOP, RigState, ServoCommand
+from pendkit.backend_contract import STOP, ServoCommand
+from pendkit.device.observation import McuObservation, observation_to_state  # noqa: F401 - also named here
 from pendkit.device.onboard import OnboardController
 from pendkit.encoder import FirmwareVelocityEstimator, frame_status
 from pendkit.rig import RigParams
@@ -25,43 +25,6 @@ from pendkit.rig import RigParams
 HOLDING_FLAGS = frozenset(("watchdog", "overspin", "stuck_encoder"))
 STUCK_BAD_FRAMES = 8
 STUCK_TRAVEL_COUNTS = 60
-
-
-@dataclass(frozen=True)
-class McuObservation:
-    """One observation, in the device's units (the protocol's fields)."""
-
-    millis: int
-    position_counts: int
-    servo_counts: int
-    omega_rev_s: float
-    acceleration_rev_s2: float
-    arm_velocity_counts_s: float
-    flags: frozenset[str]
-
-    @property
-    def flag_bits(self) -> int:
-        return sum(FLAG_BITS[f] for f in self.flags)
-
-
-def observation_to_state(observation: McuObservation, params: RigParams, observation_age_s: float,
-                         time_since_action_s: float, servo_target_counts: int | None = None) -> RigState:
-    """What the host knows from one observation, in SI units. A hobby servo reports no position, so the
-    arm angle is the servo command; the target is the device's current one when known."""
-    target = observation.servo_counts if servo_target_counts is None else servo_target_counts
-    return RigState(
-        time_s=observation.millis / 1000.0,
-        pendulum_angle_rad=observation.position_counts * (2 * math.pi / params.encoder_counts),
-        pendulum_velocity_rad_s=observation.omega_rev_s * 2 * math.pi,
-        pendulum_acceleration_rad_s2=observation.acceleration_rev_s2 * 2 * math.pi,
-        arm_angle_rad=params.servo_counts_to_rad(observation.servo_counts),
-        arm_velocity_rad_s=observation.arm_velocity_counts_s * params.servo_rad_per_count,
-        servo_target_rad=params.servo_counts_to_rad(target),
-        observation_age_s=observation_age_s,
-        time_since_action_s=time_since_action_s,
-        encoder_counts=observation.position_counts,
-        safety_flags=observation.flags,
-    )
 
 
 def action_increments_counts(params: RigParams) -> tuple[int, ...]:

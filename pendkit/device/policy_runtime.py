@@ -95,7 +95,7 @@ class DevicePolicy:
         self.last_action, self.tick_count = 0, self.ticks_per_step - 1  # the first tick decides
 
     def inputs(self, observation, now_ms: float) -> np.ndarray:
-        from pendkit.device.logic import observation_to_state
+        from pendkit.device.observation import observation_to_state
 
         state = observation_to_state(observation, self.params, (now_ms - observation.millis) / 1000.0,
                                      self.blob.period_s)

@@ -12,7 +12,8 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from pendkit.device.logic import FLAG_BITS, McuObservation
+from pendkit.backend_contract import FLAG_BITS
+from pendkit.device.observation import McuObservation
 from pendkit.errors import PendkitError
 from pendkit.rig import RigParams
 

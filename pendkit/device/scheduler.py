@@ -11,8 +11,10 @@ command it knows, so it is ignored and counted), no watchdog, and silent until t
 
 from __future__ import annotations
 
+from pendkit.backend_contract import FLAG_BITS
 from pendkit.device.commands import DeviceCommand, parse_command
-from pendkit.device.logic import FLAG_BITS, McuLogic, McuObservation
+from pendkit.device.logic import McuLogic
+from pendkit.device.observation import McuObservation
 from pendkit.device.onboard import is_chunk
 from pendkit.device.protocol import ProtocolError, format_observation_v1, format_observation_v2
 from pendkit.errors import ConfigError

@@ -15,7 +15,7 @@ from collections.abc import Callable
 
 import mujoco
 
-from pendkit.device.logic import McuObservation
+from pendkit.device.observation import McuObservation
 from pendkit.device.scheduler import DeviceScheduler
 from pendkit.encoder import encode_ssi_frame
 from pendkit.rig import RigParams

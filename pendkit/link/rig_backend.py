@@ -18,7 +18,7 @@ import numpy as np
 from pendkit.backend_contract import STOP, BackendTiming, RigState, ServoCommand
 from pendkit.device.commands import command_body, frame_command
 from pendkit.device.log import EpisodeLog
-from pendkit.device.logic import observation_to_state
+from pendkit.device.observation import observation_to_state
 from pendkit.device.protocol import ReadingLimits
 from pendkit.device.scheduler import PROTOCOLS
 from pendkit.errors import ConfigError

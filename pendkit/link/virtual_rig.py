@@ -23,7 +23,7 @@ import mujoco
 import numpy as np
 import paho.mqtt.client as mqtt
 
-from pendkit.device.logic import McuObservation
+from pendkit.device.observation import McuObservation
 from pendkit.device.twin import ENCODER_FAULTS, TwinDevice
 from pendkit.errors import ConfigError
 from pendkit.link.driver import (

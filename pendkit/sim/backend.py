@@ -13,7 +13,7 @@ import numpy as np
 from pendkit.backend_contract import BackendTiming, RigState, ServoCommand
 from pendkit.device.commands import command_body, frame_command
 from pendkit.device.log import EpisodeLog
-from pendkit.device.logic import McuObservation, observation_to_state
+from pendkit.device.observation import McuObservation, observation_to_state
 from pendkit.device.protocol import format_observation_v1
 from pendkit.device.twin import TwinDevice
 from pendkit.errors import ConfigError

@@ -58,8 +58,7 @@ def run_trial(trial: Trial, folder: str | Path) -> dict:
     """Run (or resume) `trial` in `folder`; return its result row (also written to result.json)."""
     import torch
 
-    from pendkit.agents.runs import build_run, make_env, save_weights
-    from pendkit.agents.train import train_until_solved
+    from pendkit.agents.runs import build_run, make_env, save_weights, train_until_solved
 
     folder = Path(folder)
     if (folder / RESULT).exists():
