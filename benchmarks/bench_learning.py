@@ -128,20 +128,6 @@ def setting_name(setting: str | Fidelity | StepDelay) -> str:
     return getattr(setting, "name", setting)
 
 
-def sweep_summary(algo: str, rows: list[dict]) -> None:
-    """Success rate at each delay and the largest delay at least half the seeds solved."""
-    from pendkit.sweep.report import _delays_ms
-
-    delays = _delays_ms(rows)
-    mine = [r for r in rows if r["learner"] == algo]
-    points = sorted({(delays[r["setting_name"]], r["setting_name"]) for r in mine})
-    rates = [(delay, np.mean([r["solved"] for r in mine if r["setting_name"] == name])) for delay, name in points]
-    holding = [delay for delay, rate in rates if rate >= 0.5]
-    rate_text = " ".join(f"{delay:g}ms={rate:.2f}" for delay, rate in rates)
-    print(f"sweep algo={algo} success_rate: {rate_text} largest_delay_solved_ms={max(holding, default=float('nan')):g}",
-          flush=True)
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="one seed of DQN on ideal")
@@ -191,9 +177,6 @@ def main() -> None:
         for setting in sb3_settings:
             results = [run_sb3(setting, seed, args.max_episodes, args.max_wall_s) for seed in seeds]
             report_sb3(setting_name(setting), results)
-    if kind != "fidelities":
-        for algo in args.algos:
-            sweep_summary(algo, rows)
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         record = runs_record(rows, "python benchmarks/bench_learning.py " + " ".join(sys.argv[1:]))

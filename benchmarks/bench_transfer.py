@@ -80,20 +80,21 @@ def ceiling(starts: int) -> None:
     from pendkit.features import holds_upright
     from pendkit.sim.latency import NetworkImpairment
 
-    def true_state(env, shown):
-        truth = env.unwrapped.backend.true_state()
-        return shown._replace(pendulum_angle_rad=truth["pendulum_angle_rad"] % (2 * math.pi),
-                              pendulum_velocity_rad_s=truth["pendulum_velocity_rad_s"],
-                              arm_angle_rad=truth["arm_angle_rad"], arm_velocity_rad_s=truth["arm_velocity_rad_s"],
-                              observation_age_s=0.0)
+    def true_state(info):  # the twin's exact joint state, in place of what the host reads
+        truth = info["true_state"]
+        return info["state"]._replace(
+            pendulum_angle_rad=truth["pendulum_angle_rad"] % (2 * math.pi),
+            pendulum_velocity_rad_s=truth["pendulum_velocity_rad_s"], arm_angle_rad=truth["arm_angle_rad"],
+            arm_velocity_rad_s=truth["arm_velocity_rad_s"], observation_age_s=0.0)
 
     def episode(env, policy, seed: int, start: str) -> Evaluation:
         _, info = env.reset(seed=seed, options={"start": start})
-        policy.reset(true_state(env, info["state"]))
-        angles = []
-        for _ in range(500):
-            _, _, _, _, info = env.step(policy(None, true_state(env, info["state"])))
+        policy.reset(true_state(info))
+        angles, done = [], False
+        while not done:
+            _, _, terminated, truncated, info = env.step(policy(None, true_state(info)))
             angles.append(info["angle_from_upright_rad"])
+            done = terminated or truncated
         return Evaluation([holds_upright(angles, SOLVED_TAIL_STEPS)], [time_to_upright_s(angles, env.unwrapped.dt)],
                           [0.0], [None])
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pendkit.backend_contract import RigState
-from pendkit.episode import EpisodeTrace, Policy, _progress
+from pendkit.episode import EpisodeTrace, Policy, progress_bar
 
 CENTRED_RAD, CENTRING_S = 0.1, 1.5
 Watchdog = Callable[[float, float, float], object]  # (arm rad, pendulum rate rad/s, observation age s) -> reason
@@ -39,7 +39,7 @@ def run_guarded(env, policy: Policy, should_stop: Watchdog, *, steps: int, seed:
     """`run_episode` with a watchdog: `should_stop(arm_angle_rad, pendulum_velocity_rad_s,
     observation_age_s)` returns a reason (any non-empty text) to stop, or None to go on. `progress`: a bar
     over the steps (a rig runs in real time: 500 steps are 30 s)."""
-    bar = _progress(steps, "steps") if progress else None
+    bar = progress_bar(steps, "steps") if progress else None
     try:
         return _run_guarded(env, policy, should_stop, steps, seed, options, bar)
     finally:

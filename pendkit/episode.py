@@ -55,7 +55,7 @@ def run_episode(env, policy: Policy, *, seed: int | None = None, steps: int | No
     trace = EpisodeTrace()
     trace.add(info["state"], 0.0, 0.0, 0.0)
     limit = steps or _episode_limit(env)
-    bar = _progress(limit, "episode") if progress else None
+    bar = progress_bar(limit, "episode") if progress else None
     for step in range(1, limit + 1):
         action = policy(observation, info["state"])
         observation, reward, terminated, truncated, info = env.step(action)
@@ -155,7 +155,8 @@ def plot_episode(trace: EpisodeTrace, path: str | Path | None = None, title: str
     return figure
 
 
-def _progress(total: int, desc: str):
+def progress_bar(total: int, desc: str):
+    """A bar over `total` steps (None without tqdm)."""
     try:
         from tqdm.auto import tqdm
     except ImportError:

@@ -85,4 +85,3 @@ def train_sync(env, agent: Agent, episodes: int, inputs: StepInputs | None = Non
         if handle is not None:
             handle.close()
     return returns
-

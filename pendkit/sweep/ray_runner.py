@@ -103,6 +103,7 @@ def run_sweep(spec: SweepSpec, out: str | Path, address: str | None = None, resu
     ray, tune = ray_or_exit()
     ray_start_s = start_ray(address, num_cpus, say)
     say(f"{len(pending)} trials, {cpus_per_trial:g} CPU each")
+    lines = trial_lines_callback(out, say, len(pending))
     try:
         tuner = tune.Tuner(
             tune.with_resources(_trainable, {"cpu": cpus_per_trial}),
@@ -110,44 +111,41 @@ def run_sweep(spec: SweepSpec, out: str | Path, address: str | None = None, resu
             tune_config=tune.TuneConfig(reuse_actors=False, trial_name_creator=_trial_name,
                                         trial_dirname_creator=_trial_name),
             run_config=tune.RunConfig(storage_path=str(out / "ray"), name=spec.name, verbose=0,
-                                      callbacks=[lines := _TrialLines(out, say, len(pending))],
+                                      callbacks=[lines],
                                       failure_config=tune.FailureConfig(max_failures=2)))
         results = tuner.fit()
         errors = [r.error for r in results if r.error is not None]
     finally:
-        if "lines" in locals():
-            lines.bar.close()
+        lines.bar.close()
         ray.shutdown()
     if errors:
         raise RuntimeError(f"{len(errors)} trials failed; the first: {errors[0]}")
     return {"ran": len(pending), "skipped": skipped, "ray_start_s": ray_start_s}
 
 
-class _TrialLines:
-    """A line per finished trial as it finishes, under a progress bar of the trials (a tune.Callback, built
-    lazily so that Ray stays optional)."""
+def trial_lines_callback(out: Path, say, total: int):
+    """A tune.Callback: a line per finished trial as it finishes, under a progress bar of the trials (its
+    class is made here, once Ray is imported, so that Ray stays optional)."""
+    from ray import tune
+    from tqdm.auto import tqdm
 
-    def __new__(cls, out: Path, say, total: int):
-        from ray import tune
-        from tqdm.auto import tqdm
+    class TrialLines(tune.Callback):
+        bar = tqdm(total=total, desc="trials", unit="trial")
 
-        class TrialLines(tune.Callback):
-            bar = tqdm(total=total, desc="trials", unit="trial")
+        def on_trial_complete(self, iteration, trials, trial, **info):
+            self.bar.update(1)
+            trial_id = trial.config["trial"]["trial_id"]
+            path = out / "trials" / trial_id / RESULT
+            row = (trial.last_result or {}).get("row")
+            if not path.exists() and row:  # run on a node that does not share DIR: its row, not its files
+                path.parent.mkdir(parents=True, exist_ok=True)
+                path.write_text(row + "\n")
+            if path.exists():  # above the bar, not through it
+                self.bar.clear()
+                say(trial_line(json.loads(path.read_text())))
+                self.bar.refresh()
 
-            def on_trial_complete(self, iteration, trials, trial, **info):
-                self.bar.update(1)
-                trial_id = trial.config["trial"]["trial_id"]
-                path = out / "trials" / trial_id / RESULT
-                row = (trial.last_result or {}).get("row")
-                if not path.exists() and row:  # run on a node that does not share DIR: its row, not its files
-                    path.parent.mkdir(parents=True, exist_ok=True)
-                    path.write_text(row + "\n")
-                if path.exists():  # above the bar, not through it
-                    self.bar.clear()
-                    say(trial_line(json.loads(path.read_text())))
-                    self.bar.refresh()
-
-        return TrialLines()
+    return TrialLines()
 
 
 def trial_line(row: dict) -> str:

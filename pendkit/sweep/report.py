@@ -78,9 +78,25 @@ def summary_lines(rows: list[dict], missing: list[str]) -> list[str]:
         parts = " ".join(f"{setting}={sum(r['solved'] for r in members)}/{len(members)}"
                          for (name, setting), members in groups.items() if name == learner)
         lines.append(f"summary algo={learner} {parts}")
+    lines += delay_lines(rows)
     cpu_s = sum(r["wall_s"] for r in rows)
     lines.append(f"sweep trials={len(rows) + len(missing)} finished={len(rows)} unfinished={len(missing)} "
                  f"cpu_hours={cpu_s / 3600:.2f} mean_trial_s={cpu_s / max(1, len(rows)):.0f}")
+    return lines
+
+
+def delay_lines(rows: list[dict]) -> list[str]:
+    """For a delay sweep, a line per learner: the share solved at each delay, and the largest delay at least
+    half the seeds solved (the benchmarks' `sweep algo=...` line); none for other settings."""
+    delays = _delays_ms(rows)
+    if delays is None:
+        return []
+    lines = []
+    for learner in dict.fromkeys(r["learner"] for r in rows):
+        rates = [(delays[s], _share(rows, learner, s)) for s in sorted(delays, key=delays.get)]
+        holding = [delay for delay, rate in rates if rate >= 0.5]
+        lines.append(f"sweep algo={learner} success_rate: " + " ".join(f"{d:g}ms={r:.2f}" for d, r in rates)
+                     + f" largest_delay_solved_ms={max(holding, default=float('nan')):g}")
     return lines
 
 

@@ -44,22 +44,21 @@ def test_a_broken_delayed_view_is_named(view, message):
         seen(StudentDelay(pendkit.make(fidelity="ideal"), view, 2), steps=3)
 
 
-def right_cell(x, h, w_ih, w_hh, b_ih, b_hh):
-    size = len(h)
-    a, b = w_ih @ x + b_ih, w_hh @ h + b_hh
-    reset = 1 / (1 + np.exp(-(a[:size] + b[:size])))
-    update = 1 / (1 + np.exp(-(a[size:2 * size] + b[size:2 * size])))
-    new = np.tanh(a[2 * size:] + reset * b[2 * size:])
-    return (1 - update) * new + update * h
+def gru_cell(gates_swapped: bool):
+    """A numpy GRU step in PyTorch's layout; `gates_swapped` reads the reset gate's rows as the update's."""
+    def step(x, h, w_ih, w_hh, b_ih, b_hh):
+        size = len(h)
+        a, b = w_ih @ x + b_ih, w_hh @ h + b_hh
+        first = 1 / (1 + np.exp(-(a[:size] + b[:size])))
+        second = 1 / (1 + np.exp(-(a[size:2 * size] + b[size:2 * size])))
+        reset, update = (second, first) if gates_swapped else (first, second)
+        new = np.tanh(a[2 * size:] + reset * b[2 * size:])
+        return (1 - update) * new + update * h
+
+    return step
 
 
-def swapped_gates(x, h, w_ih, w_hh, b_ih, b_hh):
-    size = len(h)
-    a, b = w_ih @ x + b_ih, w_hh @ h + b_hh
-    update = 1 / (1 + np.exp(-(a[:size] + b[:size])))
-    reset = 1 / (1 + np.exp(-(a[size:2 * size] + b[size:2 * size])))
-    new = np.tanh(a[2 * size:] + reset * b[2 * size:])
-    return (1 - update) * new + update * h
+right_cell, swapped_gates = gru_cell(False), gru_cell(True)
 
 
 def angles(cell, steps=150):

@@ -71,6 +71,8 @@ def test_a_delay_sweep_becomes_lab_08s_file_and_the_benchmarks_lines(tmp_path):
     assert ("algo=r-dqn fidelity=ideal-delayed-2-steps solved=2/2 median_episodes_to_solve=175 "
             "median_wall_s=350") in lines
     assert "summary algo=dqn ideal-delayed-0-steps=2/2 ideal-delayed-2-steps=0/2" in lines
+    assert "sweep algo=dqn success_rate: 0ms=1.00 120ms=0.00 largest_delay_solved_ms=0" in lines
+    assert "sweep algo=r-dqn success_rate: 0ms=0.50 120ms=1.00 largest_delay_solved_ms=120" in lines
     assert lines[-1].startswith("sweep trials=9 finished=8 unfinished=1")
 
 
