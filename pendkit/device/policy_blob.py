@@ -13,7 +13,7 @@ from __future__ import annotations
 import struct
 from dataclasses import dataclass, field
 
-from pendkit.device.controller_blob import NetworkBlob
+from pendkit.device.blob_parts import BlobError, NetworkBlob, network_payload, parse_network
 
 HEADER = struct.Struct("<HHIff")
 LAYOUTS = {1: "paper features + the last action one-hot"}
@@ -34,20 +34,20 @@ class PolicyBlob:
         return self.network.multiply_accumulates
 
 
-def pack_payload(blob: PolicyBlob, network_payload) -> bytes:
+def pack_payload(blob: PolicyBlob) -> bytes:
     return HEADER.pack(blob.layout, blob.actions, 0, blob.period_s, blob.acting_period_s) + \
         network_payload(blob.network)
 
 
-def parse_payload(reader, error, parse_network) -> PolicyBlob:
+def parse_payload(reader) -> PolicyBlob:
     layout, actions, _, period_s, acting_s = reader.take(HEADER.format)
     if layout not in LAYOUTS or not 2 <= actions <= 16:
-        raise error(f"input layout {layout} with {actions} actions")
+        raise BlobError(f"input layout {layout} with {actions} actions")
     if not (0 < acting_s <= period_s < 10):
-        raise error(f"a control step of {period_s} s on acting ticks of {acting_s} s")
+        raise BlobError(f"a control step of {period_s} s on acting ticks of {acting_s} s")
     network = parse_network(reader)
     if network.input_dim != PAPER_INPUTS + actions or network.output != "argmax" or \
             network.layers[-1].weight.shape[0] != actions:
-        raise error(f"a network of {network.input_dim} inputs and {network.layers[-1].weight.shape[0]} outputs for "
+        raise BlobError(f"a network of {network.input_dim} inputs and {network.layers[-1].weight.shape[0]} outputs for "
                     f"layout {layout} with {actions} actions")
     return PolicyBlob(network, float(period_s), float(acting_s), actions, layout)
