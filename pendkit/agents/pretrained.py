@@ -7,10 +7,16 @@
 |-----------------|---------|---------------------------|----------|
 | dqn-ideal       | dqn     | the ideal twin            | 120      |
 | r-dqn-realistic | r-dqn   | the realistic twin        | 260      |
+| r-dqn-robust    | r-dqn   | a new realistic rig each episode | 1500 (~55 min) |
+
+r-dqn-robust (`randomize="robust"`) keeps the checkpoint that did best on rigs drawn from its training
+ranges, not its last one: over so many rigs R-DQN peaks and unlearns (docs/rl.md).
 """
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,12 +29,23 @@ POLICY_DIR = Path(__file__).resolve().parents[1] / "data" / "policies"
 
 @dataclass(frozen=True)
 class PretrainedSpec:
+    """`check_every` > 0: after each such stretch the greedy agent is scored on `validation_rigs` rigs drawn
+    from the training ranges (`rig_suite.validation_rigs`) and the best checkpoint is kept, not the last."""
+
     run: RunSpec
     episodes: int
+    check_every: int = 0
+    validation_rigs: int = 8
+    built_by_default: bool = True  # False: only when named (an hour's training)
 
 
+# the larger network and buffer: over rigs that change every episode the default R-DQN plateaus (docs/rl.md)
+ROBUST_AGENT = {"hidden": [128, 128], "gru_size": 64, "sequence_length": 16, "learning_rate": 5e-4,
+                "buffer_capacity": 1_000_000}
 POLICIES = {"dqn-ideal": PretrainedSpec(RunSpec("dqn", "ideal"), 120),
-            "r-dqn-realistic": PretrainedSpec(RunSpec("r-dqn", "realistic"), 260)}
+            "r-dqn-realistic": PretrainedSpec(RunSpec("r-dqn", "realistic"), 260),
+            "r-dqn-robust": PretrainedSpec(RunSpec("r-dqn", "realistic", randomize="robust", agent=ROBUST_AGENT),
+                                           1500, check_every=125, built_by_default=False)}
 
 
 class GreedyPolicy:
@@ -67,18 +84,55 @@ def load_policy(name: str, env) -> GreedyPolicy:
 
 
 def build(names: list[str] | None = None) -> None:
-    """Train the named policies (all by default) and write their weights."""
+    """Train the named policies (by default those built in minutes) and write their weights."""
     from pendkit.agents.train import train_sync
 
     POLICY_DIR.mkdir(parents=True, exist_ok=True)
-    for name in names or list(POLICIES):
+    for name in names or [name for name, spec in POLICIES.items() if spec.built_by_default]:
         if name not in POLICIES:
             raise ConfigError(f"unknown policy {name!r}; the kit ships {sorted(POLICIES)}")
         spec = POLICIES[name]
         env, agent, inputs = build_run(spec.run)
-        returns = train_sync(env, agent, spec.episodes, inputs, seed=spec.run.seed)
-        save_weights(POLICY_DIR / f"{name}.pt", agent, spec.run, {"episodes": spec.episodes})
-        print(f"{name}: last 10 mean return {sum(returns[-10:]) / 10:.1f}")
+        notes = {"episodes": spec.episodes}
+        if spec.check_every:
+            returns, chosen = train_keeping_best(env, agent, inputs, spec)
+            notes.update(chosen)
+        else:
+            returns = train_sync(env, agent, spec.episodes, inputs, seed=spec.run.seed)
+        # the weights' spec builds the agent on one rig; what it was trained over is in the notes
+        notes["trained_on"] = spec.run.randomize or spec.run.fidelity
+        save_weights(POLICY_DIR / f"{name}.pt", agent, dataclasses.replace(spec.run, randomize=""), notes)
+        print(f"{name}: last 10 mean return {sum(returns[-10:]) / 10:.1f}; {notes}")
+
+
+def validation_score(spec: PretrainedSpec, state: dict) -> tuple[int, float]:
+    """(episodes solved, mean return) of the greedy agent on the validation rigs, from rest and one random
+    start each: higher is better."""
+    import numpy as np
+
+    from pendkit.agents.rig_suite import policy_on_rigs, summary, validation_rigs
+
+    outcomes = policy_on_rigs(spec.run, state, validation_rigs(spec.validation_rigs), starts=1)
+    return summary(outcomes)["solved"], float(np.mean(sum((e.returns for e in outcomes.values()), [])))
+
+
+def train_keeping_best(env, agent, inputs, spec: PretrainedSpec, score=validation_score) -> tuple[list[float], dict]:
+    """Train in stretches of `spec.check_every` episodes, `score(spec, state)` the agent after each and leave
+    it at the best-scored state (the first of equals); returns (every return, which checkpoint was kept)."""
+    from pendkit.agents.train import train_sync
+
+    buffer = agent.new_buffer(spec.run.seed)
+    returns, best = [], None
+    while len(returns) < spec.episodes:
+        stretch = min(spec.check_every, spec.episodes - len(returns))
+        returns += train_sync(env, agent, stretch, inputs, buffer=buffer, seed=spec.run.seed * 7919 + len(returns))
+        checked = score(spec, agent.state_dict())
+        print(f"{len(returns)} episodes: validation solved {checked[0]}, mean return {checked[1]:.0f}")
+        if best is None or checked > best[0]:
+            best = (checked, len(returns), copy.deepcopy(agent.state_dict()))
+    agent.load_state_dict(best[2])
+    return returns, {"chosen_at_episode": best[1], "validation_solved": best[0][0],
+                     "validation_mean_return": round(best[0][1], 1)}
 
 
 if __name__ == "__main__":

@@ -8,12 +8,15 @@ through the same code; `bench_transfer.py` and `pendkit adapt` use it.
 
 from __future__ import annotations
 
+import numpy as np
+
 from pendkit.agents.runs import Evaluation, RunSpec, build_run, evaluate_agent
 from pendkit.rig import SERVO_PRESETS, RigParams
 from pendkit.sim.fidelity import FIDELITY_PRESETS
-from pendkit.sim.randomize import RandomRig, held_out_rigs
+from pendkit.sim.randomize import ALIASES, RandomRig, held_out_rigs, sample_rig
 
 HELD_OUT_SEED = 2026  # the documented draw of held-out rigs (docs/rl.md)
+VALIDATION_SEED = 77  # rigs from the training ranges that choose a checkpoint; never the held-out ones
 
 
 def preset_rigs() -> dict[str, RandomRig]:
@@ -23,6 +26,12 @@ def preset_rigs() -> dict[str, RandomRig]:
 
 def random_rigs(count: int = 10, seed: int = HELD_OUT_SEED) -> dict[str, RandomRig]:
     return {f"random-{k:02d}": rig for k, rig in enumerate(held_out_rigs(count, seed))}
+
+
+def validation_rigs(count: int = 8, seed: int = VALIDATION_SEED) -> dict[str, RandomRig]:
+    """Rigs drawn from the training ranges themselves, to choose between checkpoints of a robust policy."""
+    rng = np.random.default_rng(seed)
+    return {f"validation-{k:02d}": sample_rig(RigParams(), ALIASES["robust"], rng) for k in range(count)}
 
 
 def rig_env(rig: RandomRig, spec: RunSpec | None = None, **env_options):

@@ -214,7 +214,9 @@ def policies_list() -> None:
     from pendkit.agents.pretrained import POLICIES
 
     for name, spec in POLICIES.items():
-        click.echo(f"{name:<18} {spec.run.learner:<8} {spec.run.fidelity:<10} {spec.episodes} episodes")
+        over = f" over rigs ({spec.run.randomize})" if spec.run.randomize else ""
+        click.echo(f"{name:<18} {spec.run.learner:<8} {spec.run.fidelity}{over:<18} {spec.episodes} episodes"
+                   + ("" if spec.built_by_default else " (built only when named)"))
 
 
 @policies.command("build")

@@ -1,0 +1,52 @@
+"""Shipped policies: choosing a checkpoint by validation, and what `pendkit policies` says about them."""
+
+import copy
+
+import pytest
+import torch
+from click.testing import CliRunner
+
+from pendkit.agents.pretrained import POLICIES, PretrainedSpec, train_keeping_best
+from pendkit.agents.rig_suite import random_rigs, validation_rigs
+from pendkit.agents.runs import RunSpec, build_run
+from pendkit.cli import main
+
+
+def _same(a: dict, b: dict) -> bool:
+    flat_a, flat_b = a["q"] if "q" in a else a, b["q"] if "q" in b else b
+    return all(torch.equal(flat_a[k], flat_b[k]) for k in flat_a if isinstance(flat_a[k], torch.Tensor))
+
+
+@pytest.mark.parametrize("best_check", [0, 1, 2])
+def test_training_keeps_the_best_scored_checkpoint_not_the_last(best_check):
+    spec = PretrainedSpec(RunSpec("dqn", "ideal", seed=3), episodes=6, check_every=2)
+    env, agent, inputs = build_run(spec.run)
+    seen = []
+
+    def score(_spec, state):  # a scripted preference: which check wins is the test's parameter
+        seen.append(copy.deepcopy(state))
+        return (1 if len(seen) - 1 == best_check else 0, -float(len(seen)))
+
+    returns, chosen = train_keeping_best(env, agent, inputs, spec, score)
+    assert len(returns) == 6 and len(seen) == 3
+    assert chosen["chosen_at_episode"] == 2 * (best_check + 1)
+    assert _same(agent.state_dict()["q"], seen[best_check]["q"])
+    if best_check < 2:  # the agent went back: it is no longer what it was at the end
+        assert not _same(agent.state_dict()["q"], seen[2]["q"])
+
+
+def test_validation_rigs_come_from_the_training_ranges_and_are_not_the_held_out_ones():
+    from pendkit.sim.randomize import TRAINING_RANGES
+
+    validation, held_out = validation_rigs(), random_rigs()
+    assert validation == validation_rigs()  # one documented draw
+    speeds = [rig.params.servo_speed_s_per_60deg for rig in validation.values()]
+    low, high = TRAINING_RANGES.servo_speed_s_per_60deg
+    assert all(low <= s <= high for s in speeds)
+    assert not {r.params for r in validation.values()} & {r.params for r in held_out.values()}
+
+
+def test_policies_list_names_the_robust_policy_and_that_it_is_built_only_when_named():
+    out = CliRunner().invoke(main, ["policies", "list"]).output
+    assert "r-dqn-robust" in out and "over rigs (robust)" in out and "built only when named" in out
+    assert not POLICIES["r-dqn-robust"].built_by_default and POLICIES["r-dqn-realistic"].built_by_default
