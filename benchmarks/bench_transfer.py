@@ -2,7 +2,7 @@
 
     python benchmarks/bench_transfer.py zero-shot [--starts 5]        # each controller x presets and random rigs
     python benchmarks/bench_transfer.py ceiling [--starts 5]          # the classical designs as oracles
-    python benchmarks/bench_transfer.py adapt [--rigs 6] [--seeds 0 1 2] [--jobs 2]
+    python benchmarks/bench_transfer.py adapt [--rigs 6] [--seeds 0 1 2] [--jobs 2] [--policy r-dqn-robust]
     python benchmarks/bench_transfer.py ablations [--rigs 6] [--jobs 2]
 
 zero-shot: the shipped policies and the classical controllers (energy swing-up + LQR, minimum-time swing-up),
@@ -16,7 +16,8 @@ when it knows everything (a bound to read the robust policy's goal against).
 adapt: `pendkit adapt` on `--rigs` hidden rigs drawn from the held-out ranges with seed 2027 (another draw
 than zero-shot's, written as RigParams files beside the results; the network and calibration error stay
 with the rig): rig time used, wall time, the identified servo speed and natural frequency against the
-rig's own, and greedy episodes solved on the rig by the adapted policy and both classical controllers.
+rig's own, and greedy episodes solved on the rig by the adapted policy and both classical controllers;
+`--policy` the shipped policy adaptation starts from (default: `pendkit adapt`'s).
 
 ablations, one factor at a time on the same rigs: randomisation only (the starting policy as shipped);
 identification only (train on the identified twin, no rig fine-tuning); identification + fine-tuning (the
@@ -138,8 +139,9 @@ def adapt_rigs(count: int):
     return [(f"hidden-{k:02d}", rig) for k, rig in enumerate(held_out_rigs(count, ADAPT_RIG_SEED))]
 
 
-def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str) -> str:
-    """One adaptation of one rig; `variant` is "full", "identification-only" or a learner trained afresh."""
+def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy: str | None = None) -> str:
+    """One adaptation of one rig; `variant` is "full", "identification-only" or a learner trained afresh;
+    `policy`: the shipped policy the first two start from (default: AdaptConfig's)."""
     import torch
 
     torch.set_num_threads(1)
@@ -149,7 +151,8 @@ def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str) -> str
     out = Path(out_root) / f"{rig_name}-{variant}-s{seed}"
     out.mkdir(parents=True, exist_ok=True)
     rig.params.save(out / "hidden-rig.json")
-    changes = {"full": {}, "identification-only": {"episodes": AdaptConfig().excitation_episodes}}
+    start = {"policy": policy} if policy else {}
+    changes = {"full": start, "identification-only": {"episodes": AdaptConfig().excitation_episodes, **start}}
     config = AdaptConfig(seed=seed, evaluation_episodes=EVALUATION_EPISODES,
                          **changes.get(variant, {"policy": variant, "twin_episodes": 300}))
     report = adapt(twin_rig(rig.params, rig.network, rig.residual_offset_counts), out, config, say=lambda _: None)
@@ -158,7 +161,8 @@ def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str) -> str
     omega = found["pendulum_natural_frequency_rad_s"] / true.pendulum_natural_frequency_rad_s - 1
     episode_s = 500 * true.control_step_ms / 1000
     classical, device = report["classical_on_rig"], report["classical_on_device"]
-    return (f"adapt rig={rig_name} variant={variant} seed={seed} rig_s={report['rig_s_adaptation']:.0f} "
+    return (f"adapt rig={rig_name} variant={variant} from={config.policy} seed={seed} "
+            f"rig_s={report['rig_s_adaptation']:.0f} "
             f"rig_episodes={report['rig_s_adaptation'] / episode_s:.1f} wall_s={report['wall_s_adaptation']:.0f} "
             f"speed_error={speed:+.0%} omega_error={omega:+.0%} energy={classical['energy']['summary']} "
             f"trajopt={classical['trajopt']['summary']} device_energy={device['energy']['summary']} "
@@ -185,6 +189,7 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=None, help="CPUs of the local Ray (default: all)")
     parser.add_argument("--address", default=None, help="an existing Ray cluster (auto, or ray://HOST:10001)")
     parser.add_argument("--out", default=None, help="Where the adaptations write (default: a temporary folder).")
+    parser.add_argument("--policy", default=None, help="The shipped policy adaptation starts from.")
     args = parser.parse_args()
     if args.mode in ("zero-shot", "ceiling"):
         (zero_shot if args.mode == "zero-shot" else ceiling)(args.starts)
@@ -195,7 +200,8 @@ def main() -> None:
     if args.mode == "ablations":
         for rig_name, rig in rigs:
             print(randomisation_only(rig_name, rig), flush=True)
-    work = [(name, rig, seed, variant, out_root) for variant in variants for seed in args.seeds for name, rig in rigs]
+    work = [(name, rig, seed, variant, out_root, args.policy)
+            for variant in variants for seed in args.seeds for name, rig in rigs]
     for line in map_on_ray(adapt_one, work, args.address, args.jobs):  # the sweeps' Ray, one CPU per rig
         print(line, flush=True)
 

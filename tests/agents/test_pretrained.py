@@ -50,3 +50,15 @@ def test_policies_list_names_the_robust_policy_and_that_it_is_built_only_when_na
     out = CliRunner().invoke(main, ["policies", "list"]).output
     assert "r-dqn-robust" in out and "over rigs (robust)" in out and "built only when named" in out
     assert not POLICIES["r-dqn-robust"].built_by_default and POLICIES["r-dqn-realistic"].built_by_default
+
+
+def test_the_robust_policy_swings_up_and_holds_the_default_rig_from_rest():
+    from pendkit.agents.pretrained import policy_weights
+    from pendkit.agents.rig_suite import policy_on_rigs
+    from pendkit.rig import RigParams
+    from pendkit.sim.randomize import RandomRig
+
+    spec, state = policy_weights("r-dqn-robust")
+    outcome = policy_on_rigs(spec, state, {"default": RandomRig(RigParams(), None, 0)}, starts=0)["default"]
+    assert outcome.solved == [True]  # the kit's rule: within 0.3 rad for the last 200 steps
+    assert outcome.upright_s[0] < 8.0 and outcome.held_fractions[0] > 0.9
