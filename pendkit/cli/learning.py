@@ -214,8 +214,8 @@ def policies_list() -> None:
     from pendkit.agents.pretrained import POLICIES
 
     for name, spec in POLICIES.items():
-        over = f" over rigs ({spec.run.randomize})" if spec.run.randomize else ""
-        click.echo(f"{name:<18} {spec.run.learner:<8} {spec.run.fidelity}{over:<18} {spec.episodes} episodes"
+        twin = spec.run.fidelity + (f" over rigs ({spec.run.randomize})" if spec.run.randomize else "")
+        click.echo(f"{name:<18} {spec.run.learner:<8} {twin:<30} {spec.episodes:>5} episodes"
                    + ("" if spec.built_by_default else " (built only when named)"))
 
 
