@@ -108,12 +108,10 @@ def build(names: list[str] | None = None) -> None:
 def validation_score(spec: PretrainedSpec, state: dict) -> tuple[int, float]:
     """(episodes solved, mean return) of the greedy agent on the validation rigs, from rest and one random
     start each: higher is better."""
-    import numpy as np
-
     from pendkit.agents.rig_suite import policy_on_rigs, summary, validation_rigs
 
-    outcomes = policy_on_rigs(spec.run, state, validation_rigs(spec.validation_rigs), starts=1)
-    return summary(outcomes)["solved"], float(np.mean(sum((e.returns for e in outcomes.values()), [])))
+    together = summary(policy_on_rigs(spec.run, state, validation_rigs(spec.validation_rigs), starts=1))
+    return together["solved"], float(together["mean_return"])
 
 
 def train_keeping_best(env, agent, inputs, spec: PretrainedSpec, score=validation_score) -> tuple[list[float], dict]:

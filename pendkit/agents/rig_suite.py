@@ -8,12 +8,10 @@ through the same code; `bench_transfer.py` and `pendkit adapt` use it.
 
 from __future__ import annotations
 
-import numpy as np
-
 from pendkit.agents.runs import Evaluation, RunSpec, build_run, evaluate_agent
 from pendkit.rig import SERVO_PRESETS, RigParams
 from pendkit.sim.fidelity import FIDELITY_PRESETS
-from pendkit.sim.randomize import ALIASES, RandomRig, held_out_rigs, sample_rig
+from pendkit.sim.randomize import RandomRig, held_out_rigs
 
 HELD_OUT_SEED = 2026  # the documented draw of held-out rigs (docs/rl.md)
 VALIDATION_SEED = 77  # rigs from the training ranges that choose a checkpoint; never the held-out ones
@@ -30,8 +28,7 @@ def random_rigs(count: int = 10, seed: int = HELD_OUT_SEED) -> dict[str, RandomR
 
 def validation_rigs(count: int = 8, seed: int = VALIDATION_SEED) -> dict[str, RandomRig]:
     """Rigs drawn from the training ranges themselves, to choose between checkpoints of a robust policy."""
-    rng = np.random.default_rng(seed)
-    return {f"validation-{k:02d}": sample_rig(RigParams(), ALIASES["robust"], rng) for k in range(count)}
+    return {f"validation-{k:02d}": rig for k, rig in enumerate(held_out_rigs(count, seed, widening=1.0))}
 
 
 def rig_env(rig: RandomRig, spec: RunSpec | None = None, **env_options):
@@ -58,8 +55,10 @@ def policy_on_rigs(spec: RunSpec, state: dict, rigs: dict[str, RandomRig], start
 
 
 def summary(outcomes: dict[str, Evaluation]) -> dict:
-    """All rigs together: solved share, median time to upright of the solved, their worst held fraction."""
+    """All rigs together: solved share, median time to upright of the solved, their worst held fraction, the
+    mean return."""
     together = sum(outcomes.values(), Evaluation([], [], [], []))
     return {"episodes": len(together.solved), "solved": sum(together.solved),
             "solved_share": sum(together.solved) / max(1, len(together.solved)),
-            "median_upright_s": together.median_upright_s, "min_held_fraction": together.min_held_fraction}
+            "median_upright_s": together.median_upright_s, "min_held_fraction": together.min_held_fraction,
+            "mean_return": sum(together.returns) / max(1, len(together.returns))}

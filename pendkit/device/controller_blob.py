@@ -42,7 +42,7 @@ __all__ = ["MAX_BLOB_BYTES", "BlobError", "DenseLayer", "NetworkBlob", "StateFee
 def pack(blob) -> bytes:
     """The blob's bytes (a NetworkBlob, StateFeedbackBlob or SwingUpBlob)."""
     if blob.kind == "swing-up":
-        parts = [swingup_blob.pack_payload(blob, f32)]
+        parts = [swingup_blob.pack_payload(blob)]
     elif blob.kind == "policy":
         parts = [policy_blob.pack_payload(blob)]
     elif isinstance(blob, NetworkBlob):
@@ -80,7 +80,7 @@ def parse(data: bytes):
     elif kind == KINDS["state-feedback"]:
         blob = parse_state_feedback(reader)
     elif kind == KINDS["swing-up"]:
-        blob = swingup_blob.parse_payload(reader, BlobError)
+        blob = swingup_blob.parse_payload(reader)
     elif kind == KINDS["policy"]:
         blob = policy_blob.parse_payload(reader)
     else:

@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from pendkit.device.blob_parts import BlobError, f32
+
 HEADER = struct.Struct("<HHHH")
 SCALARS = ("period_s", "acting_period_s", "observer_angle_gain", "observer_rate_gain", "natural_frequency_rad_s",
            "energy_gain", "swing_rate_rad_s", "centring_per_s", "arm_limit_rad", "target_energy",
@@ -59,24 +61,24 @@ class SwingUpBlob:
         return 10 + ESTIMATE_MACS_PER_TICK * ticks
 
 
-def pack_payload(blob: SwingUpBlob, f32) -> bytes:
+def pack_payload(blob: SwingUpBlob) -> bytes:
     scalars = [blob.scalars[name] for name in SCALARS]
     header = HEADER.pack(blob.plan_steps, blob.settle_steps, blob.warmup_steps, 0)
     arrays = (scalars, blob.balance_gain, blob.settle_gain, blob.plan_targets, blob.plan_states, blob.plan_gains)
     return header + b"".join(f32(values) for values in arrays)
 
 
-def parse_payload(reader, error) -> SwingUpBlob:
+def parse_payload(reader) -> SwingUpBlob:
     steps, settle, warmup, _ = reader.take(HEADER.format)
     if steps > MAX_PLAN_STEPS or settle > 1000 or warmup > 100:
-        raise error(f"a plan of {steps} steps, {settle} settling and {warmup} warm-up steps")
+        raise BlobError(f"a plan of {steps} steps, {settle} settling and {warmup} warm-up steps")
     values = dict(zip(SCALARS, (float(v) for v in reader.floats(len(SCALARS)))))
     for name in ("period_s", "acting_period_s", "natural_frequency_rad_s", "servo_range_rad", "arm_limit_rad",
                  "servo_kp_per_inertia", "stall_per_inertia"):
         if values[name] <= 0:
-            raise error(f"{name} must be positive")
+            raise BlobError(f"{name} must be positive")
     if values["period_s"] < values["acting_period_s"] or not 0 <= values["filter_coefficient"] < 1:
-        raise error("the control step must be at least one acting tick, the filter coefficient in [0, 1)")
+        raise BlobError("the control step must be at least one acting tick, the filter coefficient in [0, 1)")
     blob = SwingUpBlob(values, reader.floats(5), reader.floats(5),
                        reader.floats(steps), reader.floats(steps, 5), reader.floats(steps, 5), settle, warmup)
     return blob

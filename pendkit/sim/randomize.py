@@ -66,6 +66,8 @@ class RigRanges:
 
     def widened(self, factor: float) -> RigRanges:
         """Every range `factor` times as wide about its centre, kept physical (positive, counts ordered)."""
+        if factor == 1:
+            return self
         floors = {"servo_speed_s_per_60deg": 0.05, "servo_stall_torque_kg_cm": 1.0,
                   "servo_full_torque_error_deg": 0.2, "servo_damping_ratio": 0.05, "mass_scale": 0.1,
                   "tip_mass_scale": 0.1, "dowel_length_m": 0.15, "pendulum_damping_scale": 0.1,
@@ -152,7 +154,8 @@ def sample_rig(base: RigParams, what: tuple[str, ...], rng: np.random.Generator,
 
 def held_out_rigs(count: int, seed: int = 2026, base: RigParams | None = None,
                   widening: float = HELD_OUT_WIDENING) -> list[RandomRig]:
-    """Rigs for evaluation only: every field drawn from the training ranges widened by `widening`."""
+    """Rigs for evaluation only: every field drawn from the training ranges widened by `widening` (1: the
+    training ranges themselves)."""
     rng = np.random.default_rng(seed)
     ranges = TRAINING_RANGES.widened(widening)
     return [sample_rig(base or RigParams(), ALIASES["robust"], rng, ranges) for _ in range(count)]

@@ -13,8 +13,7 @@ from pendkit.cli import main
 
 
 def _same(a: dict, b: dict) -> bool:
-    flat_a, flat_b = a["q"] if "q" in a else a, b["q"] if "q" in b else b
-    return all(torch.equal(flat_a[k], flat_b[k]) for k in flat_a if isinstance(flat_a[k], torch.Tensor))
+    return all(torch.equal(a[k], b[k]) for k in a)
 
 
 @pytest.mark.parametrize("best_check", [0, 1, 2])
@@ -61,4 +60,5 @@ def test_the_robust_policy_swings_up_and_holds_the_default_rig_from_rest():
     spec, state = policy_weights("r-dqn-robust")
     outcome = policy_on_rigs(spec, state, {"default": RandomRig(RigParams(), None, 0)}, starts=0)["default"]
     assert outcome.solved == [True]  # the kit's rule: within 0.3 rad for the last 200 steps
+    # simulated seconds on a seeded twin, not wall-clock time: the same on any machine
     assert outcome.upright_s[0] < 8.0 and outcome.held_fractions[0] > 0.9
