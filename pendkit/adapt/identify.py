@@ -6,12 +6,14 @@ never looked at):
    prior twin's own simulated swings (the arm is held by a servo, not a wall). The dowel's length is then
    the one that gives that frequency (its mass follows its length), the bearing's damping the one that
    gives that ratio.
-2. Everything together by trajectory matching: the servo's speed, stall torque and loop stiffness
-   (full-torque error), the one-way latency, and the pendulum's length and damping refined about stage 1's
-   (a servo holds the arm with a finite stiffness, which shifts the free swing's frequency), chosen so that
-   the realistic twin, given the same actions from the same start, moves its pendulum as the rig's encoder
-   recorded. The cost is the mean squared angle error over every recorded step (`matching_cost`; lab 09's
-   students write their own); scipy's differential evolution searches `SERVO_BOUNDS` from the prior.
+2. Everything together by trajectory matching: the servo's speed, stall torque, loop stiffness
+   (full-torque error) and loop damping (damping ratio: an underdamped servo overshoots its target, which
+   the catch and the balance feel), the one-way latency, and the pendulum's length and damping refined
+   about stage 1's (a servo holds the arm with a finite stiffness, which shifts the free swing's
+   frequency), chosen so that the realistic twin, given the same actions from the same start, moves its
+   pendulum as the rig's encoder recorded. The cost is the mean squared angle error over every recorded
+   step (`matching_cost`; lab 09's students write their own); scipy's differential evolution searches
+   `SERVO_BOUNDS` from the prior.
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ SERVO_BOUNDS: dict[str, tuple[float, float]] = {
     "servo_speed_s_per_60deg": (0.4, 2.5),
     "servo_stall_torque_kg_cm": (0.25, 4.0),
     "servo_full_torque_error_deg": (0.2, 5.0),
+    "servo_damping_ratio": (0.15, 1.4),
     "dowel_length_m": (0.75, 1.33),
     "pendulum_damping_n_m_s_per_rad": (0.3, 3.0),
     "latency_ms": (0.0, 40.0),
