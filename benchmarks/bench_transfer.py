@@ -16,8 +16,9 @@ when it knows everything (a bound to read the robust policy's goal against).
 adapt: `pendkit adapt` on `--rigs` hidden rigs drawn from the held-out ranges with seed 2027 (another draw
 than zero-shot's, written as RigParams files beside the results; the network and calibration error stay
 with the rig): rig time used, wall time, the identified servo speed and natural frequency against the
-rig's own, and greedy episodes solved on the rig by the adapted policy and both classical controllers;
-`--policy` the shipped policy adaptation starts from (default: `pendkit adapt`'s).
+rig's own (the servo's damping ratio as identified/true), and greedy episodes solved on the rig by the
+adapted policy and both classical controllers; `--policy` the shipped policy adaptation starts from
+(default: `pendkit adapt`'s).
 
 ablations, one factor at a time on the same rigs: randomisation only (the starting policy as shipped);
 identification only (train on the identified twin, no rig fine-tuning); identification + fine-tuning (the
@@ -164,7 +165,9 @@ def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy
     return (f"adapt rig={rig_name} variant={variant} from={config.policy} seed={seed} "
             f"rig_s={report['rig_s_adaptation']:.0f} "
             f"rig_episodes={report['rig_s_adaptation'] / episode_s:.1f} wall_s={report['wall_s_adaptation']:.0f} "
-            f"speed_error={speed:+.0%} omega_error={omega:+.0%} energy={classical['energy']['summary']} "
+            f"speed_error={speed:+.0%} omega_error={omega:+.0%} "
+            f"servo_damping={found['servo_damping_ratio']:.2f}/{true.servo_damping_ratio:.2f} "
+            f"energy={classical['energy']['summary']} "
             f"trajopt={classical['trajopt']['summary']} device_energy={device['energy']['summary']} "
             f"device_trajopt={device['trajopt']['summary']} policy: {report['policy_on_rig']['summary']}")
 
