@@ -11,10 +11,13 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+
+import numpy as np
 
 from pendkit.adapt.excitation import Excitation, record, schedule
 from pendkit.adapt.identify import PRIOR_LATENCY_MS, identify, rig_values
@@ -96,15 +99,40 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     report["classical_on_rig"] = classical_on_rig(rig, identification, config.evaluation_episodes)
     report["classical_on_device"] = classical_on_device(rig, identification, config.evaluation_episodes)
     report["rig_s_total"] = rig.seconds()
+    report["recommended"] = recommended_route(report)
     classical, device = report["classical_on_rig"], report["classical_on_device"]
     say(f"(d) on the rig: policy {report['policy_on_rig']['summary']}; from the laptop, energy swing-up "
         f"{classical['energy']['summary']}, minimum-time {classical['trajopt']['summary']}; on the rig's device, "
         f"energy swing-up {device['energy']['summary']}, minimum-time {device['trajopt']['summary']}")
+    say(f"deploy: {report['recommended'] or 'nothing solved this rig (docs/rl.md: what to check at acceptance)'}")
 
     report["plots"] = [str(plot_identification(recordings, identification, out / "identification.png"))]
     (out / "report.json").write_text(json.dumps(report, indent=1, default=float))
     (out / "report.md").write_text(report_markdown(report))
     return report
+
+
+ROUTES = {"the adapted policy (laptop)": ("policy_on_rig", None),
+          "energy swing-up + LQR on the rig's device": ("classical_on_device", "energy"),
+          "minimum-time swing-up on the rig's device": ("classical_on_device", "trajopt"),
+          "energy swing-up + LQR (laptop)": ("classical_on_rig", "energy"),
+          "minimum-time swing-up (laptop)": ("classical_on_rig", "trajopt")}
+
+
+def recommended_route(report: dict) -> str | None:
+    """The route that solved most of its episodes on the rig (ties: the quicker to upright, then the device's,
+    which a busy room's WiFi does not reach); None when none solved any."""
+    def outcome(section: str, name: str | None) -> dict:
+        return report[section] if name is None else report[section][name]
+
+    scored = []
+    for order, (route, where) in enumerate(ROUTES.items()):
+        result = outcome(*where)
+        solved = sum(result.get("solved", []))
+        times = [t for t, ok in zip(result.get("upright_s", []), result.get("solved", [])) if ok and t is not None]
+        if solved:
+            scored.append((-solved, float(np.median(times)) if times else math.inf, order, route))
+    return min(scored)[3] if scored else None
 
 
 def report_markdown(report: dict) -> str:
@@ -122,4 +150,5 @@ def report_markdown(report: dict) -> str:
             f"{report['classical_on_rig']['trajopt']['summary']} (run from the laptop); the same designs run by the "
             f"rig's own device: {report['classical_on_device']['energy']['summary']} and "
             f"{report['classical_on_device']['trajopt']['summary']}.\n\n"
+            f"Deploy: {report['recommended'] or 'none of them solved this rig'}.\n\n"
             "![recorded and simulated swings](identification.png)\n")

@@ -106,6 +106,26 @@ def test_an_adaptation_session_writes_rig_policy_and_report(tmp_path):
     assert all(len(o["solved"]) == 1 for o in report["classical_on_device"].values())
     assert "| servo_speed_s_per_60deg |" in (tmp_path / "report.md").read_text()
     assert "run by the rig's own device" in (tmp_path / "report.md").read_text()
+    assert f"Deploy: {report['recommended'] or 'none of them'}" in (tmp_path / "report.md").read_text()
+
+
+def _outcome(solved, upright_s):
+    return {"solved": solved, "upright_s": upright_s, "summary": "..."}
+
+
+def test_the_report_recommends_the_route_that_solved_most_then_the_quicker():
+    from pendkit.adapt.session import recommended_route
+
+    none = _outcome([False] * 3, [None] * 3)
+    report = {"policy_on_rig": _outcome([True, False, False], [2.0, None, None]),
+              "classical_on_rig": {"energy": none, "trajopt": _outcome([True, True, True], [4.0, 4.2, 4.1])},
+              "classical_on_device": {"energy": _outcome([True, True, True], [2.5, 2.4, 2.6]), "trajopt": none}}
+    assert recommended_route(report) == "energy swing-up + LQR on the rig's device"  # 3/3, and quicker
+    report["classical_on_device"]["energy"] = _outcome([True, True, False], [1.0, 1.0, None])
+    assert recommended_route(report) == "minimum-time swing-up (laptop)"  # more solved beats quicker
+    failed = {"policy_on_rig": {"summary": "not evaluated"}, "classical_on_rig": {"energy": none, "trajopt": none},
+              "classical_on_device": {"energy": none, "trajopt": none}}
+    assert recommended_route(failed) is None
 
 
 def test_a_rig_over_mqtt_reports_the_commands_it_received():
