@@ -112,26 +112,23 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     return report
 
 
-ROUTES = {"the adapted policy (laptop)": ("policy_on_rig", None),
-          "energy swing-up + LQR on the rig's device": ("classical_on_device", "energy"),
+ROUTES = {"energy swing-up + LQR on the rig's device": ("classical_on_device", "energy"),
           "minimum-time swing-up on the rig's device": ("classical_on_device", "trajopt"),
+          "the adapted policy (laptop)": ("policy_on_rig", None),
           "energy swing-up + LQR (laptop)": ("classical_on_rig", "energy"),
-          "minimum-time swing-up (laptop)": ("classical_on_rig", "trajopt")}
+          "minimum-time swing-up (laptop)": ("classical_on_rig", "trajopt")}  # in the order ties go
 
 
 def recommended_route(report: dict) -> str | None:
     """The route that solved most of its episodes on the rig (ties: the quicker to upright, then the device's,
     which a busy room's WiFi does not reach); None when none solved any."""
-    def outcome(section: str, name: str | None) -> dict:
-        return report[section] if name is None else report[section][name]
-
     scored = []
-    for order, (route, where) in enumerate(ROUTES.items()):
-        result = outcome(*where)
-        solved = sum(result.get("solved", []))
-        times = [t for t, ok in zip(result.get("upright_s", []), result.get("solved", [])) if ok and t is not None]
-        if solved:
-            scored.append((-solved, float(np.median(times)) if times else math.inf, order, route))
+    for order, (route, (section, name)) in enumerate(ROUTES.items()):
+        result = report[section] if name is None else report[section][name]
+        solved = result.get("solved", [])
+        times = [t for t, ok in zip(result.get("upright_s", []), solved) if ok and t is not None]
+        if any(solved):
+            scored.append((-sum(solved), float(np.median(times)) if times else math.inf, order, route))
     return min(scored)[3] if scored else None
 
 
