@@ -5,7 +5,9 @@ The estimate costs a few float operations a tick and has no delay to undo, since
 encoder itself: the pendulum's angle and rate by a two-state Kalman filter whose prediction includes
 gravity, damping and the arm's push on the pivot (the gains designed on the host), the arm by the
 servo's model (PD drive clipped at the stall torque) driven by the target in force (a hobby servo
-reports nothing). The control law is the host's (`pendkit.control`): follow the
+reports nothing), each target one acting tick late: the servo takes a new target at its next PWM frame,
+which the device does not see (a 20 ms frame: half of one, a 10 ms acting tick, on average). Without that
+delay the estimate ran ahead of a fast, lightly damped servo (the HSB-9380TH preset) and the balance fell. The control law is the host's (`pendkit.control`): follow the
 plan from rest with its time-varying gains when there is one and the pendulum starts at rest, settle
 with the plan's own LQR, else pump energy; LQR with its action filter near upright; pump again after
 a fall. The firmware's `pend::SwingUp` (firmware/lib/pendcore/src/swingup.cpp) is line for line the same.
@@ -54,18 +56,21 @@ class SwingUpRuntime:
     def reset(self, pendulum_rad: float, target_rad: float) -> None:
         self.angle_rad, self.rate_rad_s = pendulum_rad, 0.0
         self.arm_rad, self.arm_rate_rad_s = target_rad, 0.0
+        self.servo_sees_rad = target_rad  # what the servo drives to this tick (the target one tick back)
         self.output_rad = self.swing_target_rad = self.filtered_rad = target_rad
         self.mode = "wait" if self.blob.warmup_steps > 0 else self._first_mode()
         self.tick_count, self.steps, self.plan_step = 0, 0, 0
 
     # --- every acting tick ---
     def observe(self, pendulum_rad: float, target_in_force_rad: float) -> None:
-        """Fold in one encoder reading (angle from the bottom); the arm's model advances one tick."""
+        """Fold in one encoder reading (angle from the bottom); the arm's model advances one tick, driven by
+        the target in force a tick ago (the servo's PWM frame delay, see the module docstring)."""
         b, dt = self.blob, self.blob.acting_period_s
-        arm_acceleration = self._arm_acceleration(target_in_force_rad)
+        target_rad, self.servo_sees_rad = self.servo_sees_rad, target_in_force_rad
+        arm_acceleration = self._arm_acceleration(target_rad)
         h = dt / ARM_SUBSTEPS
         for _ in range(ARM_SUBSTEPS):  # semi-implicit Euler: stable well beyond the servo's bandwidth
-            self.arm_rate_rad_s += h * self._arm_acceleration(target_in_force_rad)
+            self.arm_rate_rad_s += h * self._arm_acceleration(target_rad)
             self.arm_rad += h * self.arm_rate_rad_s
         acceleration = float(self.pendulum_acceleration(self.angle_rad, self.rate_rad_s, arm_acceleration,
                                                         b.natural_frequency_rad_s, b.pendulum_damping_per_inertia,

@@ -42,6 +42,7 @@ void SwingUp::reset(float pendulum_rad, float target_rad) {
   rate_ = 0;
   arm_ = target_rad;
   arm_rate_ = 0;
+  servo_sees_ = target_rad;
   output_ = swing_target_ = filtered_ = target_rad;
   mode_ = p_.warmup_steps > 0 ? SwingMode::kWait : first_mode();
   tick_count_ = 0;
@@ -53,12 +54,16 @@ float SwingUp::arm_acceleration(float target_rad) const {
   return clamp(drive, s(kStallPerInertia)) - s(kArmDampingPerInertia) * arm_rate_;
 }
 
+// The servo takes a new target at its next PWM frame, which the device does not see: the arm's model
+// is driven by the target in force one acting tick back (half a 20 ms frame on average).
 void SwingUp::observe(float pendulum_rad, float target_in_force_rad) {
   const float dt = s(kActingPeriodS);
-  const float push = arm_acceleration(target_in_force_rad);
+  const float target_rad = servo_sees_;
+  servo_sees_ = target_in_force_rad;
+  const float push = arm_acceleration(target_rad);
   const float h = dt / kArmSubsteps;
   for (int k = 0; k < kArmSubsteps; ++k) {  // semi-implicit Euler
-    arm_rate_ += h * arm_acceleration(target_in_force_rad);
+    arm_rate_ += h * arm_acceleration(target_rad);
     arm_ += h * arm_rate_;
   }
   const float w0 = s(kNaturalFrequency);

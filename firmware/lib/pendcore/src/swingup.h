@@ -57,6 +57,7 @@ class SwingUp {
   SwingUpParams p_;
   int ticks_per_step_ = 1;
   float angle_ = 0, rate_ = 0, arm_ = 0, arm_rate_ = 0, output_ = 0, swing_target_ = 0, filtered_ = 0;
+  float servo_sees_ = 0;  // the target the servo drives to this tick: the one in force a tick back
   SwingMode mode_ = SwingMode::kSwing;
   int tick_count_ = 0;
   uint32_t steps_ = 0, plan_step_ = 0;
