@@ -4,6 +4,7 @@
     python benchmarks/bench_transfer.py ceiling [--starts 5]          # the classical designs as oracles
     python benchmarks/bench_transfer.py adapt [--rigs 6] [--seeds 0 1 2] [--jobs 2] [--policy r-dqn-robust]
     python benchmarks/bench_transfer.py ablations [--rigs 6] [--jobs 2]
+    python benchmarks/bench_transfer.py device [--rigs 6]             # device designs on true parameters
 
 zero-shot: the shipped policies and the classical controllers (energy swing-up + LQR, minimum-time swing-up),
 all designed or trained without the rig, on the five servo presets and the 10 held-out rigs
@@ -24,6 +25,11 @@ ablations, one factor at a time on the same rigs: randomisation only (the starti
 identification only (train on the identified twin, no rig fine-tuning); identification + fine-tuning (the
 whole of `pendkit adapt`); and `dqn+estimated` trained afresh on the identified twin instead of R-DQN.
 Every line ends `solved=K/N median_upright_s=X`.
+
+device: both classical designs for the rig's own device, made on each rig's true parameters and run there
+from rest (3 episodes, the rig's network and calibration error): the five presets, 12 validation rigs
+(training ranges, seed 77) and the `--rigs` hidden rigs; what the device's estimate and law reach when
+identification is perfect.
 """
 
 from __future__ import annotations
@@ -172,6 +178,28 @@ def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy
             f"device_trajopt={device['trajopt']['summary']} policy: {report['policy_on_rig']['summary']}")
 
 
+def device_on_true_parameters(hidden: int) -> None:
+    from pendkit.adapt.identify import Identification
+    from pendkit.adapt.rigs import twin_rig
+    from pendkit.adapt.routes import CLASSICAL, classical_on_device
+    from pendkit.agents.rig_suite import preset_rigs, validation_rigs
+    from pendkit.sim.fidelity import FIDELITY_PRESETS
+
+    twin_network = FIDELITY_PRESETS["realistic"].network  # a preset's rig keeps the realistic twin's own
+    groups = {"presets+validation": {**preset_rigs(), **validation_rigs(12)}, "hidden": dict(adapt_rigs(hidden))}
+    for group, rigs in groups.items():
+        totals = dict.fromkeys(CLASSICAL, 0)
+        for name, rig in rigs.items():
+            known = Identification(rig.params, 0.0, 0.0, 0.0, 0, 0.0)  # the truth, as if identified exactly
+            outcome = classical_on_device(twin_rig(rig.params, rig.network or twin_network, rig.residual_offset_counts),
+                                          known, EVALUATION_EPISODES)
+            for controller in CLASSICAL:
+                totals[controller] += sum(outcome[controller]["solved"])
+            print(f"device rig={name} " + " ".join(f"{c}: {outcome[c]['summary']}" for c in CLASSICAL), flush=True)
+        print(f"device group={group} rigs={len(rigs)} episodes_each={EVALUATION_EPISODES} "
+              + " ".join(f"{c}_solved={totals[c]}/{EVALUATION_EPISODES * len(rigs)}" for c in CLASSICAL), flush=True)
+
+
 def randomisation_only(rig_name: str, rig) -> str:
     from pendkit.adapt.session import AdaptConfig
     from pendkit.agents.pretrained import policy_weights
@@ -185,7 +213,7 @@ def randomisation_only(rig_name: str, rig) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("mode", choices=["zero-shot", "ceiling", "adapt", "ablations"])
+    parser.add_argument("mode", choices=["zero-shot", "ceiling", "adapt", "ablations", "device"])
     parser.add_argument("--starts", type=int, default=5)
     parser.add_argument("--rigs", type=int, default=6)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0])
@@ -196,6 +224,9 @@ def main() -> None:
     args = parser.parse_args()
     if args.mode in ("zero-shot", "ceiling"):
         (zero_shot if args.mode == "zero-shot" else ceiling)(args.starts)
+        return
+    if args.mode == "device":
+        device_on_true_parameters(args.rigs)
         return
     rigs = adapt_rigs(args.rigs)
     variants = ["full"] if args.mode == "adapt" else ["identification-only", "full", "dqn+estimated"]

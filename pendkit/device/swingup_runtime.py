@@ -7,10 +7,11 @@ gravity, damping and the arm's push on the pivot (the gains designed on the host
 servo's model (PD drive clipped at the stall torque) driven by the target in force (a hobby servo
 reports nothing), each target one acting tick late: the servo takes a new target at its next PWM frame,
 which the device does not see (a 20 ms frame: half of one, a 10 ms acting tick, on average). Without that
-delay the estimate ran ahead of a fast, lightly damped servo (the HSB-9380TH preset) and the balance fell. The control law is the host's (`pendkit.control`): follow the
-plan from rest with its time-varying gains when there is one and the pendulum starts at rest, settle
-with the plan's own LQR, else pump energy; LQR with its action filter near upright; pump again after
-a fall. The firmware's `pend::SwingUp` (firmware/lib/pendcore/src/swingup.cpp) is line for line the same.
+delay the estimate ran ahead of a fast, lightly damped servo (the HSB-9380TH preset) and the balance
+fell. The control law is the host's (`pendkit.control`): follow the plan from rest with its time-varying
+gains when there is one and the pendulum starts at rest, settle with the plan's own LQR, else pump
+energy; LQR with its action filter near upright; pump again after a fall. The firmware's `pend::SwingUp`
+(firmware/lib/pendcore/src/swingup.cpp) is line for line the same.
 """
 
 from __future__ import annotations
