@@ -28,9 +28,9 @@ from tests.vectors.make_onboard_vectors import upload_scenarios
 VECTORS = Path(__file__).resolve().parents[1] / "vectors"
 
 
-def twin(network: str = "poor-wifi"):
+def twin(network: str = "poor-wifi", params: RigParams | None = None):
     fidelity = dataclasses.replace(FIDELITY_PRESETS["realistic"], network=IMPAIRMENTS[network])
-    return pendkit.make(fidelity=fidelity, action_mode="continuous")
+    return pendkit.make(fidelity=fidelity, params=params, action_mode="continuous")
 
 
 @pytest.mark.parametrize("controller", ["energy", "trajopt"])
@@ -112,8 +112,7 @@ def test_the_device_balances_a_fast_lightly_damped_servo(controller):
     servo take each target at once, rather than at its next PWM frame, ran ahead of it and the balance fell
     in every episode."""
     params = RigParams.preset("hitec-hsb-9380th")
-    fidelity = dataclasses.replace(FIDELITY_PRESETS["realistic"], network=IMPAIRMENTS["classroom-wifi"])
-    env = pendkit.make(fidelity=fidelity, params=params, action_mode="continuous")
+    env = twin("classroom-wifi", params)
     upload_to_twin(env, pack(design_swing_up(params, controller)))
     episodes = [onboard_episode(env, seed=seed, start="rest", steps=500) for seed in range(3)]
     env.close()
