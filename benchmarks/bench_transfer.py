@@ -175,7 +175,13 @@ def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy
             f"servo_damping={found['servo_damping_ratio']:.2f}/{true.servo_damping_ratio:.2f} "
             f"energy={classical['energy']['summary']} "
             f"trajopt={classical['trajopt']['summary']} device_energy={device['energy']['summary']} "
-            f"device_trajopt={device['trajopt']['summary']} policy: {report['policy_on_rig']['summary']}")
+            f"device_trajopt={device['trajopt']['summary']} device_tried={device.get('tried', {}).get('summary', '-')} "
+            f"tried_design={_chosen(report)} policy: {report['policy_on_rig']['summary']}")
+
+
+def _chosen(report: dict) -> str:
+    chosen = report.get("chosen_design")
+    return f"{chosen['controller']}/{chosen['label'].replace(' ', '-')}" if chosen else "-"
 
 
 def device_on_true_parameters(hidden: int) -> None:

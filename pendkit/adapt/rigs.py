@@ -13,7 +13,7 @@ import gymnasium as gym
 from pendkit.adapt.session import Rig
 from pendkit.rig import RigParams
 
-DEVICE_SEED = 20_000  # the twin's episodes on its device (from rest; the seed draws the network's delays)
+DEVICE_SEED = 20_000  # the twin's first episode on its device (from rest; each draws the network's delays anew)
 EPISODE_STEPS = 500
 
 
@@ -41,17 +41,20 @@ def twin_rig(params, impairment="classroom-wifi", residual_offset_counts: int = 
     network = IMPAIRMENTS[impairment] if isinstance(impairment, str) else impairment
     fidelity = FIDELITY_PRESETS["realistic"].replace(name="hidden-rig", network=network,
                                                      encoder_residual_offset_counts=residual_offset_counts)
-    steps = [0]
+    steps, device_episodes = [0], [0]
 
     def make_env(**env_kwargs):
         return _CountedSteps(pendkit.make(fidelity=fidelity, params=params, start="rest", **env_kwargs), steps)
 
-    def run_on_device(blob: bytes, episodes: int) -> list[list[float]]:
+    def run_on_device(blob: bytes, episodes: int, episode_steps: int = EPISODE_STEPS) -> list[list[float]]:
         from pendkit.device.on_twin import onboard_episode, upload_to_twin
 
         env = make_env(action_mode="continuous")
         upload_to_twin(env, blob)
-        runs = [onboard_episode(env, seed=DEVICE_SEED + k, start="rest") for k in range(episodes)]
+        runs = []
+        for _ in range(episodes):
+            runs.append(onboard_episode(env, seed=DEVICE_SEED + device_episodes[0], start="rest", steps=episode_steps))
+            device_episodes[0] += 1
         steps[0] += sum(len(run) for run in runs)  # every step sent the rig a heartbeat
         env.close()
         return runs
@@ -94,7 +97,7 @@ def mqtt_rig(rig_id: str, broker: str | None) -> Rig:
             return float(reported)
         return time.monotonic() - first[0] if first else 0.0
 
-    def run_on_device(blob: bytes, episodes: int) -> list[list[float]]:
+    def run_on_device(blob: bytes, episodes: int, episode_steps: int = EPISODE_STEPS) -> list[list[float]]:
         from pendkit.device.deploy_rig import RigSession, device_episode, upload_to_rig
         from pendkit.link import DEFAULT_BROKER
         from pendkit.link.driver import RigLink
@@ -105,7 +108,7 @@ def mqtt_rig(rig_id: str, broker: str | None) -> Rig:
             session = RigSession(link)
             upload_to_rig(session, blob)
             step_s = prior().control_step_ms / 1000
-            return [device_episode(session, EPISODE_STEPS, step_s) for _ in range(episodes)]
+            return [device_episode(session, episode_steps, step_s) for _ in range(episodes)]
         finally:
             link.close()
 

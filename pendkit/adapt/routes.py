@@ -120,9 +120,10 @@ def classical_on_env(design_env, env, controller: str, episodes: int, seed: int 
     return outcome
 
 
-def classical_on_device(rig, identification: Identification, episodes: int) -> dict:
+def classical_on_device(rig, identification: Identification, episodes: int, tried=None) -> dict:
     """The same two designs for the rig's own device (`pendkit.device.swingup_design`, on the identified
-    parameters), uploaded and run there from rest: the network carries heartbeats and telemetry only."""
+    parameters), and the design the device trials chose (`tried`, a `pendkit.adapt.trials.Design`) if any,
+    uploaded and run there from rest: the network carries heartbeats and telemetry only."""
     if episodes == 0 or rig.run_on_device is None:
         return {name: {"summary": "not evaluated"} for name in CLASSICAL}
     from pendkit.agents.runs import SOLVED_TAIL_STEPS
@@ -132,9 +133,12 @@ def classical_on_device(rig, identification: Identification, episodes: int) -> d
     from pendkit.features import holds_upright
 
     step_s = identification.params.control_step_ms / 1000
+    designs = {name: (identification.params, name) for name in CLASSICAL}
+    if tried is not None:
+        designs["tried"] = (tried.params, tried.controller)
     outcomes = {}
-    for name in CLASSICAL:
-        runs = rig.run_on_device(pack(design_swing_up(identification.params, name)), episodes)
+    for name, (params, controller) in designs.items():
+        runs = rig.run_on_device(pack(design_swing_up(params, controller)), episodes)
         outcome = Evaluation([], [], [], [])
         for angles in runs:
             outcome += Evaluation([holds_upright(angles, SOLVED_TAIL_STEPS)], [time_to_upright_s(angles, step_s)],

@@ -1,10 +1,12 @@
 """`pendkit adapt`: fit the kit to one rig within a budget of that rig's episodes.
 
 (a) excitation episodes on the rig (`excitation`), (b) the rig's twin identified from them (`identify`),
-(c) the policy trained on the identified twin from the robust one (laptop time), (d) greedy episodes on the
-rig with the non-blocking trainer learning from them, in the episodes left. The classical controllers
-(energy swing-up + LQR, and the minimum-time plan tracked by LQR) are designed on the same twin, so the
-report compares both routes on the same rig. Rig time is what the rig itself counted (`Rig.seconds`).
+(e) short trials of the device's swing-up designs, made on the identified twin and on twins whose servo loop
+differs where the recordings cannot tell (`trials`), (c) the policy trained on the identified twin from the
+shipped one (laptop time), (d) greedy episodes on the rig with the non-blocking trainer learning from them,
+in the whole episodes of the budget left. The classical controllers (energy swing-up + LQR, and the
+minimum-time plan tracked by LQR) are designed on the same twin, so the report compares both routes on the
+same rig. Rig time is what the rig itself counted (`Rig.seconds`); the budget is `episodes` of 500 steps.
 """
 
 from __future__ import annotations
@@ -23,6 +25,8 @@ from pendkit.adapt.excitation import Excitation, record, schedule
 from pendkit.adapt.identify import PRIOR_LATENCY_MS, identify, rig_values
 from pendkit.adapt.plots import plot_identification
 from pendkit.adapt.routes import classical_on_device, classical_on_rig, fine_tune_on_rig, train_on_twin
+from pendkit.adapt.trials import TRIAL_STEPS, Design, trial_count, try_on_device
+from pendkit.env_name import EPISODE_STEPS
 from pendkit.errors import ConfigError
 from pendkit.rig import RigParams
 
@@ -37,18 +41,22 @@ class Rig:
     seconds: Callable[[], float]
     name: str = "rig"
     prior: Callable[[], RigParams] = RigParams
-    # run_on_device(blob, episodes) -> each episode's angles from upright (one per control step), the blob
-    # uploaded to the rig's own device and run there from a pendulum hanging still; None: not supported
-    run_on_device: Callable[[bytes, int], list[list[float]]] | None = None
+    # run_on_device(blob, episodes[, episode_steps]) -> each episode's angles from upright (one per control
+    # step), the blob uploaded to the rig's own device and run there from a pendulum hanging still (500 steps
+    # unless told); None: not supported
+    run_on_device: Callable[..., list[list[float]]] | None = None
 
 
 @dataclass(frozen=True)
 class AdaptConfig:
-    """`episodes`: the rig's episodes adaptation may use (excitation + fine-tuning); `twin_episodes`: training
-    on the identified twin (laptop time); `evaluation_episodes`: greedy episodes on the rig afterwards."""
+    """`episodes`: the rig time adaptation may use, in episodes of 500 control steps (30 s each at 60 ms: 10 is
+    5 minutes), as the rig counts it: `excitation_episodes` short recordings, the device trials when they fit
+    (`device_trials`), then fine-tuning in the whole episodes left; `twin_episodes`: training on the
+    identified twin (laptop time); `evaluation_episodes`: greedy episodes on the rig afterwards."""
 
     episodes: int = 10
     excitation_episodes: int = 6
+    device_trials: bool = True
     twin_episodes: int = 60
     evaluation_episodes: int = 3
     policy: str = "r-dqn-realistic"  # adapted from r-dqn-robust: 1/5 on the default rig, against 3/5 (docs/rl.md)
@@ -91,13 +99,20 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
         f"{identification.latency_ms:.0f} ms (matching cost {identification.prior_cost:.3f} -> "
         f"{identification.cost:.3f})")
 
+    step_s = prior.control_step_ms / 1000
+    budget_s = config.episodes * EPISODE_STEPS * step_s
+    chosen = device_trials(rig, identification.params, config, budget_s - rig.seconds(), step_s, report, say)
+    if chosen is not None:
+        save_device_design(chosen, out, report)
     agent_run = train_on_twin(identification, config, out / "policy.pt", say)
-    fine_tune_on_rig(rig, agent_run, config.episodes - config.excitation_episodes, config, out / "policy.pt", say)
+    fine_tune_episodes = max(0, int((budget_s - rig.seconds()) // (EPISODE_STEPS * step_s)))
+    fine_tune_on_rig(rig, agent_run, fine_tune_episodes, config, out / "policy.pt", say)
+    report["rig_s_budget"] = budget_s
     report["rig_s_adaptation"] = rig.seconds()
     report["wall_s_adaptation"] = time.perf_counter() - started
     report["policy_on_rig"] = agent_run.evaluate(rig, config.evaluation_episodes)
     report["classical_on_rig"] = classical_on_rig(rig, identification, config.evaluation_episodes)
-    report["classical_on_device"] = classical_on_device(rig, identification, config.evaluation_episodes)
+    report["classical_on_device"] = classical_on_device(rig, identification, config.evaluation_episodes, chosen)
     report["rig_s_total"] = rig.seconds()
     report["recommended"] = recommended_route(report)
     classical, device = report["classical_on_rig"], report["classical_on_device"]
@@ -112,7 +127,40 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     return report
 
 
-ROUTES = {"energy swing-up + LQR on the rig's device": ("classical_on_device", "energy"),
+def device_trials(rig: Rig, params: RigParams, config: AdaptConfig, left_s: float, step_s: float, report: dict,
+                  say: Callable[[str], None]) -> Design | None:
+    """(e) when the rig has a device and the trials fit in the rig time left: the design they chose."""
+    report["rig_s_trials"] = 0.0
+    needed_s = trial_count() * (TRIAL_STEPS + 1) * step_s
+    if not config.device_trials or rig.run_on_device is None or needed_s > left_s:
+        why = "not asked for" if not config.device_trials else "no device" if rig.run_on_device is None else \
+            f"they need {needed_s:.0f} s of rig time, {max(0.0, left_s):.0f} s are left"
+        say(f"(e) no device trials: {why}")
+        return None
+    before = rig.seconds()
+    chosen, designs = try_on_device(rig.run_on_device, params, say)
+    report["rig_s_trials"] = rig.seconds() - before
+    report["device_trials"] = [design.summary() for design in designs]
+    report["chosen_design"] = chosen.summary() if chosen else None
+    say(f"(e) {sum(len(d.trials) for d in designs)} trials on the rig's device ({report['rig_s_trials']:.0f} s): "
+        + (f"{chosen.controller} swing-up designed for the {chosen.label} servo held best "
+           f"({chosen.score[0]:.0%} of its last steps upright, worse trial)" if chosen else "none could be made"))
+    return chosen
+
+
+def save_device_design(chosen: Design, out: Path, report: dict) -> None:
+    """The chosen design as a blob `pendkit deploy --blob` takes, and the twin it was designed on."""
+    from pendkit.device.controller_blob import pack
+    from pendkit.device.swingup_design import design_swing_up
+
+    chosen.params.save(out / "device-design-rig.json")
+    (out / DEVICE_BLOB).write_bytes(pack(design_swing_up(chosen.params, chosen.controller)))
+    report["device_blob"] = DEVICE_BLOB
+
+
+DEVICE_BLOB = "device-controller.pkcb"
+ROUTES = {"the device design chosen by the trials": ("classical_on_device", "tried"),
+          "energy swing-up + LQR on the rig's device": ("classical_on_device", "energy"),
           "minimum-time swing-up on the rig's device": ("classical_on_device", "trajopt"),
           "the adapted policy (laptop)": ("policy_on_rig", None),
           "energy swing-up + LQR (laptop)": ("classical_on_rig", "energy"),
@@ -124,12 +172,22 @@ def recommended_route(report: dict) -> str | None:
     which a busy room's WiFi does not reach); None when none solved any."""
     scored = []
     for order, (route, (section, name)) in enumerate(ROUTES.items()):
-        result = report[section] if name is None else report[section][name]
+        result = report[section] if name is None else report[section].get(name, {})
         solved = result.get("solved", [])
         times = [t for t, ok in zip(result.get("upright_s", []), solved) if ok and t is not None]
         if any(solved):
             scored.append((-sum(solved), float(np.median(times)) if times else math.inf, order, route))
     return min(scored)[3] if scored else None
+
+
+def trials_markdown(report: dict) -> str:
+    chosen = report.get("chosen_design")
+    if not chosen:
+        return ""
+    tried = report["classical_on_device"].get("tried", {}).get("summary", "not evaluated")
+    return (f"Device trials ({report['rig_s_trials']:.0f} s of rig time, {len(report['device_trials'])} designs): "
+            f"the {chosen['controller']} swing-up designed for the {chosen['label']} servo held best; "
+            f"evaluated: {tried}. To run it: `pendkit deploy --blob {report['device_blob']} --rig ID`.\n\n")
 
 
 def report_markdown(report: dict) -> str:
@@ -147,5 +205,6 @@ def report_markdown(report: dict) -> str:
             f"{report['classical_on_rig']['trajopt']['summary']} (run from the laptop); the same designs run by the "
             f"rig's own device: {report['classical_on_device']['energy']['summary']} and "
             f"{report['classical_on_device']['trajopt']['summary']}.\n\n"
+            f"{trials_markdown(report)}"
             f"Deploy: {report['recommended'] or 'none of them solved this rig'}.\n\n"
             "![recorded and simulated swings](identification.png)\n")

@@ -244,7 +244,8 @@ def policies_build(names: tuple[str, ...]) -> None:
               show_default=True, help="With --backend sim: the hidden rig's network.")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), required=True)
 @click.option("--episodes", type=click.IntRange(1, 100), default=10, show_default=True,
-              help="Episodes of the rig's time adaptation may use (excitation + fine-tuning).")
+              help="The rig's time adaptation may use, in episodes of 500 steps (30 s each: 10 is 5 minutes): "
+                   "excitation, device trials, fine-tuning in the whole episodes left.")
 @click.option("--twin-episodes", type=click.IntRange(0), default=60, show_default=True,
               help="Training episodes on the identified twin (laptop time).")
 @click.option("--evaluate", "evaluation_episodes", type=click.IntRange(0), default=3, show_default=True,
@@ -254,8 +255,8 @@ def policies_build(names: tuple[str, ...]) -> None:
 @click.option("--seed", type=int, default=0, show_default=True)
 def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, twin_episodes, evaluation_episodes,
           policy_name, seed) -> None:
-    """Fit the kit to one rig in a few of its episodes: excite it, identify its twin from the encoder,
-    train on that twin, fine-tune on the rig; design the classical controllers on the same twin; report."""
+    """Fit the kit to one rig in a few of its episodes: excite it, identify its twin from the encoder, try
+    the device's designs for it briefly, train on that twin, fine-tune on the rig; report every route."""
     _torch_or_exit()
     from pendkit.adapt.rigs import mqtt_rig, twin_rig
     from pendkit.adapt.session import AdaptConfig

@@ -86,27 +86,46 @@ def test_free_swings_read_a_shorter_pendulums_higher_frequency():
     assert ratio == pytest.approx(expected, rel=0.05)
 
 
-def test_an_adaptation_session_writes_rig_policy_and_report(tmp_path):
+def test_an_adaptation_session_writes_rig_policy_and_report_within_its_rig_time(tmp_path):
     pytest.importorskip("torch")
     from pendkit.adapt.session import AdaptConfig, adapt
+    from pendkit.adapt.trials import TRIAL_STEPS, trial_count
 
     rig = twin_rig(HIDDEN, "none")
-    config = AdaptConfig(episodes=3, excitation_episodes=2, twin_episodes=1, evaluation_episodes=1,
+    config = AdaptConfig(episodes=6, excitation_episodes=2, twin_episodes=1, evaluation_episodes=1,
                          policy="r-dqn-realistic", identification_evaluations=30)
     report = adapt(rig, tmp_path, config, say=lambda text: None)
     assert RigParams.load(tmp_path / "rig.json") != RigParams()  # something was identified
     assert (tmp_path / "policy.pt").exists() and (tmp_path / "identification.png").read_bytes()[:4] == b"\x89PNG"
     saved = json.loads((tmp_path / "report.json").read_text())
-    # rig time as the rig counted it: 2 excitation episodes of 102 steps after the 7 steps that find the
-    # pendulum still, and 1 fine-tuning episode of 500
-    assert saved["rig_s_adaptation"] == pytest.approx((2 * (REST_STEPS - 1 + 102) + 500) * 0.06)
+    # rig time as the rig counted it, within 6 episodes of 500 steps (180 s): 2 excitation episodes of 102
+    # steps after the 7 steps that find the pendulum still, the device trials, and the one whole fine-tuning
+    # episode of 500 steps left
+    trials_steps = trial_count() * (TRIAL_STEPS + 1)
+    assert saved["rig_s_trials"] == pytest.approx(trials_steps * 0.06)
+    assert saved["rig_s_adaptation"] == pytest.approx((2 * (REST_STEPS - 1 + 102) + trials_steps + 500) * 0.06)
+    assert saved["rig_s_adaptation"] <= saved["rig_s_budget"] == pytest.approx(6 * 500 * 0.06)
     assert saved["rig_s_total"] > saved["rig_s_adaptation"]  # the evaluation came after, on the same rig
     assert report["policy_on_rig"]["summary"].startswith("solved=")
-    assert set(report["classical_on_device"]) == {"energy", "trajopt"}  # the same designs on the rig's device
+    # the identified twin's two designs and the one the trials chose, each on the rig's device
+    assert set(report["classical_on_device"]) == {"energy", "trajopt", "tried"}
     assert all(len(o["solved"]) == 1 for o in report["classical_on_device"].values())
-    assert "| servo_speed_s_per_60deg |" in (tmp_path / "report.md").read_text()
-    assert "run by the rig's own device" in (tmp_path / "report.md").read_text()
-    assert f"Deploy: {report['recommended'] or 'none of them'}" in (tmp_path / "report.md").read_text()
+    assert len(saved["device_trials"]) == trial_count() - 2 and saved["chosen_design"]["trials"] == 2
+    text = (tmp_path / "report.md").read_text()
+    assert "| servo_speed_s_per_60deg |" in text and "run by the rig's own device" in text
+    from pendkit.device.controller_blob import parse
+
+    assert parse((tmp_path / saved["device_blob"]).read_bytes()).kind == "swing-up"  # what `pendkit deploy` takes
+    assert "Device trials" in text and f"Deploy: {report['recommended'] or 'none of them'}" in text
+
+
+def test_device_trials_are_left_out_when_they_do_not_fit_the_rig_time_left():
+    from pendkit.adapt.session import AdaptConfig, device_trials
+
+    rig = twin_rig(HIDDEN, "none")
+    said, report = [], {}
+    assert device_trials(rig, HIDDEN, AdaptConfig(), 60.0, 0.06, report, said.append) is None
+    assert report["rig_s_trials"] == 0.0 and rig.seconds() == 0.0 and "s are left" in said[0]
 
 
 def _outcome(solved, upright_s):
@@ -123,6 +142,8 @@ def test_the_report_recommends_the_route_that_solved_most_then_the_quicker():
     assert recommended_route(report) == "energy swing-up + LQR on the rig's device"  # 3/3, and quicker
     report["classical_on_device"]["energy"] = _outcome([True, True, False], [1.0, 1.0, None])
     assert recommended_route(report) == "minimum-time swing-up (laptop)"  # more solved beats quicker
+    report["classical_on_device"]["tried"] = _outcome([True, True, True], [4.1, 4.0, 4.2])
+    assert recommended_route(report) == "the device design chosen by the trials"  # a tie on both goes to it
     failed = {"policy_on_rig": {"summary": "not evaluated"}, "classical_on_rig": {"energy": none, "trajopt": none},
               "classical_on_device": {"energy": none, "trajopt": none}}
     assert recommended_route(failed) is None
