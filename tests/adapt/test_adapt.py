@@ -167,3 +167,19 @@ def test_a_rig_over_mqtt_reports_the_commands_it_received():
         assert mqtt_rig(local.rig, local.url).seconds() == pytest.approx(local.virtual.busy_s, abs=0.5)
     finally:
         local.stop()
+
+
+def test_a_rig_over_mqtt_runs_a_short_device_trial_of_the_length_asked():
+    from pendkit.adapt.rigs import mqtt_rig
+    from pendkit.device.controller_blob import pack
+    from pendkit.device.swingup_design import design_swing_up
+    from pendkit.link.virtual_rig import LocalRig
+
+    local = LocalRig()
+    try:
+        runs = mqtt_rig(local.rig, local.url).run_on_device(pack(design_swing_up(RigParams(), "energy")), 1, 25)
+        assert len(runs) == 1 and len(runs[0]) == 26  # the angle at the start, then one per step
+        assert np.ptp(runs[0]) > 0.05  # the device's swing-up moved the pendulum: it ran, from rest
+        assert local.virtual.commands_received >= 25
+    finally:
+        local.stop()
