@@ -5,16 +5,17 @@ steps that reached it. Neither hands its parameters to the adaptation."""
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import json
 import time
 
 import gymnasium as gym
 
 from pendkit.adapt.session import Rig
+from pendkit.env_name import EPISODE_STEPS
 from pendkit.rig import RigParams
 
 DEVICE_SEED = 20_000  # the twin's first episode on its device (from rest; each draws the network's delays anew)
-EPISODE_STEPS = 500
 
 
 class _CountedSteps(gym.Wrapper):
@@ -41,7 +42,7 @@ def twin_rig(params, impairment="classroom-wifi", residual_offset_counts: int = 
     network = IMPAIRMENTS[impairment] if isinstance(impairment, str) else impairment
     fidelity = FIDELITY_PRESETS["realistic"].replace(name="hidden-rig", network=network,
                                                      encoder_residual_offset_counts=residual_offset_counts)
-    steps, device_episodes = [0], [0]
+    steps, device_seeds = [0], itertools.count(DEVICE_SEED)
 
     def make_env(**env_kwargs):
         return _CountedSteps(pendkit.make(fidelity=fidelity, params=params, start="rest", **env_kwargs), steps)
@@ -51,10 +52,8 @@ def twin_rig(params, impairment="classroom-wifi", residual_offset_counts: int = 
 
         env = make_env(action_mode="continuous")
         upload_to_twin(env, blob)
-        runs = []
-        for _ in range(episodes):
-            runs.append(onboard_episode(env, seed=DEVICE_SEED + device_episodes[0], start="rest", steps=episode_steps))
-            device_episodes[0] += 1
+        runs = [onboard_episode(env, seed=next(device_seeds), start="rest", steps=episode_steps)
+                for _ in range(episodes)]
         steps[0] += sum(len(run) for run in runs)  # every step sent the rig a heartbeat
         env.close()
         return runs

@@ -133,12 +133,12 @@ def classical_on_device(rig, identification: Identification, episodes: int, trie
     from pendkit.features import holds_upright
 
     step_s = identification.params.control_step_ms / 1000
-    designs = {name: (identification.params, name) for name in CLASSICAL}
+    blobs = {name: pack(design_swing_up(identification.params, name)) for name in CLASSICAL}
     if tried is not None:
-        designs["tried"] = (tried.params, tried.controller)
+        blobs["tried"] = tried.blob
     outcomes = {}
-    for name, (params, controller) in designs.items():
-        runs = rig.run_on_device(pack(design_swing_up(params, controller)), episodes)
+    for name, blob in blobs.items():
+        runs = rig.run_on_device(blob, episodes)
         outcome = Evaluation([], [], [], [])
         for angles in runs:
             outcome += Evaluation([holds_upright(angles, SOLVED_TAIL_STEPS)], [time_to_upright_s(angles, step_s)],

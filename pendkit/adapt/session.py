@@ -150,11 +150,8 @@ def device_trials(rig: Rig, params: RigParams, config: AdaptConfig, left_s: floa
 
 def save_device_design(chosen: Design, out: Path, report: dict) -> None:
     """The chosen design as a blob `pendkit deploy --blob` takes, and the twin it was designed on."""
-    from pendkit.device.controller_blob import pack
-    from pendkit.device.swingup_design import design_swing_up
-
     chosen.params.save(out / "device-design-rig.json")
-    (out / DEVICE_BLOB).write_bytes(pack(design_swing_up(chosen.params, chosen.controller)))
+    (out / DEVICE_BLOB).write_bytes(chosen.blob)
     report["device_blob"] = DEVICE_BLOB
 
 

@@ -44,11 +44,13 @@ def trial_score(angles_from_upright_rad) -> tuple[float, float]:
 
 @dataclass
 class Design:
-    """One candidate: a device swing-up (`controller`) designed on `params`, and its trials' angles."""
+    """One candidate: a device swing-up (`controller`) designed on `params`, its blob once made, and its
+    trials' angles."""
 
     label: str
     controller: str
     params: RigParams
+    blob: bytes | None = None
     trials: list[list[float]] = dataclasses.field(default_factory=list)
 
     @property
@@ -80,14 +82,14 @@ def try_on_device(run_on_device: Callable[..., list[list[float]]], params: RigPa
     from pendkit.device.swingup_design import design_swing_up
     from pendkit.errors import PendkitError
 
-    designs, blobs = candidate_designs(params), {}
+    designs = candidate_designs(params)
     for design in designs:
         try:
-            blobs[id(design)] = pack(design_swing_up(design.params, design.controller))
-            design.trials += run_on_device(blobs[id(design)], 1, TRIAL_STEPS)
+            design.blob = pack(design_swing_up(design.params, design.controller))
+            design.trials += run_on_device(design.blob, 1, TRIAL_STEPS)
         except (PendkitError, ValueError, ArithmeticError) as error:  # a design python-control cannot make
             say(f"(e) {design.label}, {design.controller}: not tried ({error})")
     finalists = [d for d in sorted(designs, key=lambda d: d.score, reverse=True)[:CONFIRMED] if d.trials]
     for design in finalists:
-        design.trials += run_on_device(blobs[id(design)], 1, TRIAL_STEPS)
+        design.trials += run_on_device(design.blob, 1, TRIAL_STEPS)
     return (max(finalists, key=lambda d: d.score) if finalists else None), designs
