@@ -44,9 +44,6 @@ SERVO_BOUNDS: dict[str, tuple[float, float]] = {
 }
 FITTED = tuple(SERVO_BOUNDS)
 PRIOR_LATENCY_MS = 10.0
-# Differential evolution needs its generations: on a weak servo's recordings over a clean link, 1200
-# evaluations (11 generations) stopped 20-100x above the cost 3600 reach, the servo's speed 30-57% off (docs/rl.md).
-EVALUATIONS = 3600
 
 
 @dataclass(frozen=True)
@@ -166,7 +163,7 @@ def matching_cost(params: RigParams, latency_ms: float, recordings: list[Recordi
     return float(np.mean([angle_error_rad2(simulate(params, latency_ms, r), r.pendulum_rad) for r in recordings]))
 
 
-def identify(recordings: list[Recording], prior: RigParams | None = None, max_evaluations: int = EVALUATIONS,
+def identify(recordings: list[Recording], prior: RigParams | None = None, max_evaluations: int = 1200,
              seed: int = 0, cost: Callable[[RigParams, float, list[Recording]], float] = matching_cost,
              progress: Callable[[int, float], None] | None = None) -> Identification:
     """Fit the twin to `recordings`: the pendulum from its free swings, then the servo and latency by

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from pendkit.adapt.excitation import Excitation, record, schedule
-from pendkit.adapt.identify import EVALUATIONS, PRIOR_LATENCY_MS, identify, rig_values
+from pendkit.adapt.identify import PRIOR_LATENCY_MS, identify, rig_values
 from pendkit.adapt.plots import plot_identification
 from pendkit.adapt.routes import classical_on_device, classical_on_rig, fine_tune_on_rig, train_on_twin
 from pendkit.adapt.trials import TRIAL_STEPS, Design, trial_count, try_on_device
@@ -60,7 +60,7 @@ class AdaptConfig:
     twin_episodes: int = 60
     evaluation_episodes: int = 3
     policy: str = "r-dqn-realistic"  # adapted from r-dqn-robust: 1/5 on the default rig, against 3/5 (docs/rl.md)
-    identification_evaluations: int = EVALUATIONS
+    identification_evaluations: int = 1200
     seed: int = 0
 
     def __post_init__(self) -> None:
