@@ -22,10 +22,7 @@ def test_a_loop_identified_too_lightly_damped_is_corrected_by_the_trials():
     as_identified = [d for d in designs if d.label == "identified"]
     assert all(d.score[0] < 1.0 for d in as_identified)  # the identified loop's designs wobble out of the band
     assert chosen.label != "identified" and len(chosen.trials) == 2 and chosen.score[0] == 1.0
-    from pendkit.device.controller_blob import pack
-    from pendkit.device.swingup_design import design_swing_up
-
-    runs = rig.run_on_device(pack(design_swing_up(chosen.params, chosen.controller)), 2)
+    runs = rig.run_on_device(chosen.blob, 2)  # the blob the trials ran is the one the session saves
     assert all(holds_upright(angles, 200) for angles in runs)
 
 
