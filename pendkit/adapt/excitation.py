@@ -17,6 +17,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from pendkit.adapt.replay import DeviceTrace, trace_from_log
+from pendkit.device.log import read_log
 from pendkit.encoder import wrapped_rad
 
 CENTRE = 0.0
@@ -27,6 +29,9 @@ SETTLE_STEPS = 8  # after the last jump back to the centre, before the swing cou
 # at rest: the encoder stays within 3 counts over REST_STEPS steps (half a period; a count's flicker allowed)
 REST_SPREAD_RAD = 3 * 2 * np.pi / 1024
 REST_STEPS = 8
+# the stream an excitation asks of the device: a reading every 10 ms times each target's effect within a
+# physics tick or two (every 25 ms, the replayed twin's timing alone misses the rig by 0.01-0.05 rad^2)
+EXCITATION_STREAM = {"streaming_period_ms": 10.0, "velocity_mean_window": 2}
 REST_LIMIT_STEPS = 2000  # 2 minutes: a pendulum still swinging then is not one a recording can start from
 
 
@@ -66,7 +71,8 @@ def free_from(actions: list[float]) -> int | None:
 class Recording:
     """What one excitation episode gave: the targets sent (arm half-range units), the servo target the host
     knows at the start, and per step the pendulum's encoder angle (rad from the bottom) and its rate (rad/s);
-    `rest_steps`: the steps spent holding the arm until the pendulum hung still (rig time too)."""
+    `rest_steps`: the steps spent holding the arm until the pendulum hung still (rig time too); `device`: every
+    reading on the device's clock, when the env logged its messages (`pendkit.adapt.replay`)."""
 
     actions: list[float]
     start_servo_target_rad: float
@@ -74,6 +80,7 @@ class Recording:
     pendulum_rad: list[float] = field(default_factory=list)
     pendulum_velocity_rad_s: list[float] = field(default_factory=list)
     rest_steps: int = 0
+    device: DeviceTrace | None = None
 
     @property
     def rig_steps(self) -> int:
@@ -82,11 +89,13 @@ class Recording:
     def as_dict(self) -> dict:
         return {"actions": self.actions, "start_servo_target_rad": self.start_servo_target_rad,
                 "start_pendulum_rad": self.start_pendulum_rad, "pendulum_rad": self.pendulum_rad,
-                "pendulum_velocity_rad_s": self.pendulum_velocity_rad_s, "rest_steps": self.rest_steps}
+                "pendulum_velocity_rad_s": self.pendulum_velocity_rad_s, "rest_steps": self.rest_steps,
+                "device": None if self.device is None else self.device.as_dict()}
 
     @classmethod
     def from_dict(cls, record: dict) -> Recording:
-        return cls(**record)
+        device = record.get("device")
+        return cls(**{**record, "device": None if device is None else DeviceTrace.from_dict(device)})
 
 
 class NotAtRest(RuntimeError):
@@ -112,16 +121,29 @@ def hold_until_at_rest(env, state) -> tuple[object, int]:
 
 def record(env, excitation: Excitation, seed: int = 0) -> Recording:
     """Run one excitation episode on `env` (made with `Excitation.env_kwargs()`: twin or rig), from rest,
-    reading only what a rig reports (the state record: encoder angle and its rate, the servo target sent)."""
+    reading only what a rig reports (the state record: encoder angle and its rate, the servo target sent;
+    with the env's `log_dir`, every reading on the device's clock too)."""
     _, info = env.reset(seed=seed, options={"start": "rest"})
     state, rest_steps = hold_until_at_rest(env, info["state"])
     recording = Recording(excitation.actions(), float(state.servo_target_rad), float(state.pendulum_angle_rad),
                           rest_steps=rest_steps)
+    log = getattr(env.unwrapped.backend, "episode_log", None)
+    logged_before = logged_count(log)
     for action in recording.actions:
         _, _, _, _, info = env.step(np.array([action], dtype=np.float32))
         recording.pendulum_rad.append(float(info["state"].pendulum_angle_rad))
         recording.pendulum_velocity_rad_s.append(float(info["state"].pendulum_velocity_rad_s))
+    if log is not None:
+        log.flush()
+        recording.device = trace_from_log(read_log(log.path), logged_before, env.unwrapped.params.encoder_counts)
     return recording
+
+
+def logged_count(log) -> int:
+    if log is None:
+        return 0
+    log.flush()
+    return len(read_log(log.path))
 
 
 def angle_error_rad2(simulated: np.ndarray, recorded: np.ndarray) -> float:

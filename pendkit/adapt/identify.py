@@ -14,6 +14,10 @@ never looked at):
    pendulum as the rig's encoder recorded. The cost is the mean squared angle error over every recorded
    step (`matching_cost`; lab 09's students write their own); scipy's differential evolution searches
    `SERVO_BOUNDS` from the prior.
+
+Recordings that carry the device's own readings (an env made with `log_dir`: `pendkit.adapt.replay`) are
+matched on the device's clock instead, where the network cannot blur them: the search's last coordinate is
+then the servo's PWM phase, not a latency, and the latency is measured from the host's clock.
 """
 
 from __future__ import annotations
@@ -59,6 +63,7 @@ class Identification:
     prior_cost: float
     evaluations: int
     seconds: float
+    pwm_phase_ms: float | None = None  # matched on the device's clock (None: on the host's steps)
 
     def values(self) -> dict[str, float]:
         return rig_values(self.params, self.latency_ms)
@@ -77,8 +82,9 @@ def candidate(base: RigParams, x: np.ndarray) -> tuple[RigParams, float]:
     return dataclasses.replace(base, **changes).with_dowel_length(length_m), float(x[-1])
 
 
-def search_box() -> list[tuple[float, float]]:
-    return [(math.log(low), math.log(high)) if name != "latency_ms" else (low, high)
+def search_box(last: tuple[float, float] = SERVO_BOUNDS["latency_ms"]) -> list[tuple[float, float]]:
+    """Log scales of the prior's fields, then `last` (the latency's ms, or the PWM phase's) as it is."""
+    return [(math.log(low), math.log(high)) if name != "latency_ms" else last
             for name, (low, high) in SERVO_BOUNDS.items()]
 
 
@@ -166,15 +172,26 @@ def matching_cost(params: RigParams, latency_ms: float, recordings: list[Recordi
     return float(np.mean([angle_error_rad2(simulate(params, latency_ms, r), r.pendulum_rad) for r in recordings]))
 
 
+def on_device_clock(recordings: list[Recording]) -> bool:
+    return all(r.device is not None and len(r.device.ms) > 2 for r in recordings)
+
+
 def identify(recordings: list[Recording], prior: RigParams | None = None, max_evaluations: int = 1200,
              seed: int = 0, cost: Callable[[RigParams, float, list[Recording]], float] = matching_cost,
              progress: Callable[[int, float], None] | None = None) -> Identification:
     """Fit the twin to `recordings`: the pendulum from its free swings, then the servo and latency by
-    differential evolution on `cost` (default the kit's `matching_cost`; lab 09 passes the student's)."""
+    differential evolution on `cost` (default the kit's `matching_cost`; lab 09 passes the student's).
+    With the kit's cost and recordings on the device's clock, the servo and its PWM phase by `replay_cost`."""
     from scipy.optimize import differential_evolution, minimize
+
+    from pendkit.adapt.replay import replay_cost
 
     prior = prior or RigParams()
     started = time.perf_counter()
+    replayed = cost is matching_cost and on_device_clock(recordings)
+    cost = replay_cost if replayed else cost
+    last = (0.0, prior.pwm_period_ms) if replayed else SERVO_BOUNDS["latency_ms"]
+    last_prior = prior.pwm_period_ms / 2 if replayed else PRIOR_LATENCY_MS
     pendulum = fit_pendulum(recordings, prior)
     count, best = 0, math.inf
 
@@ -193,15 +210,30 @@ def identify(recordings: list[Recording], prior: RigParams | None = None, max_ev
         return value
 
     dims, population = len(SERVO_BOUNDS), 10
-    box = np.array(search_box())
+    box = np.array(search_box(last))
     start = np.random.default_rng(seed).uniform(box[:, 0], box[:, 1], size=(population * dims, dims))
-    start[0] = [0.0] * (dims - 1) + [PRIOR_LATENCY_MS]  # the prior is one of the first candidates
+    start[0] = [0.0] * (dims - 1) + [last_prior]  # the prior is one of the first candidates
     generations = max(1, (3 * max_evaluations // 4) // (population * dims) - 1)  # a quarter left to polish
-    result = differential_evolution(objective, search_box(), popsize=population, maxiter=generations, init=start,
+    result = differential_evolution(objective, box, popsize=population, maxiter=generations, init=start,
                                     seed=seed, polish=False, tol=1e-6, mutation=(0.5, 1.0), recombination=0.7)
-    polished = minimize(objective, result.x, method="Nelder-Mead", bounds=search_box(),
+    polished = minimize(objective, result.x, method="Nelder-Mead", bounds=box,
                         options={"maxfev": max_evaluations // 4, "xatol": 1e-3, "fatol": 1e-6})
     best_x, best_cost = (polished.x, polished.fun) if polished.fun < result.fun else (result.x, result.fun)
-    params, latency = candidate(pendulum, best_x)
-    prior_cost = float(cost(prior, PRIOR_LATENCY_MS, recordings))
-    return Identification(params, latency, float(best_cost), prior_cost, count, time.perf_counter() - started)
+    params, fitted_last = candidate(pendulum, best_x)
+    seconds = time.perf_counter() - started
+    if not replayed:
+        prior_cost = float(cost(prior, PRIOR_LATENCY_MS, recordings))
+        return Identification(params, fitted_last, float(best_cost), prior_cost, count, seconds)
+    prior_cost = float(cost(prior, fitted_last, recordings))
+    return Identification(params, measured_latency_ms(recordings, prior), float(best_cost), prior_cost, count,
+                          seconds, pwm_phase_ms=fitted_last)
+
+
+def measured_latency_ms(recordings: list[Recording], prior: RigParams) -> float:
+    """The one-way latency from the loops the host timed during excitation (the prior's when none)."""
+    from pendkit.adapt.excitation import EXCITATION_STREAM
+    from pendkit.adapt.replay import one_way_latency_ms
+
+    loops = [loop for r in recordings for loop in r.device.loops_ms]
+    latency = one_way_latency_ms(loops, prior.acting_period_ms, EXCITATION_STREAM["streaming_period_ms"])
+    return PRIOR_LATENCY_MS if latency is None else latency

@@ -9,10 +9,24 @@ import numpy as np
 
 from pendkit.adapt.excitation import Recording
 from pendkit.adapt.identify import PRIOR_LATENCY_MS, Identification, simulate
+from pendkit.adapt.replay import replay
 from pendkit.encoder import wrapped_rad
 from pendkit.rig import RigParams
 
 SHOWN = 3
+
+
+def matched_traces(recording: Recording, identification: Identification):
+    """(times s, the rig's angles, the prior twin's, the identified twin's), as identification matched them:
+    on the device's clock (replayed) or step by step."""
+    if identification.pwm_phase_ms is not None:
+        trace, phase = recording.device, identification.pwm_phase_ms
+        start = recording.start_servo_target_rad
+        return ((np.asarray(trace.ms) - trace.ms[0]) / 1000, np.asarray(trace.pendulum_rad),
+                replay(RigParams(), phase, trace, start), replay(identification.params, phase, trace, start))
+    t = np.arange(1, len(recording.actions) + 1) * RigParams().control_step_ms / 1000
+    return (t, np.asarray(recording.pendulum_rad), simulate(RigParams(), PRIOR_LATENCY_MS, recording),
+            simulate(identification.params, identification.latency_ms, recording))
 
 
 def plot_identification(recordings: list[Recording], identification: Identification, path: str | Path) -> Path:
@@ -24,16 +38,14 @@ def plot_identification(recordings: list[Recording], identification: Identificat
     figure = Figure(figsize=(9, 2.2 * len(shown)), layout="constrained")
     axes = np.atleast_1d(figure.subplots(len(shown), 1))
     for axis, recording in zip(axes, shown):
-        t = np.arange(1, len(recording.actions) + 1) * RigParams().control_step_ms / 1000
+        t, rig, prior, found = matched_traces(recording, identification)
         degrees = lambda angles: np.degrees(wrapped_rad(angles))  # noqa: E731
-        axis.plot(t, degrees(recording.pendulum_rad), color="black", lw=2, label="rig (encoder)")
-        axis.plot(t, degrees(simulate(RigParams(), PRIOR_LATENCY_MS, recording)), color=PALETTE["limit"], lw=1,
-                  linestyle="--", label="prior twin")
-        axis.plot(t, degrees(simulate(identification.params, identification.latency_ms, recording)),
-                  color=PALETTE["pendulum"], lw=1.2, label="identified twin")
+        axis.plot(t, degrees(rig), color="black", lw=2, label="rig (encoder)")
+        axis.plot(t, degrees(prior), color=PALETTE["limit"], lw=1, linestyle="--", label="prior twin")
+        axis.plot(t, degrees(found), color=PALETTE["pendulum"], lw=1.2, label="identified twin")
         axis.set_ylabel("pendulum (deg)")
     axes[0].legend(loc="upper right")
-    axes[-1].set_xlabel("time (s)")
+    axes[-1].set_xlabel("time (s)" if identification.pwm_phase_ms is None else "time (s, the device's clock)")
     figure.suptitle(f"Excitation episodes: matching cost {identification.prior_cost:.3f} (prior) -> "
                     f"{identification.cost:.3f} (identified)")
     path = Path(path)

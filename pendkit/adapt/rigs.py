@@ -44,8 +44,9 @@ def twin_rig(params, impairment="classroom-wifi", residual_offset_counts: int = 
                                                      encoder_residual_offset_counts=residual_offset_counts)
     steps, device_seeds = [0], itertools.count(DEVICE_SEED)
 
-    def make_env(**env_kwargs):
-        return _CountedSteps(pendkit.make(fidelity=fidelity, params=params, start="rest", **env_kwargs), steps)
+    def make_env(stream: dict | None = None, **env_kwargs):
+        chosen = dataclasses.replace(params, **(stream or {}))
+        return _CountedSteps(pendkit.make(fidelity=fidelity, params=chosen, start="rest", **env_kwargs), steps)
 
     def run_on_device(blob: bytes, episodes: int, episode_steps: int = EPISODE_STEPS) -> list[list[float]]:
         from pendkit.device.on_twin import onboard_episode, upload_to_twin
@@ -84,10 +85,11 @@ def mqtt_rig(rig_id: str, broker: str | None) -> Rig:
             configured.append(configured_prior(*counts) if is_servo_counts_range(counts) else RigParams())
         return configured[0]
 
-    def make_env(**env_kwargs):
+    def make_env(stream: dict | None = None, **env_kwargs):
         if not first:
             first.append(time.monotonic())
-        return pendkit.make(backend="rig", rig=rig_id, broker=broker, params=prior(), rig_options={"settle": True},
+        params = dataclasses.replace(prior(), **(stream or {}))
+        return pendkit.make(backend="rig", rig=rig_id, broker=broker, params=params, rig_options={"settle": True},
                             **env_kwargs)
 
     def seconds() -> float:

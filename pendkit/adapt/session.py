@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pendkit.adapt.excitation import Excitation, record, schedule
+from pendkit.adapt.excitation import EXCITATION_STREAM, Excitation, record, schedule
 from pendkit.adapt.identify import PRIOR_LATENCY_MS, identify, rig_values
 from pendkit.adapt.plots import plot_identification
 from pendkit.adapt.routes import classical_on_device, classical_on_rig, fine_tune_on_rig, train_on_twin
@@ -33,7 +33,8 @@ from pendkit.rig import RigParams
 
 @dataclass
 class Rig:
-    """A rig to adapt to: `make_env(**env_kwargs)` makes an env on it; `seconds()` is the rig time it has
+    """A rig to adapt to: `make_env(stream=None, **env_kwargs)` makes an env on it (`stream`: RigParams' fields
+    of the device's stream to ask for, e.g. `EXCITATION_STREAM`); `seconds()` is the rig time it has
     counted itself (commands received); `prior()` the parameters to start from: the defaults with what the
     rig's firmware reports of itself (its servo's end counts), nothing it does not."""
 
@@ -80,7 +81,7 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     started = time.perf_counter()
     report: dict = {"rig": rig.name, "config": dataclasses.asdict(config)}
 
-    env = rig.make_env(**Excitation.env_kwargs())
+    env = rig.make_env(stream=EXCITATION_STREAM, log_dir=str(out / "excitation-logs"), **Excitation.env_kwargs())
     recordings = [record(env, excitation, seed=config.seed + k)
                   for k, excitation in enumerate(schedule(config.excitation_episodes))]
     env.close()

@@ -40,6 +40,11 @@ class EpisodeLog:
             if not self._file.closed:  # a message racing the end of an episode is dropped, not fatal
                 self._file.write(line)
 
+    def flush(self) -> None:
+        with self._lock:
+            if not self._file.closed:
+                self._file.flush()
+
     def close(self) -> None:
         with self._lock:
             self._file.close()

@@ -188,6 +188,11 @@ class RigBackend:
             if self.link.log is not None:
                 self.link.log.close()
 
+    @property
+    def episode_log(self) -> EpisodeLog | None:
+        """This episode's message log (None without `log_dir`)."""
+        return self.link.log if self.log_dir is not None else None
+
     def observation_age_now(self) -> float:
         """Seconds since the newest observation arrived (inf if none has)."""
         newest = self.link.newest

@@ -205,6 +205,11 @@ class SimBackend:
         return self._observe_mcu(time_since_action_s=self.substeps * self.physics_step_s)
 
     @property
+    def episode_log(self) -> EpisodeLog | None:
+        """This episode's message log (None without `log_dir`)."""
+        return self._log
+
+    @property
     def device(self) -> TwinDevice | None:
         """The twin's device (its status is what a rig would publish)."""
         return self._device

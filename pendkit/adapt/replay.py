@@ -1,0 +1,143 @@
+"""Matching on the device's clock: the network taken out of identification.
+
+Every reading a rig sends carries the device's own time and the servo target it applied then. So the
+recording of an excitation episode, kept reading by reading, says when each target took effect and where
+the pendulum was at each moment, whatever the WiFi did to the messages on the way (a lost command never
+moves the servo, and the record shows it; a late reading is placed at the time it was taken). The twin is
+then replayed on that clock: its servo given each target when the device applied it, its pendulum read at
+the readings' times. What the network adds is measured apart, from the host's own clock: the time from a
+command's send to the first reading that shows it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from pendkit.device.commands import parse_command
+from pendkit.device.log import LogRecord
+from pendkit.device.protocol import ProtocolError, parse_observation
+from pendkit.rig import RigParams
+from pendkit.sim.model import ARM_JOINT, PENDULUM_JOINT, build_model
+
+
+@dataclass(frozen=True)
+class DeviceTrace:
+    """An excitation episode as the device reported it: per reading the device's time (ms; the first reading
+    is the one the episode started from, at rest), the pendulum's calibrated angle (rad from hanging,
+    unwrapped) and the servo counts applied;
+    `loops_ms`: for each change of the target, the time from its send to the first reading that shows it
+    (the host's clock; empty when the changes cannot be told apart)."""
+
+    ms: tuple[float, ...]
+    pendulum_rad: tuple[float, ...]
+    servo_counts: tuple[int, ...]
+    loops_ms: tuple[float, ...] = ()
+
+    def as_dict(self) -> dict:
+        return {"ms": list(self.ms), "pendulum_rad": list(self.pendulum_rad), "servo_counts": list(self.servo_counts),
+                "loops_ms": list(self.loops_ms)}
+
+    @classmethod
+    def from_dict(cls, record: dict) -> DeviceTrace:
+        return cls(tuple(record["ms"]), tuple(record["pendulum_rad"]), tuple(int(c) for c in record["servo_counts"]),
+                   tuple(record["loops_ms"]))
+
+    def changes(self) -> list[tuple[float, int]]:
+        """(ms, counts) of each change of the servo target, placed midway between the readings around it."""
+        ms, counts = self.ms, self.servo_counts
+        return [((ms[k - 1] + ms[k]) / 2, counts[k]) for k in range(1, len(ms)) if counts[k] != counts[k - 1]]
+
+
+def trace_from_log(records: list[LogRecord], start: int, encoder_counts: int = 1024) -> DeviceTrace | None:
+    """The trace of the messages logged from index `start` on, starting from the last reading before it
+    (the pendulum at rest); None when there are not two readings to go on."""
+    readings = []  # (host s, device ms, position counts, servo counts)
+    sends = [(0.0, 0.0)]  # (host s, target unit): the target held before the episode, then each sent
+    for index, record in enumerate(records):
+        if record.direction == "rx":
+            try:
+                observation = parse_observation(record.payload).observation
+            except ProtocolError:
+                continue
+            row = (record.t_s, float(observation.millis), observation.position_counts, observation.servo_counts)
+            if index < start:
+                readings = [row]
+            elif not readings or row[1] > readings[-1][1]:  # a device clock that went back: not this episode's
+                readings.append(row)
+        else:
+            try:
+                command = parse_command(record.payload)
+            except ProtocolError:
+                continue
+            if command.kind == "target":
+                sends = [*sends, (record.t_s, command.value)] if index >= start else [(record.t_s, command.value)]
+    if len(readings) < 2:
+        return None
+    host_s, device_ms, positions, counts = (np.array(column) for column in zip(*readings))
+    angles = positions * (2 * np.pi / encoder_counts)
+    return DeviceTrace(tuple(device_ms), tuple(float(a) for a in np.unwrap(angles)),
+                       tuple(int(c) for c in counts), loops_ms(sends, host_s, counts))
+
+
+def loops_ms(sends: list[tuple[float, float]], host_s: np.ndarray, counts: np.ndarray) -> tuple[float, ...]:
+    """ms from each change of the target sent to the first reading (by the host's clock) showing the servo
+    moved the same way. Changes and moves are paired in order; a lost send is carried by the next one (the
+    host repeats its target every step), which only lengthens that pair. Empty when they do not pair up."""
+    changed = [(t, value - before) for (_, before), (t, value) in zip(sends, sends[1:]) if value != before]
+    moves = [(host_s[k], counts[k] - counts[k - 1]) for k in range(1, len(counts)) if counts[k] != counts[k - 1]]
+    if not changed or len(changed) != len(moves):
+        return ()
+    if any(np.sign(step) != np.sign(move) for (_, step), (_, move) in zip(changed, moves)):
+        return ()
+    delays = tuple(float((received - sent) * 1000) for (sent, _), (received, _) in zip(changed, moves))
+    return delays if min(delays) >= 0 else ()
+
+
+def one_way_latency_ms(loops: list[float], acting_period_ms: float, streaming_period_ms: float) -> float | None:
+    """The one-way latency (both ways alike) that gives the twin the median of these loops: a command's
+    trip, the wait for the acting tick and for the next reading (half a period each on average), a reading's
+    trip. None without loops."""
+    if not loops:
+        return None
+    return max(0.0, (float(np.median(loops)) - acting_period_ms / 2 - streaming_period_ms / 2) / 2)
+
+
+def replay_cost(params: RigParams, pwm_phase_ms: float, recordings) -> float:
+    """The mean over `recordings` (each with its `device` trace) of the replayed twin's squared angle error."""
+    from pendkit.adapt.excitation import angle_error_rad2
+
+    return float(np.mean([angle_error_rad2(replay(params, pwm_phase_ms, r.device, r.start_servo_target_rad),
+                                           r.device.pendulum_rad) for r in recordings]))
+
+
+def replay(params: RigParams, pwm_phase_ms: float, trace: DeviceTrace, start_servo_rad: float) -> np.ndarray:
+    """The twin of `params`, from rest with its arm at `start_servo_rad`, its servo given each target of
+    `trace` on the first PWM frame after the device applied it (frames every `pwm_period_ms`, at
+    `pwm_phase_ms` past a multiple of it on the device's clock); its pendulum's angle (rad from hanging,
+    unwrapped) at each reading's time, read with the rig's calibration offset (its first reading, at rest)."""
+    model = build_model(params)
+    data = mujoco.MjData(model)
+    arm = model.joint(ARM_JOINT).qposadr[0]
+    pendulum = model.joint(PENDULUM_JOINT).qposadr[0]
+    data.qpos[arm] = data.act[0] = start_servo_rad
+    mujoco.mj_forward(model, data)
+    tick_ms = params.physics_step_ms
+    frame_ms, origin_ms = params.pwm_period_ms, trace.ms[0]
+    frame = lambda ms: np.ceil((ms - pwm_phase_ms) / frame_ms) * frame_ms + pwm_phase_ms  # noqa: E731
+    events = sorted([(frame(ms) - origin_ms, 0, counts) for ms, counts in trace.changes()]
+                    + [(ms - origin_ms, 1, k) for k, ms in enumerate(trace.ms)])  # at one time: the target first
+    angles = np.empty(len(trace.ms))
+    tick = 0
+    for ms, kind, value in events:
+        due = int(round(ms / tick_ms))
+        if due > tick:
+            mujoco.mj_step(model, data, due - tick)
+            tick = due
+        if kind == 0:
+            data.act[0] = params.servo_counts_to_rad(value)
+        else:
+            angles[value] = data.qpos[pendulum]
+    return angles + trace.pendulum_rad[0]

@@ -1,0 +1,77 @@
+"""Matching on the device's clock: recordings that keep every reading with the device's time and applied
+servo target let the twin be replayed through a WiFi that blurs the host's step-by-step view."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from pendkit.adapt.excitation import EXCITATION_STREAM, Excitation, Recording, record, schedule
+from pendkit.adapt.identify import identify, matching_cost, measured_latency_ms
+from pendkit.adapt.replay import replay_cost
+from pendkit.adapt.rigs import twin_rig
+from pendkit.rig import RigParams
+from pendkit.sim.latency import IMPAIRMENTS, LatencyModel, NetworkImpairment, median_latency_ms
+
+HIDDEN = dataclasses.replace(RigParams.preset("mks-x5-hbl550"), dowel_length_m=0.34,
+                             dowel_mass_kg=RigParams().dowel_mass_kg * 0.34 / 0.4)
+
+
+def logged_recordings(params, network, log_dir, episodes=2):
+    rig = twin_rig(params, network)
+    env = rig.make_env(stream=EXCITATION_STREAM, log_dir=str(log_dir), **Excitation.env_kwargs())
+    recordings = [record(env, e, seed=k) for k, e in enumerate(schedule(episodes))]
+    env.close()
+    return recordings
+
+
+def test_the_replayed_twin_follows_a_rig_through_poor_wifi_where_the_step_by_step_match_cannot(tmp_path):
+    network = IMPAIRMENTS["poor-wifi"]
+    recordings = logged_recordings(HIDDEN, network, tmp_path)
+    # the twin's PWM frames fall on whole multiples of 20 ms of its device's clock: phase 0
+    own = replay_cost(HIDDEN, 0.0, recordings)
+    assert own < 1e-3
+    assert replay_cost(RigParams(), 0.0, recordings) > 10 * own  # the replay tells the rigs apart
+    slower = dataclasses.replace(HIDDEN, servo_speed_s_per_60deg=1.5 * HIDDEN.servo_speed_s_per_60deg)
+    assert replay_cost(slower, 0.0, recordings) > 5 * own
+    stepwise = matching_cost(HIDDEN, median_latency_ms(network.latency), recordings)
+    assert stepwise > 3 * own  # the host's own view, with the rig's true parameters and its median latency
+
+
+def test_a_recording_keeps_every_reading_of_its_episode_and_survives_json(tmp_path):
+    recording = logged_recordings(RigParams(), "none", tmp_path, episodes=1)[0]
+    trace = recording.device
+    steps = len(recording.actions)
+    assert abs(len(trace.ms) - 1 - steps * 60 / 10) <= 2  # a reading every 10 ms for the whole episode
+    assert np.all(np.diff(trace.ms) > 0)
+    targets = [a for k, a in enumerate(recording.actions) if k == 0 or a != recording.actions[k - 1]]
+    assert len(trace.changes()) == len(targets) == len(trace.loops_ms)  # a lossless link: every change shows
+    again = Recording.from_dict(recording.as_dict())
+    assert again == recording
+
+
+def test_the_timed_loops_give_the_links_latency(tmp_path):
+    network = NetworkImpairment(LatencyModel(floor_ms=30.0))
+    recordings = logged_recordings(RigParams(), network, tmp_path)
+    assert 20.0 <= measured_latency_ms(recordings, RigParams()) <= 35.0
+
+
+def test_without_a_log_identification_matches_the_hosts_steps(tmp_path):
+    rig = twin_rig(RigParams(), "none")
+    env = rig.make_env(**Excitation.env_kwargs())
+    recordings = [record(env, schedule(1)[0])]
+    assert recordings[0].device is None
+    found = identify(recordings, RigParams(), max_evaluations=40)
+    assert found.pwm_phase_ms is None and 0.0 <= found.latency_ms <= 40.0
+
+
+@pytest.mark.expensive
+def test_identification_on_the_device_clock_reads_a_hidden_servo_through_poor_wifi(tmp_path):
+    hidden = RigParams.preset("hitec-hsb-9380th").with_dowel_length(0.42)  # an underdamped servo loop (0.2)
+    recordings = logged_recordings(hidden, IMPAIRMENTS["poor-wifi"], tmp_path, episodes=6)
+    found = identify(recordings, RigParams(), max_evaluations=600)
+    assert found.pwm_phase_ms is not None and found.cost < found.prior_cost / 10
+    assert found.params.servo_speed_s_per_60deg == pytest.approx(hidden.servo_speed_s_per_60deg, rel=0.1)
+    assert found.params.pendulum_natural_frequency_rad_s == pytest.approx(
+        hidden.pendulum_natural_frequency_rad_s, rel=0.03)
+    assert abs(found.params.servo_damping_ratio - hidden.servo_damping_ratio) <= 0.15  # the prior says 0.7
