@@ -17,8 +17,8 @@ import mujoco
 import numpy as np
 
 from pendkit.device.commands import parse_command
-from pendkit.device.log import LogRecord
-from pendkit.device.protocol import ProtocolError, parse_observation
+from pendkit.device.log import LogRecord, readings_of
+from pendkit.device.protocol import ProtocolError
 from pendkit.rig import RigParams
 from pendkit.sim.model import ARM_JOINT, PENDULUM_JOINT, build_model
 
@@ -54,32 +54,35 @@ class DeviceTrace:
 def trace_from_log(records: list[LogRecord], start: int, encoder_counts: int = 1024) -> DeviceTrace | None:
     """The trace of the messages logged from index `start` on, starting from the last reading before it
     (the pendulum at rest); None when there are not two readings to go on."""
-    readings = []  # (host s, device ms, position counts, servo counts)
-    sends = [(0.0, 0.0)]  # (host s, target unit): the target held before the episode, then each sent
-    for index, record in enumerate(records):
-        if record.direction == "rx":
-            try:
-                observation = parse_observation(record.payload).observation
-            except ProtocolError:
-                continue
-            row = (record.t_s, float(observation.millis), observation.position_counts, observation.servo_counts)
-            if index < start:
-                readings = [row]
-            elif not readings or row[1] > readings[-1][1]:  # a device clock that went back: not this episode's
-                readings.append(row)
-        else:
-            try:
-                command = parse_command(record.payload)
-            except ProtocolError:
-                continue
-            if command.kind == "target":
-                sends = [*sends, (record.t_s, command.value)] if index >= start else [(record.t_s, command.value)]
-    if len(readings) < 2:
+    before, during = readings_of(records[:start]), readings_of(records[start:])
+    if len(before.millis) == 0 or len(during.millis) == 0:
         return None
-    host_s, device_ms, positions, counts = (np.array(column) for column in zip(*readings))
-    angles = positions * (2 * np.pi / encoder_counts)
-    return DeviceTrace(tuple(device_ms), tuple(float(a) for a in np.unwrap(angles)),
-                       tuple(int(c) for c in counts), loops_ms(sends, host_s, counts))
+    millis = np.concatenate([before.millis[-1:], during.millis])
+    kept = np.concatenate([[True], millis[1:] > np.maximum.accumulate(millis)[:-1]])  # a device clock gone back
+    host_s = np.concatenate([before.host_time_s[-1:], during.host_time_s])[kept]
+    positions = np.concatenate([before.position_counts[-1:], during.position_counts])[kept]
+    counts = np.concatenate([before.servo_counts[-1:], during.servo_counts])[kept]
+    if len(counts) < 2:
+        return None
+    angles = np.unwrap(positions * (2 * np.pi / encoder_counts))
+    return DeviceTrace(tuple(float(m) for m in millis[kept]), tuple(float(a) for a in angles),
+                       tuple(int(c) for c in counts), loops_ms(targets_sent(records, start), host_s, counts))
+
+
+def targets_sent(records: list[LogRecord], start: int) -> list[tuple[float, float]]:
+    """(host s, target unit): the target held when the episode started (the last sent before `start`), then
+    each one sent from `start` on."""
+    sends = [(0.0, 0.0)]
+    for index, record in enumerate(records):
+        if record.direction != "tx":
+            continue
+        try:
+            command = parse_command(record.payload)
+        except ProtocolError:
+            continue
+        if command.kind == "target":
+            sends = [*sends, (record.t_s, command.value)] if index >= start else [(record.t_s, command.value)]
+    return sends
 
 
 def loops_ms(sends: list[tuple[float, float]], host_s: np.ndarray, counts: np.ndarray) -> tuple[float, ...]:

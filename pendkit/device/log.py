@@ -79,8 +79,13 @@ class Readings:
 
 def readings_from_log(path: str | Path) -> Readings:
     """Every well-formed observation in a log (malformed ones are counted, not fatal)."""
+    return readings_of(read_log(path))
+
+
+def readings_of(records: list[LogRecord]) -> Readings:
+    """Every well-formed observation among `records`, in their order."""
     rows, malformed, host = [], 0, []
-    for record in read_log(path):
+    for record in records:
         if record.direction != "rx":
             continue
         try:

@@ -50,10 +50,11 @@ def test_a_recording_keeps_every_reading_of_its_episode_and_survives_json(tmp_pa
     assert again == recording
 
 
-def test_the_timed_loops_give_the_links_latency(tmp_path):
+def test_the_timed_loops_give_the_simulated_links_latency(tmp_path):
+    # the twin's clock is simulated: its 30 ms link is the same however busy the machine
     network = NetworkImpairment(LatencyModel(floor_ms=30.0))
     recordings = logged_recordings(RigParams(), network, tmp_path)
-    assert 20.0 <= measured_latency_ms(recordings, RigParams()) <= 35.0
+    assert measured_latency_ms(recordings, RigParams()) == pytest.approx(30.0, abs=6.0)
 
 
 def test_without_a_log_identification_matches_the_hosts_steps(tmp_path):
@@ -62,7 +63,8 @@ def test_without_a_log_identification_matches_the_hosts_steps(tmp_path):
     recordings = [record(env, schedule(1)[0])]
     assert recordings[0].device is None
     found = identify(recordings, RigParams(), max_evaluations=40)
-    assert found.pwm_phase_ms is None and 0.0 <= found.latency_ms <= 40.0
+    assert found.pwm_phase_ms is None
+    assert found.cost == pytest.approx(matching_cost(found.params, found.latency_ms, recordings))  # step by step
 
 
 @pytest.mark.expensive
@@ -70,7 +72,8 @@ def test_identification_on_the_device_clock_reads_a_hidden_servo_through_poor_wi
     hidden = RigParams.preset("hitec-hsb-9380th").with_dowel_length(0.42)  # an underdamped servo loop (0.2)
     recordings = logged_recordings(hidden, IMPAIRMENTS["poor-wifi"], tmp_path, episodes=6)
     found = identify(recordings, RigParams(), max_evaluations=600)
-    assert found.pwm_phase_ms is not None and found.cost < found.prior_cost / 10
+    assert found.pwm_phase_ms is not None  # matched on the device's clock
+    assert found.cost < found.prior_cost / 10  # angle errors (rad^2), not times
     assert found.params.servo_speed_s_per_60deg == pytest.approx(hidden.servo_speed_s_per_60deg, rel=0.1)
     assert found.params.pendulum_natural_frequency_rad_s == pytest.approx(
         hidden.pendulum_natural_frequency_rad_s, rel=0.03)
