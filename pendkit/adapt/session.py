@@ -25,7 +25,7 @@ from pendkit.adapt.excitation import EXCITATION_STREAM, Excitation, record, sche
 from pendkit.adapt.identify import PRIOR_LATENCY_MS, identify, rig_values
 from pendkit.adapt.plots import plot_identification
 from pendkit.adapt.routes import classical_on_device, classical_on_rig, fine_tune_on_rig, train_on_twin
-from pendkit.adapt.trials import TRIAL_STEPS, Design, trial_count, try_on_device
+from pendkit.adapt.trials import Design, trial_steps, try_on_device
 from pendkit.env_name import EPISODE_STEPS
 from pendkit.errors import ConfigError
 from pendkit.rig import RigParams
@@ -132,7 +132,7 @@ def device_trials(rig: Rig, params: RigParams, config: AdaptConfig, left_s: floa
                   say: Callable[[str], None]) -> Design | None:
     """(e) when the rig has a device and the trials fit in the rig time left: the design they chose."""
     report["rig_s_trials"] = 0.0
-    needed_s = trial_count() * (TRIAL_STEPS + 1) * step_s
+    needed_s = trial_steps() * step_s
     if not config.device_trials or rig.run_on_device is None or needed_s > left_s:
         why = "not asked for" if not config.device_trials else "no device" if rig.run_on_device is None else \
             f"they need {needed_s:.0f} s of rig time, {max(0.0, left_s):.0f} s are left"
@@ -144,8 +144,9 @@ def device_trials(rig: Rig, params: RigParams, config: AdaptConfig, left_s: floa
     report["device_trials"] = [design.summary() for design in designs]
     report["chosen_design"] = chosen.summary() if chosen else None
     say(f"(e) {sum(len(d.trials) for d in designs)} trials on the rig's device ({report['rig_s_trials']:.0f} s): "
-        + (f"{chosen.controller} swing-up designed for the {chosen.label} servo held best "
-           f"({chosen.score[0]:.0%} of its last steps upright, worse trial)" if chosen else "none could be made"))
+        + (f"{chosen.controller} swing-up designed for the {chosen.label} servo held best (its whole episode "
+           f"{'solved' if chosen.whole_episode[0] > 0 else 'not solved'}, {chosen.whole_episode[1]:.0%} held after "
+           "the swing-up)" if chosen else "none could be made"))
     return chosen
 
 

@@ -1,11 +1,12 @@
-"""(e) Short trials on the rig's own device, to settle what the recordings leave open.
+"""(e) Trials on the rig's own device, to settle what the recordings leave open.
 
-The excitation pins down the servo's speed and the pendulum well (within a few percent), but not the servo's
-loop: a stiffer, less damped loop and a softer, better damped one move the pendulum almost alike in a free
-swing, while the balance feels the difference (docs/rl.md: the identified loop across seeds). So the device's
-two swing-up designs are made on the identified twin and on twins whose loop is twice as stiff or as soft,
-or less or more damped, and each is tried for one short episode on the rig; the two that held best are tried
-once more, and the one whose worse trial held best is the design the session evaluates.
+The excitation pins down the servo's speed and the pendulum well (within a few percent), but not always the
+servo's loop: a stiffer, less damped loop and a softer, better damped one move the pendulum almost alike in a
+free swing, while the balance feels the difference (docs/rl.md: the identified loop across seeds). So the
+device's two swing-up designs are made on the identified twin and on twins whose loop is twice as stiff or
+as soft, or less or more damped. Each is screened in one short episode on the rig; the best `FINALISTS` then
+run one whole episode each, judged by the kit's "solved" rule, because a balance that holds for six seconds
+can still fall later. Ties go to the identified twin's designs.
 """
 
 from __future__ import annotations
@@ -16,12 +17,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pendkit.features import UPRIGHT_RAD
+from pendkit.agents.runs import SOLVED_TAIL_STEPS, held_fraction
+from pendkit.env_name import EPISODE_STEPS
+from pendkit.features import UPRIGHT_RAD, holds_upright
 from pendkit.rig import RigParams
 
-TRIAL_STEPS = 150  # 9 s at 60 ms: time for either swing-up to come up, and 6 s of balance after a quick one
-TAIL_STEPS = 100  # the steps a trial is judged on: the balance, not the swing-up
-CONFIRMED = 2  # the best trials are run once more: one lucky episode does not choose the design
+SCREEN_STEPS = 200  # 12 s at 60 ms: time for the slower swing-up to come up, and 6 s of balance after it
+TAIL_STEPS = 100  # the screening steps a design is judged on: the balance, not the swing-up
+FINALISTS = 3  # the best screened designs, each run for a whole episode
 # (label, multiples of the identified servo loop's full-torque error and damping ratio)
 LOOP_VARIANTS = (("identified", 1.0, 1.0), ("stiffer loop", 0.5, 1.0), ("softer loop", 2.0, 1.0),
                  ("less damped loop", 1.0, 0.6), ("more damped loop", 1.0, 1.6))
@@ -45,7 +48,7 @@ def trial_score(angles_from_upright_rad) -> tuple[float, float]:
 @dataclass
 class Design:
     """One candidate: a device swing-up (`controller`) designed on `params`, its blob once made, and its
-    trials' angles."""
+    trials' angles: the screening episode first, then the whole one if it was a finalist."""
 
     label: str
     controller: str
@@ -54,14 +57,30 @@ class Design:
     trials: list[list[float]] = dataclasses.field(default_factory=list)
 
     @property
-    def score(self) -> tuple[float, float]:
-        """The worst of its trials: a design is as good as its worse episode."""
-        return min(trial_score(angles) for angles in self.trials) if self.trials else (-1.0, -np.inf)
+    def screening(self) -> tuple[float, float]:
+        return trial_score(self.trials[0]) if self.trials else (-1.0, -np.inf)
+
+    @property
+    def whole_episode(self) -> tuple[float, float]:
+        """(1 if the whole episode was solved, else 0; the fraction held after the swing-up); (-1, -1) when
+        it did not run one."""
+        if len(self.trials) < 2:
+            return -1.0, -1.0
+        angles = self.trials[-1]
+        return float(holds_upright(angles, SOLVED_TAIL_STEPS)), held_fraction(angles) or 0.0
+
+    @property
+    def rank(self) -> tuple:
+        """Finalists first, by their whole episode; then the screening; ties to the identified twin's."""
+        return (*self.whole_episode, *self.screening, self.label == LOOP_VARIANTS[0][0])
 
     def summary(self) -> dict:
-        held, margin = self.score
+        held, margin = self.screening
+        solved, held_whole = self.whole_episode
         return {"label": self.label, "controller": self.controller, "trials": len(self.trials),
-                "tail_held": held, "tail_max_rad": -margin}
+                "screen_held": held, "screen_max_rad": -margin,
+                "whole_solved": None if solved < 0 else bool(solved),
+                "whole_held": None if held_whole < 0 else held_whole}
 
 
 def candidate_designs(params: RigParams) -> list[Design]:
@@ -69,15 +88,16 @@ def candidate_designs(params: RigParams) -> list[Design]:
             for label, error, damping in LOOP_VARIANTS for controller in CONTROLLERS]
 
 
-def trial_count() -> int:
-    return len(LOOP_VARIANTS) * len(CONTROLLERS) + CONFIRMED
+def trial_steps() -> int:
+    """The rig's control steps the trials take at most (each episode also counts its reset step)."""
+    return len(LOOP_VARIANTS) * len(CONTROLLERS) * (SCREEN_STEPS + 1) + FINALISTS * (EPISODE_STEPS + 1)
 
 
 def try_on_device(run_on_device: Callable[..., list[list[float]]], params: RigParams,
                   say: Callable[[str], None] = print) -> tuple[Design | None, list[Design]]:
-    """Every candidate design once on the rig's device, the best `CONFIRMED` once more; (the finalist whose
-    worse trial held best, all of them). A design that cannot be made or uploaded is left out; None when
-    none could be."""
+    """Every candidate design screened on the rig's device, the best `FINALISTS` run for a whole episode;
+    (the best finalist, all of them). A design that cannot be made or uploaded is left out; None when none
+    could be."""
     from pendkit.device.controller_blob import pack
     from pendkit.device.swingup_design import design_swing_up
     from pendkit.errors import PendkitError
@@ -86,10 +106,10 @@ def try_on_device(run_on_device: Callable[..., list[list[float]]], params: RigPa
     for design in designs:
         try:
             design.blob = pack(design_swing_up(design.params, design.controller))
-            design.trials += run_on_device(design.blob, 1, TRIAL_STEPS)
+            design.trials += run_on_device(design.blob, 1, SCREEN_STEPS)
         except (PendkitError, ValueError, ArithmeticError) as error:  # a design python-control cannot make
             say(f"(e) {design.label}, {design.controller}: not tried ({error})")
-    finalists = [d for d in sorted(designs, key=lambda d: d.score, reverse=True)[:CONFIRMED] if d.trials]
+    finalists = [d for d in sorted(designs, key=lambda d: d.rank, reverse=True)[:FINALISTS] if d.trials]
     for design in finalists:
-        design.trials += run_on_device(design.blob, 1, TRIAL_STEPS)
-    return (max(finalists, key=lambda d: d.score) if finalists else None), designs
+        design.trials += run_on_device(design.blob, 1, EPISODE_STEPS)
+    return (max(finalists, key=lambda d: d.rank) if finalists else None), designs
