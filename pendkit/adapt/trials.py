@@ -93,11 +93,8 @@ def trial_steps() -> int:
     return len(LOOP_VARIANTS) * len(CONTROLLERS) * (SCREEN_STEPS + 1) + FINALISTS * (EPISODE_STEPS + 1)
 
 
-def try_on_device(run_on_device: Callable[..., list[list[float]]], params: RigParams,
-                  say: Callable[[str], None] = print) -> tuple[Design | None, list[Design]]:
-    """Every candidate design screened on the rig's device, the best `FINALISTS` run for a whole episode;
-    (the best finalist, all of them). A design that cannot be made or uploaded is left out; None when none
-    could be."""
+def make_designs(params: RigParams, say: Callable[[str], None] = print) -> list[Design]:
+    """Every candidate with its blob; one python-control cannot make keeps no blob (and is said)."""
     from pendkit.device.controller_blob import pack
     from pendkit.device.swingup_design import design_swing_up
     from pendkit.errors import PendkitError
@@ -106,10 +103,30 @@ def try_on_device(run_on_device: Callable[..., list[list[float]]], params: RigPa
     for design in designs:
         try:
             design.blob = pack(design_swing_up(design.params, design.controller))
+        except (PendkitError, ValueError, ArithmeticError) as error:
+            say(f"(e) {design.label}, {design.controller}: not tried ({error})")
+    return designs
+
+
+def run_trials(designs: list[Design], run_on_device: Callable[..., list[list[float]]],
+               say: Callable[[str], None] = print) -> Design | None:
+    """Screen every design that has a blob on the rig's device, run the best `FINALISTS` for a whole
+    episode; the best finalist, None when no design could be run (the device refused each)."""
+    from pendkit.errors import PendkitError
+
+    for design in (d for d in designs if d.blob is not None):
+        try:
             design.trials += run_on_device(design.blob, 1, SCREEN_STEPS)
-        except (PendkitError, ValueError, ArithmeticError) as error:  # a design python-control cannot make
+        except PendkitError as error:  # the device refused it, or it never arrived whole
             say(f"(e) {design.label}, {design.controller}: not tried ({error})")
     finalists = [d for d in sorted(designs, key=lambda d: d.rank, reverse=True)[:FINALISTS] if d.trials]
     for design in finalists:
         design.trials += run_on_device(design.blob, 1, EPISODE_STEPS)
-    return (max(finalists, key=lambda d: d.rank) if finalists else None), designs
+    return max(finalists, key=lambda d: d.rank) if finalists else None
+
+
+def try_on_device(run_on_device: Callable[..., list[list[float]]], params: RigParams,
+                  say: Callable[[str], None] = print) -> tuple[Design | None, list[Design]]:
+    """The candidate designs made on `params` and tried on the rig's device: (the chosen one, all of them)."""
+    designs = make_designs(params, say)
+    return run_trials(designs, run_on_device, say), designs
