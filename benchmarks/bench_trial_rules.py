@@ -93,16 +93,28 @@ def identified_only(designs, replay):
                                     min(held_fraction(a) or 0.0 for a in d.trials)))
 
 
-RULES = {"shipped: screen 200, best 3 whole": shipped_rule, "before: 150 x 12": old_rule,
-         "identified only, 2 whole each": identified_only}
+def screened(screen_steps: int, finalists: int):
+    """The shipped rule with another screening length and number of finalists."""
+    def rule(designs, replay):
+        from pendkit.adapt import trials
+
+        shipped = trials.SCREEN_STEPS, trials.FINALISTS
+        trials.SCREEN_STEPS, trials.FINALISTS = screen_steps, finalists
+        try:
+            return trials.run_trials(designs, replay, say=lambda _: None)
+        finally:
+            trials.SCREEN_STEPS, trials.FINALISTS = shipped
+    return rule
 
 
-def rule_steps() -> dict[str, int]:
-    from pendkit.adapt.trials import CONTROLLERS, LOOP_VARIANTS, trial_steps
-    from pendkit.env_name import EPISODE_STEPS
-
-    designs = len(LOOP_VARIANTS) * len(CONTROLLERS)
-    return dict(zip(RULES, (trial_steps(), (designs + OLD_CONFIRMED) * (OLD_STEPS + 1), 4 * (EPISODE_STEPS + 1))))
+DESIGNS = 10  # candidate designs: 5 loop variants x 2 controllers
+# name: (rule, rig steps it takes at most)
+RULES = {"shipped: screen 200, best 3 whole": (shipped_rule, DESIGNS * 201 + 3 * 501),
+         "before: 150 x 12": (old_rule, (DESIGNS + OLD_CONFIRMED) * (OLD_STEPS + 1)),
+         "identified only, 2 whole each": (identified_only, 4 * 501),
+         "screen 150, best 2 whole": (screened(150, 2), DESIGNS * 151 + 2 * 501),
+         "screen 150, best 3 whole": (screened(150, 3), DESIGNS * 151 + 3 * 501),
+         "screen 150, best 4 whole": (screened(150, 4), DESIGNS * 151 + 4 * 501)}
 
 
 def score_rules(run_dir: Path, episodes: dict, draws: int) -> dict[str, float]:
@@ -113,7 +125,7 @@ def score_rules(run_dir: Path, episodes: dict, draws: int) -> dict[str, float]:
     made = [d for d in make_designs(RigParams.load(run_dir / "rig.json"), say=lambda _: None) if d.blob]
     blobs = {d.blob: f"{d.controller}/{d.label}" for d in made}
     rng, scores = np.random.default_rng(0), {}
-    for name, rule in RULES.items():
+    for name, (rule, _) in RULES.items():
         got = []
         for _ in range(draws):
             replay = Replay(episodes, blobs, rng)
@@ -151,7 +163,7 @@ def main() -> None:
                   + " ".join(f"[{rule}]={p:.2f}" for rule, p in scores.items()), flush=True)
             for rule, p in scores.items():
                 totals[rule].append(p)
-    for (rule, ps), steps in zip(totals.items(), rule_steps().values()):
+    for (rule, ps), (_, steps) in zip(totals.items(), RULES.values()):
         print(f"rule={rule!r} runs={len(ps)} mean_solved={np.mean(ps):.2f} "
               f"expected_3of3={np.sum(np.asarray(ps) ** 3):.1f} rig_s={steps * 0.06:.0f}")
 
