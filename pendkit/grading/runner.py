@@ -156,8 +156,10 @@ class _Run:
                                 allow_errors=True, interrupt_on_timeout=False, record_timing=False,
                                 shutdown_kernel="immediate",  # nothing of the kernel's is kept
                                 resources={"metadata": {"path": str(self.workdir)}})
+        started = False
         try:
             with client.setup_kernel(env=kernel_environment(self.check_timeout_s)):
+                started = True
                 for index, cell in enumerate(notebook.cells):
                     if cell.cell_type != "code" or index in self.excluded:
                         continue
@@ -196,6 +198,14 @@ class _Run:
                         self._tampered("while the grader called your functions", error)
                     finally:
                         session.close()
+        except RuntimeError as error:
+            if started:
+                raise
+            # before any cell ran: the machine's fault, not the notebook's (another kernel took its port)
+            self.grade.notes.append(f"the kernel did not start ({error}); it was started again")
+            if km is None and client.km is not None:  # nbclient cleans up only after a start that worked
+                _kill_kernel(client.km)
+            raise _Restart from error
         finally:
             if km is not None:  # nbclient shuts down only the kernels it started itself
                 _kill_kernel(km)
@@ -262,7 +272,7 @@ def _alive(client) -> bool:
 
 
 def _kill_kernel(km) -> None:
-    """End a sandboxed kernel now (killing bwrap ends everything inside it)."""
+    """End a kernel now (a sandboxed one: killing bwrap ends everything inside it)."""
     from jupyter_core.utils import run_sync
 
     try:

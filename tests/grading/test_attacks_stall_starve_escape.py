@@ -278,3 +278,26 @@ def test_fractional_limits_work_and_bad_ones_are_refused(tmp_path):
     with pytest.raises(ConfigError):
         grade_notebook(tmp_path / "class" / "ann" / "00_tour.ipynb", "ann", "00", [], float("nan"))
     shutil.rmtree(tmp_path / "out")
+
+
+def test_a_kernel_that_does_not_start_is_started_again_at_no_cost_to_the_student(tmp_path, monkeypatch):
+    """Another kernel on the machine can take a new kernel's port before it binds it (seen in CI as
+    "Kernel died before replying to kernel_info"): the grader starts it again rather than failing the
+    submission."""
+    from nbclient import NotebookClient
+
+    from pendkit.grading.runner import grade_notebook
+
+    start_client, failures = NotebookClient.start_new_kernel_client, []
+
+    def first_start_fails(self):
+        if not failures:
+            failures.append(True)
+            raise RuntimeError("Kernel died before replying to kernel_info")
+        return start_client(self)
+
+    monkeypatch.setattr(NotebookClient, "start_new_kernel_client", first_start_fails)
+    write(tmp_path / "ann" / "00_tour.ipynb", nbformat.read(SOLUTION, as_version=4))
+    grade = grade_notebook(tmp_path / "ann" / "00_tour.ipynb", "ann", "00", [], 60.0, 240.0, isolate=False)
+    assert failures and grade.score == grade.max_score > 0
+    assert any("did not start" in note for note in grade.notes)
