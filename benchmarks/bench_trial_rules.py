@@ -20,6 +20,11 @@ from pathlib import Path
 
 import numpy as np
 
+from pendkit.adapt.trials import CONTROLLERS, LOOP_VARIANTS, trial_steps
+from pendkit.agents.runs import SOLVED_TAIL_STEPS, held_fraction
+from pendkit.env_name import EPISODE_STEPS
+from pendkit.features import holds_upright
+
 OLD_STEPS, OLD_CONFIRMED = 150, 2  # the rule shipped before: 150-step trials, the best two once more
 
 
@@ -61,12 +66,6 @@ class Replay:
         return [list(self.episodes[key][self.unused[key].pop()][:steps + 1]) for _ in range(count)]
 
 
-def shipped_rule(designs, replay):
-    from pendkit.adapt.trials import run_trials
-
-    return run_trials(designs, replay, say=lambda _: None)
-
-
 def old_rule(designs, replay):
     """150-step trials judged on their last 100 steps, the best two once more, the better worse trial."""
     from pendkit.adapt.trials import trial_score
@@ -82,44 +81,33 @@ def old_rule(designs, replay):
 
 def identified_only(designs, replay):
     """The identified twin's two designs, two whole episodes each: no loop variants."""
-    from pendkit.agents.runs import held_fraction
-    from pendkit.env_name import EPISODE_STEPS
-    from pendkit.features import holds_upright
-
     mine = [d for d in designs if d.label == "identified"]
     for design in mine:
         design.trials += replay(design.blob, 2, EPISODE_STEPS)
-    return max(mine, key=lambda d: (sum(holds_upright(a, 200) for a in d.trials),
+    return max(mine, key=lambda d: (sum(holds_upright(a, SOLVED_TAIL_STEPS) for a in d.trials),
                                     min(held_fraction(a) or 0.0 for a in d.trials)))
 
 
-def screened(screen_steps: int, finalists: int):
-    """The shipped rule with another screening length and number of finalists."""
-    def rule(designs, replay):
-        from pendkit.adapt import trials
+def screened(**changes):
+    """The shipped rule (`pendkit.adapt.trials.run_trials`), with `changes` to its screen_steps or finalists."""
+    from pendkit.adapt.trials import run_trials
 
-        shipped = trials.SCREEN_STEPS, trials.FINALISTS
-        trials.SCREEN_STEPS, trials.FINALISTS = screen_steps, finalists
-        try:
-            return trials.run_trials(designs, replay, say=lambda _: None)
-        finally:
-            trials.SCREEN_STEPS, trials.FINALISTS = shipped
-    return rule
+    return lambda designs, replay: run_trials(designs, replay, say=lambda _: None, **changes)
 
 
-DESIGNS = 10  # candidate designs: 5 loop variants x 2 controllers
+DESIGNS = len(LOOP_VARIANTS) * len(CONTROLLERS)
+WHOLE = EPISODE_STEPS + 1  # a whole episode's rig steps, its reset included
 # name: (rule, rig steps it takes at most)
-RULES = {"shipped: screen 200, best 3 whole": (shipped_rule, DESIGNS * 201 + 3 * 501),
+RULES = {"shipped: screen 200, best 3 whole": (screened(), trial_steps()),
          "before: 150 x 12": (old_rule, (DESIGNS + OLD_CONFIRMED) * (OLD_STEPS + 1)),
-         "identified only, 2 whole each": (identified_only, 4 * 501),
-         "screen 150, best 2 whole": (screened(150, 2), DESIGNS * 151 + 2 * 501),
-         "screen 150, best 3 whole": (screened(150, 3), DESIGNS * 151 + 3 * 501),
-         "screen 150, best 4 whole": (screened(150, 4), DESIGNS * 151 + 4 * 501)}
+         "identified only, 2 whole each": (identified_only, 4 * WHOLE),
+         "screen 150, best 2 whole": (screened(screen_steps=150, finalists=2), DESIGNS * 151 + 2 * WHOLE),
+         "screen 150, best 3 whole": (screened(screen_steps=150, finalists=3), DESIGNS * 151 + 3 * WHOLE),
+         "screen 150, best 4 whole": (screened(screen_steps=150, finalists=4), DESIGNS * 151 + 4 * WHOLE)}
 
 
 def score_rules(run_dir: Path, episodes: dict, draws: int) -> dict[str, float]:
     from pendkit.adapt.trials import make_designs
-    from pendkit.features import holds_upright
     from pendkit.rig import RigParams
 
     made = [d for d in make_designs(RigParams.load(run_dir / "rig.json"), say=lambda _: None) if d.blob]
@@ -131,16 +119,15 @@ def score_rules(run_dir: Path, episodes: dict, draws: int) -> dict[str, float]:
             replay = Replay(episodes, blobs, rng)
             chosen = rule([dataclasses.replace(d, trials=[]) for d in made], replay)
             key = blobs[chosen.blob]
-            got.append(np.mean([holds_upright(episodes[key][i], 200) for i in replay.unused[key]]))
+            got.append(np.mean([holds_upright(episodes[key][i], SOLVED_TAIL_STEPS) for i in replay.unused[key]]))
         scores[name] = float(np.mean(got))
     return scores
 
 
 def one_run(run_dir: str, episodes: int, draws: int) -> tuple[str, dict, dict]:
-    from pendkit.features import holds_upright
-
     recorded = recorded_episodes(Path(run_dir), episodes)
-    solved = {key: float(np.mean([holds_upright(a, 200) for a in runs])) for key, runs in recorded.items()}
+    solved = {key: float(np.mean([holds_upright(a, SOLVED_TAIL_STEPS) for a in runs]))
+              for key, runs in recorded.items()}
     return Path(run_dir).name, solved, score_rules(Path(run_dir), recorded, draws)
 
 

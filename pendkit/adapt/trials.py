@@ -109,20 +109,21 @@ def make_designs(params: RigParams, say: Callable[[str], None] = print) -> list[
 
 
 def run_trials(designs: list[Design], run_on_device: Callable[..., list[list[float]]],
-               say: Callable[[str], None] = print) -> Design | None:
-    """Screen every design that has a blob on the rig's device, run the best `FINALISTS` for a whole
-    episode; the best finalist, None when no design could be run (the device refused each)."""
+               say: Callable[[str], None] = print, screen_steps: int = SCREEN_STEPS,
+               finalists: int = FINALISTS) -> Design | None:
+    """Screen every design that has a blob on the rig's device for `screen_steps`, run the best `finalists`
+    for a whole episode; the best finalist, None when no design could be run (the device refused each)."""
     from pendkit.errors import PendkitError
 
     for design in (d for d in designs if d.blob is not None):
         try:
-            design.trials += run_on_device(design.blob, 1, SCREEN_STEPS)
+            design.trials += run_on_device(design.blob, 1, screen_steps)
         except PendkitError as error:  # the device refused it, or it never arrived whole
             say(f"(e) {design.label}, {design.controller}: not tried ({error})")
-    finalists = [d for d in sorted(designs, key=lambda d: d.rank, reverse=True)[:FINALISTS] if d.trials]
-    for design in finalists:
+    best = [d for d in sorted(designs, key=lambda d: d.rank, reverse=True)[:finalists] if d.trials]
+    for design in best:
         design.trials += run_on_device(design.blob, 1, EPISODE_STEPS)
-    return max(finalists, key=lambda d: d.rank) if finalists else None
+    return max(best, key=lambda d: d.rank) if best else None
 
 
 def try_on_device(run_on_device: Callable[..., list[list[float]]], params: RigParams,
