@@ -209,12 +209,13 @@ def identify(recordings: list[Recording], prior: RigParams | None = None, max_ev
             progress(count, best)
         return value
 
-    dims, population = len(SERVO_BOUNDS), 10
+    dims, evolving = len(SERVO_BOUNDS), 3 * max_evaluations // 4  # a quarter left to polish
+    members = max(5, min(10 * dims, evolving // 2))  # a small budget still gets a generation past the first
     box = np.array(search_box(last))
-    start = np.random.default_rng(seed).uniform(box[:, 0], box[:, 1], size=(population * dims, dims))
+    start = np.random.default_rng(seed).uniform(box[:, 0], box[:, 1], size=(members, dims))
     start[0] = [0.0] * (dims - 1) + [last_prior]  # the prior is one of the first candidates
-    generations = max(1, (3 * max_evaluations // 4) // (population * dims) - 1)  # a quarter left to polish
-    result = differential_evolution(objective, box, popsize=population, maxiter=generations, init=start,
+    generations = max(1, evolving // members - 1)
+    result = differential_evolution(objective, box, maxiter=generations, init=start,
                                     seed=seed, polish=False, tol=1e-6, mutation=(0.5, 1.0), recombination=0.7)
     polished = minimize(objective, result.x, method="Nelder-Mead", bounds=box,
                         options={"maxfev": max_evaluations // 4, "xatol": 1e-3, "fatol": 1e-6})
