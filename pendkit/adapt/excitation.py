@@ -139,6 +139,14 @@ def record(env, excitation: Excitation, seed: int = 0) -> Recording:
     return recording
 
 
+def rest_offset_counts(recordings: list[Recording], counts: int) -> int:
+    """What the encoder read, in counts, with the pendulum hanging still before each episode (median over
+    the episodes): a hanging pendulum is plumb, so this is the calibration's residual error, which a
+    balance designed for true upright would otherwise lean against."""
+    readings = [wrapped_rad(r.start_pendulum_rad) * counts / (2 * np.pi) for r in recordings]
+    return int(np.round(np.median(readings))) if readings else 0
+
+
 def logged_count(log) -> int:
     if log is None:
         return 0

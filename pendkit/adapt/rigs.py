@@ -40,13 +40,16 @@ def twin_rig(params, impairment="classroom-wifi", residual_offset_counts: int = 
     from pendkit.sim.latency import IMPAIRMENTS
 
     network = IMPAIRMENTS[impairment] if isinstance(impairment, str) else impairment
-    fidelity = FIDELITY_PRESETS["realistic"].replace(name="hidden-rig", network=network,
-                                                     encoder_residual_offset_counts=residual_offset_counts)
-    steps, device_seeds = [0], itertools.count(DEVICE_SEED)
+    steps, device_seeds, residual = [0], itertools.count(DEVICE_SEED), [residual_offset_counts]
 
     def make_env(stream: dict | None = None, **env_kwargs):
         chosen = dataclasses.replace(params, **(stream or {}))
+        fidelity = FIDELITY_PRESETS["realistic"].replace(name="hidden-rig", network=network,
+                                                         encoder_residual_offset_counts=residual[0])
         return _CountedSteps(pendkit.make(fidelity=fidelity, params=chosen, start="rest", **env_kwargs), steps)
+
+    def recalibrate(shift_counts: int) -> None:
+        residual[0] -= shift_counts  # the device's zero moved by the shift: a hanging pendulum reads that less
 
     def run_on_device(blob: bytes, episodes: int, episode_steps: int = EPISODE_STEPS) -> list[list[float]]:
         from pendkit.device.on_twin import onboard_episode, upload_to_twin
@@ -62,7 +65,7 @@ def twin_rig(params, impairment="classroom-wifi", residual_offset_counts: int = 
     seconds = lambda: steps[0] * params.control_step_ms / 1000  # noqa: E731
     return Rig(make_env, seconds, name=f"twin ({impairment if isinstance(impairment, str) else 'own network'})",
                prior=lambda: configured_prior(params.servo_min_counts, params.servo_max_counts),
-               run_on_device=run_on_device)
+               run_on_device=run_on_device, recalibrate=recalibrate)
 
 
 def configured_prior(min_counts: int, max_counts: int) -> RigParams:
@@ -78,6 +81,7 @@ def mqtt_rig(rig_id: str, broker: str | None) -> Rig:
 
     first: list[float] = []
     configured: list[RigParams] = []
+    shift = [0]  # counts added to the prior's encoder offset (`recalibrate`)
 
     def prior() -> RigParams:
         if not configured:
@@ -85,10 +89,15 @@ def mqtt_rig(rig_id: str, broker: str | None) -> Rig:
             configured.append(configured_prior(*counts) if is_servo_counts_range(counts) else RigParams())
         return configured[0]
 
+    def calibrated() -> RigParams:
+        base = prior()
+        return dataclasses.replace(base, encoder_offset_counts=(base.encoder_offset_counts + shift[0])
+                                   % base.encoder_counts)
+
     def make_env(stream: dict | None = None, **env_kwargs):
         if not first:
             first.append(time.monotonic())
-        params = dataclasses.replace(prior(), **(stream or {}))
+        params = dataclasses.replace(calibrated(), **(stream or {}))  # the env sends its offset: o<counts>
         return pendkit.make(backend="rig", rig=rig_id, broker=broker, params=params, rig_options={"settle": True},
                             **env_kwargs)
 
@@ -107,13 +116,18 @@ def mqtt_rig(rig_id: str, broker: str | None) -> Rig:
         link.connect()
         try:
             session = RigSession(link)
+            session.command(f"o{calibrated().encoder_offset_counts}")
             upload_to_rig(session, blob)
             step_s = prior().control_step_ms / 1000
             return [device_episode(session, episode_steps, step_s) for _ in range(episodes)]
         finally:
             link.close()
 
-    return Rig(make_env, seconds, name=f"rig {rig_id}", prior=prior, run_on_device=run_on_device)
+    def recalibrate(shift_counts: int) -> None:
+        shift[0] += shift_counts
+
+    return Rig(make_env, seconds, name=f"rig {rig_id}", prior=prior, run_on_device=run_on_device,
+               recalibrate=recalibrate)
 
 
 def rig_status(rig_id: str, broker: str | None, wait_s: float = 2.0) -> dict:

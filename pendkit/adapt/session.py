@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pendkit.adapt.excitation import EXCITATION_STREAM, Excitation, record, schedule
-from pendkit.adapt.identify import PRIOR_LATENCY_MS, identify, rig_values
+from pendkit.adapt.excitation import EXCITATION_STREAM, Excitation, record, rest_offset_counts, schedule
+from pendkit.adapt.identify import PRIOR_LATENCY_MS, Identification, identify, rig_values
 from pendkit.adapt.plots import plot_identification
 from pendkit.adapt.routes import classical_on_device, classical_on_rig, fine_tune_on_rig, train_on_twin
 from pendkit.adapt.trials import Design, trial_steps, try_on_device
@@ -46,6 +46,9 @@ class Rig:
     # step), the blob uploaded to the rig's own device and run there from a pendulum hanging still (500 steps
     # unless told); None: not supported
     run_on_device: Callable[..., list[list[float]]] | None = None
+    # recalibrate(shift_counts): move the encoder's zero by this many counts (the device's `o` setting) for
+    # every env and device run after; None: not supported
+    recalibrate: Callable[[int], None] | None = None
 
 
 @dataclass(frozen=True)
@@ -91,6 +94,7 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
 
     prior = rig.prior()
     identification = identify(recordings, prior, max_evaluations=config.identification_evaluations, seed=config.seed)
+    identification = recalibrated(rig, recordings, identification, report, say)
     identification.params.save(out / "rig.json")
     report["identified"] = identification.values()
     report["prior"] = rig_values(prior, PRIOR_LATENCY_MS)
@@ -126,6 +130,21 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     (out / "report.json").write_text(json.dumps(report, indent=1, default=float))
     (out / "report.md").write_text(report_markdown(report))
     return report
+
+
+def recalibrated(rig: Rig, recordings, identification: Identification, report: dict,
+                 say: Callable[[str], None]) -> Identification:
+    """The encoder's zero moved to where the pendulum hung still before the excitation episodes (the rig's
+    own readings), so that what comes next balances about true upright; `rig.json` keeps the offset."""
+    params = identification.params
+    residual = rest_offset_counts(recordings, params.encoder_counts)
+    report["encoder_recalibrated_counts"] = residual
+    if residual == 0 or rig.recalibrate is None:
+        return identification
+    rig.recalibrate(residual)
+    say(f"(b) the hanging pendulum read {residual:+d} counts: the encoder's zero moved by as much")
+    offset = (params.encoder_offset_counts + residual) % params.encoder_counts
+    return dataclasses.replace(identification, params=dataclasses.replace(params, encoder_offset_counts=offset))
 
 
 def device_trials(rig: Rig, params: RigParams, config: AdaptConfig, left_s: float, step_s: float, report: dict,
@@ -198,7 +217,9 @@ def report_markdown(report: dict) -> str:
             f"{report['wall_s_adaptation']:.0f} s.\n\n"
             f"| parameter | prior | identified |\n|---|---|---|\n{rows}\n\n"
             f"Matching cost (mean squared angle error, rad^2): prior {report['matching_cost']['prior']:.4f}, "
-            f"identified {report['matching_cost']['identified']:.4f}.\n\n"
+            f"identified {report['matching_cost']['identified']:.4f}. Encoder: the hanging pendulum read "
+            f"{report.get('encoder_recalibrated_counts', 0):+d} counts"
+            f"{'' if not report.get('encoder_recalibrated_counts') else '; its zero was moved by as much'}.\n\n"
             f"On the rig: the adapted policy {report['policy_on_rig']['summary']}; designed on the identified twin, "
             f"energy swing-up + LQR {report['classical_on_rig']['energy']['summary']}, minimum-time swing-up "
             f"{report['classical_on_rig']['trajopt']['summary']} (run from the laptop); the same designs run by the "

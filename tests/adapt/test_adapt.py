@@ -184,3 +184,50 @@ def test_a_rig_over_mqtt_runs_a_short_device_trial_of_the_length_asked():
         assert local.virtual.commands_received >= 25
     finally:
         local.stop()
+
+
+def test_adapt_moves_the_encoders_zero_to_where_the_pendulum_hung_still():
+    from pendkit.adapt.identify import Identification
+    from pendkit.adapt.session import recalibrated
+    from pendkit.device.controller_blob import pack
+    from pendkit.device.swingup_design import design_swing_up
+
+    rig = twin_rig(RigParams(), "classroom-wifi", residual_offset_counts=-5)  # the calibration missed 5 counts
+    env = rig.make_env(**Excitation.env_kwargs())
+    recs = [record(env, e, seed=k) for k, e in enumerate(schedule(2))]
+    env.close()
+    report = {}
+    found = recalibrated(rig, recs, Identification(RigParams(), 10.0, 0.0, 0.0, 0, 0.0), report, lambda _: None)
+    assert report["encoder_recalibrated_counts"] == -5  # read from the hanging pendulum, not from the rig's params
+    assert found.params.encoder_offset_counts == 1024 - 5  # rig.json keeps the calibration for later sessions
+    env = rig.make_env(**Excitation.env_kwargs())
+    _, info = env.reset(seed=0)
+    assert info["state"].pendulum_angle_rad == 0.0  # hanging now reads hanging
+    env.close()
+    start = rig.run_on_device(pack(design_swing_up(RigParams(), "energy")), 1, 5)[0][0]
+    assert abs(start) == pytest.approx(np.pi)  # and so does the device's own controller
+
+
+def test_a_rig_over_mqtt_is_recalibrated_for_its_envs_and_its_device_runs():
+    from pendkit.adapt.rigs import mqtt_rig
+    from pendkit.device.controller_blob import pack
+    from pendkit.device.swingup_design import design_swing_up
+    from pendkit.link.virtual_rig import LocalRig
+
+    local = LocalRig(mount_offset_counts=4)  # the encoder's zero sits 4 counts from where the kit assumes
+    try:
+        rig = mqtt_rig(local.rig, local.url)
+
+        def hanging_reads_rad():
+            env = rig.make_env(**Excitation.env_kwargs())
+            _, info = env.reset(seed=0)
+            env.close()
+            return float(wrapped_rad(info["state"].pendulum_angle_rad))
+
+        assert hanging_reads_rad() == pytest.approx(4 * 2 * np.pi / 1024)
+        rig.recalibrate(4)
+        assert hanging_reads_rad() == pytest.approx(0.0)
+        start = rig.run_on_device(pack(design_swing_up(RigParams(), "energy")), 1, 5)[0][0]
+        assert abs(start) == pytest.approx(np.pi)
+    finally:
+        local.stop()
