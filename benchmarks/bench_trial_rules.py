@@ -4,18 +4,19 @@
     python benchmarks/bench_trial_rules.py runs/adapt [--episodes 10] [--draws 400] [--jobs 2]
 
 For each finished adaptation in DIR (its `rig.json`, the identified twin, and the hidden rig it was run on,
-named as `bench_transfer.py` names them), every candidate design of `pendkit.adapt.trials` is made on the
-identified twin and run `--episodes` whole episodes on the rig's device from rest (saved beside the run as
-`trial-episodes.npz`, reused). Each rule is then replayed `--draws` times on those episodes, a trial taking
-an unused episode (a shorter trial its first steps), and scored by how often the design it chose solves
-the episodes its trials did not use. Lines: one per run, then per rule the mean solved fraction, the
-expected rigs solved 3/3 (sum of p^3) and its rig time.
+named as `bench_transfer.py` names them, its encoder recalibrated as the adaptation did), every candidate
+design of `pendkit.adapt.trials` is made on the identified twin and run `--episodes` whole episodes on the
+rig's device from rest (saved beside the run as `trial-episodes.npz`, reused). Each rule is then replayed
+`--draws` times on those episodes, a trial taking an unused episode (a shorter trial its first steps), and
+scored by how often the design it chose solves the episodes its trials did not use. Lines: one per run, then
+per rule the mean solved fraction, the expected rigs solved 3/3 (sum of p^3) and its rig time.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 from pathlib import Path
 
 import numpy as np
@@ -44,10 +45,12 @@ def recorded_episodes(run_dir: Path, episodes: int) -> dict[str, list[np.ndarray
         with np.load(saved) as data:
             return {key.replace("|", "/"): list(data[key]) for key in data.files}
     hidden = dict(adapt_rigs(6))[run_dir.name.split("-full")[0]]
+    report = json.loads((run_dir / "report.json").read_text()) if (run_dir / "report.json").exists() else {}
     runs = {}
     for design in make_designs(RigParams.load(run_dir / "rig.json"), say=lambda _: None):
         if design.blob is not None:
             rig = twin_rig(hidden.params, hidden.network, hidden.residual_offset_counts)  # same seeds per design
+            rig.recalibrate(report.get("encoder_recalibrated_counts", 0))  # as the adaptation left the rig
             runs[f"{design.controller}/{design.label}"] = [np.asarray(a) for a in rig.run_on_device(design.blob,
                                                                                                       episodes)]
     np.savez(saved, **{key.replace("/", "|"): np.stack(value) for key, value in runs.items()})
@@ -79,13 +82,20 @@ def old_rule(designs, replay):
     return max(finalists, key=worst)
 
 
-def identified_only(designs, replay):
-    """The identified twin's two designs, two whole episodes each: no loop variants."""
-    mine = [d for d in designs if d.label == "identified"]
-    for design in mine:
-        design.trials += replay(design.blob, 2, EPISODE_STEPS)
-    return max(mine, key=lambda d: (sum(holds_upright(a, SOLVED_TAIL_STEPS) for a in d.trials),
-                                    min(held_fraction(a) or 0.0 for a in d.trials)))
+def identified_only(each: int):
+    """The identified twin's two designs, `each` whole episodes each: no loop variants."""
+    def rule(designs, replay):
+        mine = [d for d in designs if d.label == "identified"]
+        for design in mine:
+            design.trials += replay(design.blob, each, EPISODE_STEPS)
+        return max(mine, key=lambda d: (sum(holds_upright(a, SOLVED_TAIL_STEPS) for a in d.trials),
+                                        min(held_fraction(a) or 0.0 for a in d.trials)))
+    return rule
+
+
+def identified_plan(designs, replay):
+    """No trials: the identified twin's minimum-time design."""
+    return next(d for d in designs if d.label == "identified" and d.controller == "trajopt")
 
 
 def screened(**changes):
@@ -100,7 +110,9 @@ WHOLE = EPISODE_STEPS + 1  # a whole episode's rig steps, its reset included
 # name: (rule, rig steps it takes at most)
 RULES = {"shipped: screen 200, best 3 whole": (screened(), trial_steps()),
          "before: 150 x 12": (old_rule, (DESIGNS + OLD_CONFIRMED) * (OLD_STEPS + 1)),
-         "identified only, 2 whole each": (identified_only, 4 * WHOLE),
+         "identified only, 2 whole each": (identified_only(2), 4 * WHOLE),
+         "identified only, 1 whole each": (identified_only(1), 2 * WHOLE),
+         "identified min-time, no trials": (identified_plan, 0),
          "screen 150, best 2 whole": (screened(screen_steps=150, finalists=2), DESIGNS * 151 + 2 * WHOLE),
          "screen 150, best 3 whole": (screened(screen_steps=150, finalists=3), DESIGNS * 151 + 3 * WHOLE),
          "screen 150, best 4 whole": (screened(screen_steps=150, finalists=4), DESIGNS * 151 + 4 * WHOLE)}
