@@ -1,8 +1,9 @@
 """`pendkit adapt`: fit the kit to one rig within a budget of that rig's episodes.
 
-(a) excitation episodes on the rig (`excitation`), (b) the rig's twin identified from them (`identify`),
-(e) short trials of the device's swing-up designs, made on the identified twin and on twins whose servo loop
-differs where the recordings cannot tell (`trials`), (c) the policy trained on the identified twin from the
+(a) excitation episodes on the rig (`excitation`), (b) the rig's twin identified from them (`identify`) and its
+encoder's zero moved to where the pendulum hung, (e) the device's swing-up design made on the identified twin
+(or, asked for, short trials of designs on twins whose servo loop differs where the recordings cannot tell:
+`trials`), (c) the policy trained on the identified twin from the
 shipped one (laptop time), (d) greedy episodes on the rig with the non-blocking trainer learning from them,
 in the whole episodes of the budget left. The classical controllers (energy swing-up + LQR, and the
 minimum-time plan tracked by LQR) are designed on the same twin, so the report compares both routes on the
@@ -25,7 +26,7 @@ from pendkit.adapt.excitation import EXCITATION_STREAM, Excitation, record, rest
 from pendkit.adapt.identify import PRIOR_LATENCY_MS, Identification, identify, rig_values
 from pendkit.adapt.plots import plot_identification
 from pendkit.adapt.routes import classical_on_device, classical_on_rig, fine_tune_on_rig, train_on_twin
-from pendkit.adapt.trials import Design, trial_steps, try_on_device
+from pendkit.adapt.trials import Design, identified_design, trial_steps, try_on_device
 from pendkit.env_name import EPISODE_STEPS
 from pendkit.errors import ConfigError
 from pendkit.rig import RigParams
@@ -54,13 +55,13 @@ class Rig:
 @dataclass(frozen=True)
 class AdaptConfig:
     """`episodes`: the rig time adaptation may use, in episodes of 500 control steps (30 s each at 60 ms: 10 is
-    5 minutes), as the rig counts it: `excitation_episodes` short recordings, the device trials when they fit
-    (`device_trials`), then fine-tuning in the whole episodes left; `twin_episodes`: training on the
+    5 minutes), as the rig counts it: `excitation_episodes` short recordings, the device trials when asked for
+    (`device_trials`) and they fit, then fine-tuning in the whole episodes left; `twin_episodes`: training on the
     identified twin (laptop time); `evaluation_episodes`: greedy episodes on the rig afterwards."""
 
     episodes: int = 10
     excitation_episodes: int = 6
-    device_trials: bool = True
+    device_trials: bool = False  # on recalibrated rigs the trials chose no better than the identified twin's
     twin_episodes: int = 60
     evaluation_episodes: int = 3
     policy: str = "r-dqn-realistic"  # adapted from r-dqn-robust: 1/5 on the default rig, against 3/5 (docs/rl.md)
@@ -117,7 +118,8 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     report["wall_s_adaptation"] = time.perf_counter() - started
     report["policy_on_rig"] = agent_run.evaluate(rig, config.evaluation_episodes)
     report["classical_on_rig"] = classical_on_rig(rig, identification, config.evaluation_episodes)
-    report["classical_on_device"] = classical_on_device(rig, identification, config.evaluation_episodes, chosen)
+    tried = chosen if chosen is not None and chosen.trials else None  # untried: the identified twin's own, run below
+    report["classical_on_device"] = classical_on_device(rig, identification, config.evaluation_episodes, tried)
     report["rig_s_total"] = rig.seconds()
     report["recommended"] = recommended_route(report)
     classical, device = report["classical_on_rig"], report["classical_on_device"]
@@ -152,10 +154,18 @@ def device_trials(rig: Rig, params: RigParams, config: AdaptConfig, left_s: floa
     """(e) when the rig has a device and the trials fit in the rig time left: the design they chose."""
     report["rig_s_trials"] = 0.0
     needed_s = trial_steps() * step_s
-    if not config.device_trials or rig.run_on_device is None or needed_s > left_s:
-        why = "not asked for" if not config.device_trials else "no device" if rig.run_on_device is None else \
-            f"they need {needed_s:.0f} s of rig time, {max(0.0, left_s):.0f} s are left"
-        say(f"(e) no device trials: {why}")
+    if rig.run_on_device is None:
+        say("(e) no device trials: no device")
+        return None
+    if not config.device_trials:
+        chosen = identified_design(params, say)
+        report["device_trials"], report["chosen_design"] = [], chosen.summary() if chosen else None
+        made = f"the identified twin's {SWING_UPS[chosen.controller]} swing-up" if chosen else None
+        say(f"(e) for the rig's device: {made}, without trials (on recalibrated rigs the trials chose no better: "
+            "docs/rl.md)" if made else "(e) for the rig's device: no design could be made")
+        return chosen
+    if needed_s > left_s:
+        say(f"(e) no device trials: they need {needed_s:.0f} s of rig time, {max(0.0, left_s):.0f} s are left")
         return None
     before = rig.seconds()
     chosen, designs = try_on_device(rig.run_on_device, params, say)
@@ -177,6 +187,7 @@ def save_device_design(chosen: Design, out: Path, report: dict) -> None:
 
 
 DEVICE_BLOB = "device-controller.pkcb"
+SWING_UPS = {"energy": "energy", "trajopt": "minimum-time"}  # the controllers' names in prose
 ROUTES = {"the device design chosen by the trials": ("classical_on_device", "tried"),
           "energy swing-up + LQR on the rig's device": ("classical_on_device", "energy"),
           "minimum-time swing-up on the rig's device": ("classical_on_device", "trajopt"),
@@ -202,6 +213,9 @@ def trials_markdown(report: dict) -> str:
     chosen = report.get("chosen_design")
     if not chosen:
         return ""
+    if not report["device_trials"]:
+        return (f"Device design: the identified twin's {SWING_UPS[chosen['controller']]} swing-up, without trials. "
+                f"To run it: `pendkit deploy --blob {report['device_blob']} --rig ID`.\n\n")
     tried = report["classical_on_device"].get("tried", {}).get("summary", "not evaluated")
     return (f"Device trials ({report['rig_s_trials']:.0f} s of rig time, {len(report['device_trials'])} designs): "
             f"the {chosen['controller']} swing-up designed for the {chosen['label']} servo held best; "

@@ -95,17 +95,30 @@ def trial_steps() -> int:
 
 def make_designs(params: RigParams, say: Callable[[str], None] = print) -> list[Design]:
     """Every candidate with its blob; one python-control cannot make keeps no blob (and is said)."""
+    return [with_blob(design, say) for design in candidate_designs(params)]
+
+
+def with_blob(design: Design, say: Callable[[str], None] = print) -> Design:
+    """`design` with its blob made; without one (and said) when python-control cannot make it."""
     from pendkit.device.controller_blob import pack
     from pendkit.device.swingup_design import design_swing_up
     from pendkit.errors import PendkitError
 
-    designs = candidate_designs(params)
-    for design in designs:
-        try:
-            design.blob = pack(design_swing_up(design.params, design.controller))
-        except (PendkitError, ValueError, ArithmeticError) as error:
-            say(f"(e) {design.label}, {design.controller}: not tried ({error})")
-    return designs
+    try:
+        design.blob = pack(design_swing_up(design.params, design.controller))
+    except (PendkitError, ValueError, ArithmeticError) as error:
+        say(f"(e) {design.label}, {design.controller}: not made ({error})")
+    return design
+
+
+def identified_design(params: RigParams, say: Callable[[str], None] = print) -> Design | None:
+    """Without trials: the identified twin's minimum-time design (its energy design when python-control cannot
+    make that one); None when neither can be made."""
+    for controller in reversed(CONTROLLERS):
+        design = with_blob(Design(LOOP_VARIANTS[0][0], controller, params), say)
+        if design.blob is not None:
+            return design
+    return None
 
 
 def run_trials(designs: list[Design], run_on_device: Callable[..., list[list[float]]],

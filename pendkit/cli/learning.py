@@ -245,18 +245,21 @@ def policies_build(names: tuple[str, ...]) -> None:
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), required=True)
 @click.option("--episodes", type=click.IntRange(1, 100), default=10, show_default=True,
               help="The rig's time adaptation may use, in episodes of 500 steps (30 s each: 10 is 5 minutes): "
-                   "excitation, device trials, fine-tuning in the whole episodes left.")
+                   "excitation, device trials if asked for, fine-tuning in the whole episodes left.")
 @click.option("--twin-episodes", type=click.IntRange(0), default=60, show_default=True,
               help="Training episodes on the identified twin (laptop time).")
 @click.option("--evaluate", "evaluation_episodes", type=click.IntRange(0), default=3, show_default=True,
               help="Greedy episodes on the rig afterwards, for the policy and for the classical controllers.")
 @click.option("--policy", "policy_name", default="r-dqn-realistic", show_default=True,
               help="The shipped policy to start from.")
+@click.option("--device-trials/--no-device-trials", default=False, show_default=True,
+              help="Try the device's designs for five servo loops on the rig first (3.5 minutes of its time); "
+                   "without: the identified twin's minimum-time design, which did as well (docs/rl.md).")
 @click.option("--seed", type=int, default=0, show_default=True)
 def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, twin_episodes, evaluation_episodes,
-          policy_name, seed) -> None:
-    """Fit the kit to one rig in a few of its episodes: excite it, identify its twin from the encoder, try
-    the device's designs for it briefly, train on that twin, fine-tune on the rig; report every route."""
+          policy_name, device_trials, seed) -> None:
+    """Fit the kit to one rig in a few of its episodes: excite it, identify its twin from the encoder, design
+    the device's swing-up for it, train on that twin, fine-tune on the rig; report every route."""
     _torch_or_exit()
     from pendkit.adapt.rigs import mqtt_rig, twin_rig
     from pendkit.adapt.session import AdaptConfig
@@ -272,7 +275,8 @@ def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, t
         else:
             rig = mqtt_rig(rig_id, broker)
         config = AdaptConfig(episodes=episodes, excitation_episodes=min(6, episodes), twin_episodes=twin_episodes,
-                             evaluation_episodes=evaluation_episodes, policy=policy_name, seed=seed)
+                             evaluation_episodes=evaluation_episodes, policy=policy_name,
+                             device_trials=device_trials, seed=seed)
         report = run_adaptation(rig, out_dir, config, say=click.echo)
     except ConfigError as error:
         raise click.ClickException(str(error)) from None

@@ -93,7 +93,7 @@ def test_an_adaptation_session_writes_rig_policy_and_report_within_its_rig_time(
 
     rig = twin_rig(HIDDEN, "none")
     config = AdaptConfig(episodes=9, excitation_episodes=2, twin_episodes=1, evaluation_episodes=1,
-                         policy="r-dqn-realistic", identification_evaluations=30)
+                         policy="r-dqn-realistic", identification_evaluations=30, device_trials=True)
     report = adapt(rig, tmp_path, config, say=lambda text: None)
     assert RigParams.load(tmp_path / "rig.json") != RigParams()  # something was identified
     assert (tmp_path / "policy.pt").exists() and (tmp_path / "identification.png").read_bytes()[:4] == b"\x89PNG"
@@ -125,8 +125,22 @@ def test_device_trials_are_left_out_when_they_do_not_fit_the_rig_time_left():
 
     rig = twin_rig(HIDDEN, "none")
     said, report = [], {}
-    assert device_trials(rig, HIDDEN, AdaptConfig(), 60.0, 0.06, report, said.append) is None
+    assert device_trials(rig, HIDDEN, AdaptConfig(device_trials=True), 60.0, 0.06, report, said.append) is None
     assert report["rig_s_trials"] == 0.0 and rig.seconds() == 0.0 and "s are left" in said[0]
+
+
+def test_without_trials_the_device_gets_the_identified_twins_minimum_time_design_and_no_rig_time_goes():
+    from pendkit.adapt.session import AdaptConfig, device_trials, trials_markdown
+    from pendkit.device.controller_blob import pack
+    from pendkit.device.swingup_design import design_swing_up
+
+    rig = twin_rig(HIDDEN, "none")
+    said, report = [], {}
+    chosen = device_trials(rig, HIDDEN, AdaptConfig(), 300.0, 0.06, report, said.append)
+    assert chosen.blob == pack(design_swing_up(HIDDEN, "trajopt")) and chosen.label == "identified"
+    assert rig.seconds() == 0.0 and report["device_trials"] == [] and not chosen.trials
+    report["device_blob"] = "device-controller.pkcb"
+    assert "without trials" in trials_markdown(report) and "without trials" in said[0]
 
 
 def _outcome(solved, upright_s):
