@@ -151,7 +151,8 @@ def recalibrated(rig: Rig, recordings, identification: Identification, report: d
 
 def device_trials(rig: Rig, params: RigParams, config: AdaptConfig, left_s: float, step_s: float, report: dict,
                   say: Callable[[str], None]) -> Design | None:
-    """(e) when the rig has a device and the trials fit in the rig time left: the design they chose."""
+    """(e) for a rig with a device: the identified twin's minimum-time design, or with `device_trials` (when
+    they fit in the rig time left) the design the trials chose."""
     report["rig_s_trials"] = 0.0
     needed_s = trial_steps() * step_s
     if rig.run_on_device is None:
