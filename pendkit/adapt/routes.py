@@ -120,10 +120,11 @@ def classical_on_env(design_env, env, controller: str, episodes: int, seed: int 
     return outcome
 
 
-def classical_on_device(rig, identification: Identification, episodes: int, tried=None) -> dict:
+def classical_on_device(rig, identification: Identification, episodes: int, tried=None, made=None) -> dict:
     """The same two designs for the rig's own device (`pendkit.device.swingup_design`, on the identified
     parameters), and the design the device trials chose (`tried`, a `pendkit.adapt.trials.Design`) if any,
-    uploaded and run there from rest: the network carries heartbeats and telemetry only."""
+    uploaded and run there from rest: the network carries heartbeats and telemetry only. `made`: one of the
+    two already made (an untried `Design` on the identified parameters), not designed again."""
     if episodes == 0 or rig.run_on_device is None:
         return {name: {"summary": "not evaluated"} for name in CLASSICAL}
     from pendkit.agents.runs import SOLVED_TAIL_STEPS
@@ -133,7 +134,12 @@ def classical_on_device(rig, identification: Identification, episodes: int, trie
     from pendkit.features import holds_upright
 
     step_s = identification.params.control_step_ms / 1000
-    blobs = {name: pack(design_swing_up(identification.params, name)) for name in CLASSICAL}
+    def blob(name: str) -> bytes:
+        if made is not None and made.controller == name and made.params == identification.params:
+            return made.blob
+        return pack(design_swing_up(identification.params, name))
+
+    blobs = {name: blob(name) for name in CLASSICAL}
     if tried is not None:
         blobs["tried"] = tried.blob
     outcomes = {}

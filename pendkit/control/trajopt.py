@@ -80,11 +80,14 @@ class StepModel:
         return cls(FurutaModel.from_rig(base.params), base.dt, min(delay, 0.9 * base.dt))
 
     def step(self, x: np.ndarray, target_rad) -> np.ndarray:
-        """The state after one step with `target_rad` sent now; x of shape (5,) or (5, n)."""
-        x = np.asarray(x, dtype=float)
+        """The state after one step with `target_rad` sent now; x of shape (5,) or (5, n). Float32 states stay
+        float32 (the search's many sequences), anything else is computed in float64."""
+        x = np.asarray(x)
+        dtype = np.float32 if x.dtype == np.float32 else np.float64
+        x, target_rad = x.astype(dtype, copy=False), np.asarray(target_rad, dtype=dtype)
         q = self._integrate(x[:4], x[4], self.delay_s)
         q = self._integrate(q, target_rad, self.period_s - self.delay_s)
-        return np.concatenate([q, np.broadcast_to(np.asarray(target_rad, dtype=float), x[4].shape)[None]])
+        return np.concatenate([q, np.broadcast_to(target_rad, x[4].shape)[None]])
 
     def _integrate(self, q: np.ndarray, target_rad, duration_s: float) -> np.ndarray:
         if duration_s <= 0:
@@ -150,18 +153,19 @@ def fastest_bang_bang(step_model: StepModel, x0, limits: SwingUpLimits | None = 
     if limits.in_catch_set(x0):
         return Plan(np.zeros(0), x0[None], step_model.period_s, "bang-bang", 0.0)
     amplitude = limits.arm_limit_rad
-    states = np.repeat(x0[:, None], 2, axis=1)
-    signs = np.array([1.0, -1.0])
+    # float32: several times faster here (numpy's vectorised sin/cos); the plan is re-simulated in float64
+    states = np.repeat(x0[:, None], 2, axis=1).astype(np.float32)
+    signs = np.array([1.0, -1.0], dtype=np.float32)
     switches = np.zeros(2, dtype=int)
     parents: list[np.ndarray] = [np.array([0, 0])]
     all_signs: list[np.ndarray] = [signs]
     for depth in range(1, max_steps + 1):
-        states = step_model.step(states, signs * amplitude)
+        states = _step_in_chunks(step_model, states, signs * amplitude)
         alive = np.abs(states[3]) <= limits.overspin_rad_s
         caught = limits.in_catch_set(states) & alive
         if caught.any():
             index = _best_catch(states, caught)
-            targets = _trace_back(index, parents, all_signs) * amplitude
+            targets = _trace_back(index, parents, all_signs).astype(float) * amplitude
             return Plan(targets, step_model.simulate(x0, targets), step_model.period_s, "bang-bang",
                         time.perf_counter() - started, {"sequences": int(states.shape[1])})
         if depth == max_steps:
@@ -175,6 +179,15 @@ def fastest_bang_bang(step_model: StepModel, x0, limits: SwingUpLimits | None = 
         parents.append(parent)
         all_signs.append(signs)
     return None
+
+
+def _step_in_chunks(step_model: StepModel, states: np.ndarray, targets_rad: np.ndarray,
+                    chunk: int = 16384) -> np.ndarray:
+    """`step_model.step` over many sequences, a cache-sized chunk at a time (about twice as fast as one go)."""
+    if states.shape[1] <= chunk:
+        return step_model.step(states, targets_rad)
+    return np.concatenate([step_model.step(states[:, i:i + chunk], targets_rad[i:i + chunk])
+                           for i in range(0, states.shape[1], chunk)], axis=1)
 
 
 def _best_catch(states: np.ndarray, caught: np.ndarray) -> int:

@@ -89,35 +89,48 @@ def test_free_swings_read_a_shorter_pendulums_higher_frequency():
 def test_an_adaptation_session_writes_rig_policy_and_report_within_its_rig_time(tmp_path):
     pytest.importorskip("torch")
     from pendkit.adapt.session import AdaptConfig, adapt
+    from pendkit.device.controller_blob import pack
+    from pendkit.device.swingup_design import design_swing_up
+
+    rig = twin_rig(HIDDEN, "none")
+    config = AdaptConfig(episodes=2, excitation_episodes=2, twin_episodes=1, evaluation_episodes=1,
+                         policy="r-dqn-realistic", identification_evaluations=30)
+    report = adapt(rig, tmp_path, config, say=lambda text: None)
+    identified = RigParams.load(tmp_path / "rig.json")
+    assert identified != RigParams()  # something was identified
+    assert (tmp_path / "policy.pt").exists() and (tmp_path / "identification.png").read_bytes()[:4] == b"\x89PNG"
+    saved = json.loads((tmp_path / "report.json").read_text())
+    # rig time as the rig counted it, within 2 episodes of 500 steps (60 s): 2 excitation episodes of 102 steps
+    # after the 7 steps that find the pendulum still, no device trials (the default), and the one whole
+    # fine-tuning episode of 500 steps that fits in what is left
+    assert saved["rig_s_trials"] == 0.0 and saved["device_trials"] == []
+    assert saved["rig_s_adaptation"] == pytest.approx((2 * (REST_STEPS - 1 + 102) + 500) * 0.06)
+    assert saved["rig_s_adaptation"] <= saved["rig_s_budget"] == pytest.approx(2 * 500 * 0.06)
+    assert saved["rig_s_total"] > saved["rig_s_adaptation"]  # the evaluation came after, on the same rig
+    assert report["policy_on_rig"]["summary"].startswith("solved=")
+    # the identified twin's two designs, each on the rig's device; the minimum-time one is what deploy takes
+    assert set(report["classical_on_device"]) == {"energy", "trajopt"}
+    assert all(len(o["solved"]) == 1 for o in report["classical_on_device"].values())
+    assert saved["chosen_design"]["controller"] == "trajopt" and saved["chosen_design"]["trials"] == 0
+    assert (tmp_path / saved["device_blob"]).read_bytes() == pack(design_swing_up(identified, "trajopt"))
+    text = (tmp_path / "report.md").read_text()
+    assert "| servo_speed_s_per_60deg |" in text and "run by the rig's own device" in text
+    assert "without trials" in text and f"Deploy: {report['recommended'] or 'none of them'}" in text
+
+
+def test_device_trials_when_asked_for_count_their_rig_time_and_choose_a_finalist():
+    from pendkit.adapt.session import AdaptConfig, device_trials, trials_markdown
     from pendkit.adapt.trials import FINALISTS, trial_steps
 
     rig = twin_rig(HIDDEN, "none")
-    config = AdaptConfig(episodes=9, excitation_episodes=2, twin_episodes=1, evaluation_episodes=1,
-                         policy="r-dqn-realistic", identification_evaluations=30, device_trials=True)
-    report = adapt(rig, tmp_path, config, say=lambda text: None)
-    assert RigParams.load(tmp_path / "rig.json") != RigParams()  # something was identified
-    assert (tmp_path / "policy.pt").exists() and (tmp_path / "identification.png").read_bytes()[:4] == b"\x89PNG"
-    saved = json.loads((tmp_path / "report.json").read_text())
-    # rig time as the rig counted it, within 9 episodes of 500 steps (270 s): 2 excitation episodes of 102
-    # steps after the 7 steps that find the pendulum still, the device trials, and the one whole fine-tuning
-    # episode of 500 steps left
-    trials_steps = trial_steps()
-    assert saved["rig_s_trials"] == pytest.approx(trials_steps * 0.06)
-    assert saved["rig_s_adaptation"] == pytest.approx((2 * (REST_STEPS - 1 + 102) + trials_steps + 500) * 0.06)
-    assert saved["rig_s_adaptation"] <= saved["rig_s_budget"] == pytest.approx(9 * 500 * 0.06)
-    assert saved["rig_s_total"] > saved["rig_s_adaptation"]  # the evaluation came after, on the same rig
-    assert report["policy_on_rig"]["summary"].startswith("solved=")
-    # the identified twin's two designs and the one the trials chose, each on the rig's device
-    assert set(report["classical_on_device"]) == {"energy", "trajopt", "tried"}
-    assert all(len(o["solved"]) == 1 for o in report["classical_on_device"].values())
-    assert sum(d["trials"] for d in saved["device_trials"]) == len(saved["device_trials"]) + FINALISTS
-    assert saved["chosen_design"]["trials"] == 2 and saved["chosen_design"]["whole_solved"] is not None
-    text = (tmp_path / "report.md").read_text()
-    assert "| servo_speed_s_per_60deg |" in text and "run by the rig's own device" in text
-    from pendkit.device.controller_blob import parse
-
-    assert parse((tmp_path / saved["device_blob"]).read_bytes()).kind == "swing-up"  # what `pendkit deploy` takes
-    assert "Device trials" in text and f"Deploy: {report['recommended'] or 'none of them'}" in text
+    report = {}
+    chosen = device_trials(rig, HIDDEN, AdaptConfig(device_trials=True), 300.0, 0.06, report, lambda _: None)
+    assert report["rig_s_trials"] == pytest.approx(trial_steps() * 0.06) == pytest.approx(rig.seconds())
+    assert sum(d["trials"] for d in report["device_trials"]) == len(report["device_trials"]) + FINALISTS
+    assert report["chosen_design"]["trials"] == 2 and report["chosen_design"]["whole_solved"] is not None
+    assert len(chosen.trials) == 2 and chosen.blob is not None
+    report.update(device_blob="device-controller.pkcb", classical_on_device={})
+    assert trials_markdown(report).startswith("Device trials")
 
 
 def test_device_trials_are_left_out_when_they_do_not_fit_the_rig_time_left():
