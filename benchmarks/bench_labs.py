@@ -1,7 +1,7 @@
 """Wall time of every lab and solution notebook in ci mode (goal: at most 120 s each on 2 cores),
 and of grading one submission with `pendkit grade`'s runner.
 
-    python benchmarks/bench_labs.py [--labs 05 09]
+    python benchmarks/bench_labs.py [--labs 05 09] [--runs solutions labs grade]
     python benchmarks/bench_labs.py --interactive [--labs 04 05 10]
 
 `--interactive` runs each solution notebook with the budgets a class runs (PENDKIT_MODE=interactive) and
@@ -58,6 +58,7 @@ OUTCOMES = {
 }
 
 
+RUNS = ("solutions", "labs", "grade")
 BAR_SECONDS = 10.0  # a cell that computes longer shows a progress bar (issue 27)
 
 
@@ -106,6 +107,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--labs", nargs="+", default=None, help="lab numbers (default: all)")
     parser.add_argument("--interactive", action="store_true", help="the class's budgets, one line a lab")
+    parser.add_argument("--runs", nargs="+", choices=RUNS, default=list(RUNS),
+                        help="which to time: the solutions, the student templates (labs/), grading a solution")
     args = parser.parse_args()
     if args.interactive:
         interactive(args.labs)
@@ -115,10 +118,12 @@ def main() -> None:
         return args.labs is None or path.name[:2] in args.labs
 
     for tree, strict in (("solutions", True), ("labs", False)):
+        if tree not in args.runs:
+            continue
         for path in filter(chosen, sorted((ROOT / tree).glob("*.ipynb"))):
             print(f"notebook={tree}/{path.name} mode=ci wall_s={run_seconds(path, strict):.1f} goal_s=120",
                   flush=True)
-    for path in filter(chosen, sorted((ROOT / "solutions").glob("*.ipynb"))):
+    for path in filter(chosen, sorted((ROOT / "solutions").glob("*.ipynb")) if "grade" in args.runs else []):
         lab = path.name[:2]
         started = time.perf_counter()
         grade = grade_notebook(path, "bench", lab, sorted((ROOT / "solutions" / "tests").glob(f"lab{lab}_*.py")))

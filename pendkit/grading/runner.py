@@ -2,7 +2,9 @@
 
 A cell that raises is noted and the run goes on. A cell that hangs or kills the kernel is left out and
 the notebook is run again from the top without it (tasks already graded keep their results), so one
-broken cell costs only what depends on it. Nothing that could not run scores a point.
+broken cell costs only what depends on it. Nothing that could not run scores a point. Cells tagged `demo`
+(they run the rig or plot for the student, and define nothing a graded task needs) are not run: a tag a
+student adds or removes can only cost them points or the grader time, never gain a point.
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ KERNEL_ENV_ALLOWED = {"PATH", "LANG", "LANGUAGE", "LC_ALL", "LC_CTYPE", "LC_NUME
                       "MUJOCO_GL", "PYOPENGL_PLATFORM", "OMP_NUM_THREADS", "MKL_NUM_THREADS",
                       "OPENBLAS_NUM_THREADS"}
 MAX_RUNS = 5
+DEMO_TAG = "demo"
 GRADING_SLACK_S = 20.0
 
 
@@ -104,6 +107,9 @@ def grade_notebook(path: Path, student: str, lab: str, hidden_paths: list[Path],
         grade.tasks = [zero_grade(t, "the notebook could not be read") for t in task_ids]
         return grade
     grade.written = collect_answers(notebook, lab)
+    demos = sum(_is_demo(cell) for cell in notebook.cells)
+    if demos:
+        grade.notes.append(f"{demos} demonstration cells (tagged `{DEMO_TAG}`) were not run: they score nothing")
     scratch = Path(tempfile.mkdtemp(prefix="pendkit-submission-"))
     sandbox = None
     try:
@@ -161,7 +167,7 @@ class _Run:
             with client.setup_kernel(env=kernel_environment(self.check_timeout_s)):
                 started = True
                 for index, cell in enumerate(notebook.cells):
-                    if cell.cell_type != "code" or index in self.excluded:
+                    if cell.cell_type != "code" or index in self.excluded or _is_demo(cell):
                         continue
                     remaining = self.deadline - time.monotonic()
                     if remaining <= 1:
@@ -280,6 +286,11 @@ def _kill_kernel(km) -> None:
             run_sync(km.shutdown_kernel)(now=True)
     except Exception as error:  # noqa: BLE001 - the sandbox's close() kills what is left
         LOG.warning("could not stop a sandboxed kernel: %s", error)
+
+
+def _is_demo(cell) -> bool:
+    tags = cell.get("metadata", {}).get("tags", [])
+    return cell.get("cell_type") == "code" and isinstance(tags, list) and DEMO_TAG in tags
 
 
 def _where(index: int, cell) -> str:

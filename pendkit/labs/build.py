@@ -4,6 +4,7 @@ In `solutions/NN_name.ipynb`:
 - code between `### BEGIN SOLUTION` and `### END SOLUTION` becomes a stub that raises NotImplementedError;
 - cells tagged `instructor` (notes, expected answers, rubrics) are dropped;
 - cells tagged `answer` (a written answer, graded by hand) keep their metadata and get an empty prompt;
+- cells tagged `demo` keep the tag (the grader does not run them: `pendkit.grading.runner`);
 - `# NBVAL_CHECK_OUTPUT` markers are dropped (a student copy's outputs differ by design);
 - outputs and execution counts are cleared; metadata records the lab number for the grader.
 """

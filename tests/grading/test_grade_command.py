@@ -62,6 +62,12 @@ def broken_class(folder: Path) -> None:
     (folder / "judy").mkdir()
     (folder / "judy" / "01_encoder.ipynb").write_text("this is not a notebook")
     save("kim", replace_in(solution(), "def decode_frame", '"""Position', 'while True:\n        pass\n    """Position'))
+    leo = insert_after_imports(solution(), "import os\nos._exit(1)  # a demo the grader does not run")
+    leo.cells[index_of(leo, "os._exit(1)  # a demo")].metadata["tags"] = ["demo"]
+    save("leo", leo)
+    mia = solution()
+    mia.cells[index_of(mia, "def decode_frame")].metadata["tags"] = ["demo"]  # a tag can only cost points
+    save("mia", mia)
 
 
 @pytest.fixture(scope="module")
@@ -93,6 +99,26 @@ def test_every_score_in_results_json_is_one_number_type(graded):
     for student in results.values():  # once 11.0 in one file and 14 in another
         assert isinstance(student["score"], float)
         assert all(isinstance(t["score"], float) and isinstance(t["max_score"], float) for t in student["tests"])
+
+
+def test_cells_tagged_demo_are_not_run_and_the_tag_gains_nothing(graded):
+    rows, results = graded
+    assert results["leo"]["score"] == FULL and "killed the kernel" not in messages(results, "leo")
+    assert "1 demonstration cells (tagged `demo`) were not run" in results["leo"]["output"]
+    decode = [t for t in results["mia"]["tests"] if "decode_frame" in t["name"]]
+    assert decode and all(t["score"] == 0 for t in decode) and results["mia"]["score"] < FULL
+
+
+DEMO_LABS = [p for p in sorted((ROOT / "solutions").glob("*.ipynb"))
+             if any("demo" in c.metadata.get("tags", []) for c in nbformat.read(p, as_version=4).cells)]
+
+
+@pytest.mark.parametrize("solution_file", DEMO_LABS, ids=lambda p: p.name)
+def test_a_solution_scores_full_marks_without_its_demo_cells(solution_file):
+    lab = solution_file.name[:2]
+    grade = grade_notebook(solution_file, "solution", lab, sorted(HIDDEN.glob(f"lab{lab}_*.py")), 60, 180)
+    assert grade.tasks and grade.score == grade.max_score, [(t.task, t.score) for t in grade.tasks]
+    assert any("demonstration cells" in note for note in grade.notes)
 
 
 def test_untouched_lab_scores_zero(graded):
