@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from pendkit.adapt.excitation import EXCITATION_STREAM, Excitation, record, rest_offset_counts, schedule
-from pendkit.adapt.identify import PRIOR_LATENCY_MS, Identification, identify, rig_values
+from pendkit.adapt.identify import PRIOR_LATENCY_MS, Identification, identify_best, rig_values
 from pendkit.adapt.plots import plot_identification
 from pendkit.adapt.routes import classical_on_device, classical_on_rig, fine_tune_on_rig, train_on_twin
 from pendkit.adapt.trials import Design, identified_design, trial_steps, try_on_device
@@ -66,6 +66,7 @@ class AdaptConfig:
     evaluation_episodes: int = 3
     policy: str = "r-dqn-realistic"  # adapted from r-dqn-robust: 1/5 on the default rig, against 3/5 (docs/rl.md)
     identification_evaluations: int = 1200
+    identification_restarts: int = 3  # from the same recordings; the best match is kept (docs/rl.md)
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -74,6 +75,8 @@ class AdaptConfig:
                               f"{self.episodes}")
         if self.twin_episodes < 0 or self.evaluation_episodes < 0:
             raise ConfigError("twin_episodes and evaluation_episodes must be >= 0")
+        if self.identification_restarts < 1:
+            raise ConfigError(f"identification_restarts must be >= 1, got {self.identification_restarts}")
 
 
 def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
@@ -94,13 +97,15 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     say(f"(a) {len(recordings)} excitation episodes: {report['rig_s_excitation']:.0f} s of rig time")
 
     prior = rig.prior()
-    identification = identify(recordings, prior, max_evaluations=config.identification_evaluations, seed=config.seed)
+    identification = identify_best(recordings, prior, config.identification_evaluations,
+                                   seeds=[config.seed + k for k in range(config.identification_restarts)])
     identification = recalibrated(rig, recordings, identification, report, say)
     identification.params.save(out / "rig.json")
     report["identified"] = identification.values()
     report["prior"] = rig_values(prior, PRIOR_LATENCY_MS)
     report["matching_cost"] = {"prior": identification.prior_cost, "identified": identification.cost}
-    say(f"(b) identified in {identification.seconds:.0f} s: servo {identification.params.servo_speed_s_per_60deg:.3f} "
+    say(f"(b) identified in {identification.seconds:.0f} s (the closest of {config.identification_restarts} fits): "
+        f"servo {identification.params.servo_speed_s_per_60deg:.3f} "
         f"s/60 deg, pendulum {identification.params.pendulum_natural_frequency_rad_s:.2f} rad/s, latency "
         f"{identification.latency_ms:.0f} ms (matching cost {identification.prior_cost:.3f} -> "
         f"{identification.cost:.3f})")

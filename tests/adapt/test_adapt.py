@@ -10,9 +10,10 @@ import pytest
 
 import pendkit
 from pendkit.adapt.excitation import REST_STEPS, Excitation, NotAtRest, hold_until_at_rest, record, schedule
-from pendkit.adapt.identify import identify, matching_cost, swing_estimates
+from pendkit.adapt.identify import identify, identify_best, matching_cost, swing_estimates
 from pendkit.adapt.rigs import twin_rig
 from pendkit.encoder import wrapped_rad
+from pendkit.errors import ConfigError
 from pendkit.rig import RigParams
 
 HIDDEN = dataclasses.replace(RigParams.preset("hitec-d645mw-4v8"), dowel_length_m=0.34,
@@ -68,6 +69,17 @@ def test_identification_finds_a_hidden_rigs_servo_speed_loop_damping_and_pendulu
     # the servo's loop damping: the underdamped HSB-9380TH (0.2) is told from the prior's 0.7 by its swings
     prior_miss = abs(rig.prior().servo_damping_ratio - hidden.servo_damping_ratio)
     assert abs(found.params.servo_damping_ratio - hidden.servo_damping_ratio) <= max(prior_miss / 2, 0.1)
+
+
+def test_of_several_fits_of_the_same_recordings_the_closest_match_is_kept():
+    recs, rig = recordings(HIDDEN)
+    fits = [identify(recs, rig.prior(), max_evaluations=40, seed=seed) for seed in (0, 1, 2)]
+    best = identify_best(recs, rig.prior(), 40, seeds=(0, 1, 2))
+    closest = min(fits, key=lambda fit: fit.cost)
+    assert best.cost == closest.cost and best.params == closest.params and best.latency_ms == closest.latency_ms
+    assert best.evaluations == sum(fit.evaluations for fit in fits)
+    with pytest.raises(ConfigError, match="at least one seed"):
+        identify_best(recs, rig.prior(), 40, seeds=())
 
 
 def test_the_prior_takes_the_rigs_reported_end_counts_and_nothing_else():
