@@ -123,7 +123,9 @@ def main() -> None:
         for path in filter(chosen, sorted((ROOT / tree).glob("*.ipynb"))):
             print(f"notebook={tree}/{path.name} mode=ci wall_s={run_seconds(path, strict):.1f} goal_s=120",
                   flush=True)
-    for path in filter(chosen, sorted((ROOT / "solutions").glob("*.ipynb")) if "grade" in args.runs else []):
+    if "grade" not in args.runs:
+        return
+    for path in filter(chosen, sorted((ROOT / "solutions").glob("*.ipynb"))):
         lab = path.name[:2]
         started = time.perf_counter()
         grade = grade_notebook(path, "bench", lab, sorted((ROOT / "solutions" / "tests").glob(f"lab{lab}_*.py")))

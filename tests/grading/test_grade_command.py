@@ -10,7 +10,7 @@ import pytest
 from click.testing import CliRunner
 
 from pendkit.cli import main
-from pendkit.grading.runner import grade_notebook
+from pendkit.grading.runner import DEMO_TAG, grade_notebook
 
 ROOT = Path(__file__).resolve().parents[2]
 SOLUTION = ROOT / "solutions" / "01_encoder.ipynb"
@@ -63,10 +63,10 @@ def broken_class(folder: Path) -> None:
     (folder / "judy" / "01_encoder.ipynb").write_text("this is not a notebook")
     save("kim", replace_in(solution(), "def decode_frame", '"""Position', 'while True:\n        pass\n    """Position'))
     leo = insert_after_imports(solution(), "import os\nos._exit(1)  # a demo the grader does not run")
-    leo.cells[index_of(leo, "os._exit(1)  # a demo")].metadata["tags"] = ["demo"]
+    leo.cells[index_of(leo, "os._exit(1)  # a demo")].metadata["tags"] = [DEMO_TAG]
     save("leo", leo)
     mia = solution()
-    mia.cells[index_of(mia, "def decode_frame")].metadata["tags"] = ["demo"]  # a tag can only cost points
+    mia.cells[index_of(mia, "def decode_frame")].metadata["tags"] = [DEMO_TAG]  # a tag can only cost points
     save("mia", mia)
 
 
@@ -110,7 +110,7 @@ def test_cells_tagged_demo_are_not_run_and_the_tag_gains_nothing(graded):
 
 
 DEMO_LABS = [p for p in sorted((ROOT / "solutions").glob("*.ipynb"))
-             if any("demo" in c.metadata.get("tags", []) for c in nbformat.read(p, as_version=4).cells)]
+             if any(DEMO_TAG in c.metadata.get("tags", []) for c in nbformat.read(p, as_version=4).cells)]
 
 
 @pytest.mark.parametrize("solution_file", DEMO_LABS, ids=lambda p: p.name)

@@ -10,6 +10,8 @@ import nbformat
 import pytest
 from nbclient import NotebookClient
 
+from pendkit.grading.runner import DEMO_TAG
+
 ROOT = Path(__file__).resolve().parents[2]
 
 WRONG_LQR_GAIN = '''
@@ -30,7 +32,7 @@ def printed_by_lab(notebook_name: str, stop_at: str, replace: dict[str, str] | N
     notebook = nbformat.read(ROOT / "solutions" / notebook_name, as_version=4)
     kept = []
     for cell in notebook.cells:
-        if cell.cell_type != "code" or ("demo" in cell.metadata.get("tags", []) and stop_at not in cell.source):
+        if cell.cell_type != "code" or (DEMO_TAG in cell.metadata.get("tags", []) and stop_at not in cell.source):
             continue
         for name, source in (replace or {}).items():
             if f"def {name}(" in cell.source:
