@@ -184,6 +184,8 @@ def fastest_bang_bang(step_model: StepModel, x0, limits: SwingUpLimits | None = 
 def _step_in_chunks(step_model: StepModel, states: np.ndarray, targets_rad: np.ndarray,
                     chunk: int = 16384) -> np.ndarray:
     """`step_model.step` over many sequences, a cache-sized chunk at a time (about twice as fast as one go)."""
+    if states.shape[1] <= chunk:  # also none left: every sequence over-spun
+        return step_model.step(states, targets_rad)
     return np.concatenate([step_model.step(states[:, i:i + chunk], targets_rad[i:i + chunk])
                            for i in range(0, states.shape[1], chunk)], axis=1)
 

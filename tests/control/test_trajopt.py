@@ -74,6 +74,11 @@ def test_an_overspin_limit_below_the_swing_up_speed_leaves_no_plan():
     assert fastest_bang_bang(DELAYED, REST, SwingUpLimits(overspin_rad_s=8.0), max_steps=40) is None
 
 
+def test_a_start_where_every_sequence_over_spins_leaves_no_plan_and_no_error():
+    spinning = initial_state(pendulum_velocity_rad_s=80.0)  # the tracker replans from wherever it is
+    assert fastest_bang_bang(DELAYED, spinning, SwingUpLimits(), max_steps=5) is None
+
+
 def test_a_start_inside_the_catch_set_needs_no_plan():
     plan = fastest_bang_bang(DELAYED, initial_state(pendulum_rad=math.pi - 0.05))
     assert plan is not None and len(plan.targets_rad) == 0
