@@ -25,7 +25,8 @@ from pendkit.agents.runs import build_run, evaluate_agent, make_env, save_weight
 from pendkit.agents.train import train_sync
 from pendkit.rig import RigParams
 from pendkit.sim.fidelity import resolve_fidelity
-from pendkit.sim.randomize import SERVO_FIELDS, TRAINING_RANGES as R
+from pendkit.sim.randomize import SERVO_FIELDS
+from pendkit.sim.randomize import TRAINING_RANGES as R
 
 
 def rig_features(env) -> np.ndarray:

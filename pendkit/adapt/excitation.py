@@ -25,6 +25,12 @@ CENTRE = 0.0
 # (half-period in steps, amplitude as a fraction of the arm's half range), one per episode, cycled
 EPISODES = ((2, 0.9), (6, 0.3), (3, 0.9), (5, 0.45), (2, 0.8), (8, 0.4), (3, 0.7), (12, 0.35), (4, 0.5),
             (7, 0.3))
+# the servo's loop: steps of 5-11 degrees, within a step or so of the servo's speed limit, every 1-2 steps.
+# Through the big jumps above the loop's stiffness hardly shows (on one rig a full-torque error read anywhere
+# from 1 to 3.6 degrees matched within 8%); after these steps the stiffness and damping set how the pendulum
+# twitches (the same spread then costs 10-95% more). Too small to swing the pendulum freely: no free swing.
+LOOP_EPISODES = ((1, 0.06), (2, 0.1), (1, 0.12))
+LOOP_DRIVE_STEPS, LOOP_FREE_STEPS = 40, 20
 SETTLE_STEPS = 8  # after the last jump back to the centre, before the swing counts as free
 # at rest: the encoder stays within 3 counts over REST_STEPS steps (half a period; a count's flicker allowed)
 REST_SPREAD_RAD = 3 * 2 * np.pi / 1024
@@ -56,8 +62,11 @@ class Excitation:
         return {"action_mode": "continuous", "filter_coefficient": 0.0}
 
 
-def schedule(episodes: int) -> list[Excitation]:
-    return [Excitation(*EPISODES[k % len(EPISODES)]) for k in range(episodes)]
+def schedule(episodes: int, loop_episodes: int = 0) -> list[Excitation]:
+    """`episodes` of big jumps and a free swing, then `loop_episodes` of small quick steps (`LOOP_EPISODES`)."""
+    return ([Excitation(*EPISODES[k % len(EPISODES)]) for k in range(episodes)]
+            + [Excitation(*LOOP_EPISODES[k % len(LOOP_EPISODES)], LOOP_DRIVE_STEPS, LOOP_FREE_STEPS)
+               for k in range(loop_episodes)])
 
 
 def free_from(actions: list[float]) -> int | None:

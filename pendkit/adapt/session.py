@@ -55,12 +55,14 @@ class Rig:
 @dataclass(frozen=True)
 class AdaptConfig:
     """`episodes`: the rig time adaptation may use, in episodes of 500 control steps (30 s each at 60 ms: 10 is
-    5 minutes), as the rig counts it: `excitation_episodes` short recordings, the device trials when asked for
-    (`device_trials`) and they fit, then fine-tuning in the whole episodes left; `twin_episodes`: training on the
-    identified twin (laptop time); `evaluation_episodes`: greedy episodes on the rig afterwards."""
+    5 minutes), as the rig counts it: `excitation_episodes` short recordings and `loop_episodes` shorter ones,
+    the device trials when asked for (`device_trials`) and they fit, then fine-tuning in the whole episodes
+    left; `twin_episodes`: training on the identified twin (laptop time); `evaluation_episodes`: greedy
+    episodes on the rig afterwards."""
 
     episodes: int = 10
     excitation_episodes: int = 6
+    loop_episodes: int = 3  # short ones of small steps that show the servo's loop (pendkit.adapt.excitation)
     device_trials: bool = False  # on recalibrated rigs the trials chose no better than the identified twin's
     twin_episodes: int = 60
     evaluation_episodes: int = 3
@@ -73,6 +75,8 @@ class AdaptConfig:
         if not 1 <= self.excitation_episodes <= self.episodes:
             raise ConfigError(f"need 1 <= excitation_episodes <= episodes, got {self.excitation_episodes}, "
                               f"{self.episodes}")
+        if self.loop_episodes < 0:
+            raise ConfigError(f"loop_episodes must be >= 0, got {self.loop_episodes}")
         if self.twin_episodes < 0 or self.evaluation_episodes < 0:
             raise ConfigError("twin_episodes and evaluation_episodes must be >= 0")
         if self.identification_restarts < 1:
@@ -90,7 +94,7 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
 
     env = rig.make_env(stream=EXCITATION_STREAM, log_dir=str(out / "excitation-logs"), **Excitation.env_kwargs())
     recordings = [record(env, excitation, seed=config.seed + k)
-                  for k, excitation in enumerate(schedule(config.excitation_episodes))]
+                  for k, excitation in enumerate(schedule(config.excitation_episodes, config.loop_episodes))]
     env.close()
     (out / "excitation.json").write_text(json.dumps([r.as_dict() for r in recordings]))
     report["rig_s_excitation"] = rig.seconds()

@@ -9,7 +9,16 @@ import numpy as np
 import pytest
 
 import pendkit
-from pendkit.adapt.excitation import REST_STEPS, Excitation, NotAtRest, hold_until_at_rest, record, schedule
+from pendkit.adapt.excitation import (
+    LOOP_DRIVE_STEPS,
+    LOOP_FREE_STEPS,
+    REST_STEPS,
+    Excitation,
+    NotAtRest,
+    hold_until_at_rest,
+    record,
+    schedule,
+)
 from pendkit.adapt.identify import identify, identify_best, matching_cost, swing_estimates
 from pendkit.adapt.rigs import twin_rig
 from pendkit.encoder import wrapped_rad
@@ -113,10 +122,13 @@ def test_an_adaptation_session_writes_rig_policy_and_report_within_its_rig_time(
     assert (tmp_path / "policy.pt").exists() and (tmp_path / "identification.png").read_bytes()[:4] == b"\x89PNG"
     saved = json.loads((tmp_path / "report.json").read_text())
     # rig time as the rig counted it, within 2 episodes of 500 steps (60 s): 2 excitation episodes of 102 steps
-    # after the 7 steps that find the pendulum still, no device trials (the default), and the one whole
-    # fine-tuning episode of 500 steps that fits in what is left
+    # and the default 3 of the loop's small steps (60 each), each after the 7 steps that find the pendulum
+    # still, no device trials (the default), and the one whole fine-tuning episode of 500 steps that fits in
+    # what is left
     assert saved["rig_s_trials"] == 0.0 and saved["device_trials"] == []
-    assert saved["rig_s_adaptation"] == pytest.approx((2 * (REST_STEPS - 1 + 102) + 500) * 0.06)
+    loop_steps = LOOP_DRIVE_STEPS + LOOP_FREE_STEPS
+    expected_steps = 2 * (REST_STEPS - 1 + 102) + config.loop_episodes * (REST_STEPS - 1 + loop_steps) + 500
+    assert saved["rig_s_adaptation"] == pytest.approx(expected_steps * 0.06)
     assert saved["rig_s_adaptation"] <= saved["rig_s_budget"] == pytest.approx(2 * 500 * 0.06)
     assert saved["rig_s_total"] > saved["rig_s_adaptation"]  # the evaluation came after, on the same rig
     assert report["policy_on_rig"]["summary"].startswith("solved=")

@@ -80,3 +80,25 @@ def test_identification_on_the_device_clock_reads_a_hidden_servo_through_poor_wi
     assert found.params.pendulum_natural_frequency_rad_s == pytest.approx(
         hidden.pendulum_natural_frequency_rad_s, rel=0.03)
     assert abs(found.params.servo_damping_ratio - hidden.servo_damping_ratio) <= 0.15  # the prior says 0.7
+
+
+def test_the_loop_episodes_show_a_slow_servos_loop_that_the_big_jumps_hide(tmp_path):
+    """On a slow servo the big jumps are ramps at its speed limit, and its loop hardly shows in them. A loop
+    twice as stiff or as soft moves the replayed pendulum far more after the small quick steps, so a fit has
+    the loop's stiffness to go on (docs/rl.md)."""
+    slow = RigParams.preset("hitec-d645mw-4v8")
+    rig = twin_rig(slow, IMPAIRMENTS["classroom-wifi"])
+    env = rig.make_env(stream=EXCITATION_STREAM, log_dir=str(tmp_path), **Excitation.env_kwargs())
+    episodes = schedule(3, loop_episodes=3)
+    recorded = [record(env, e, seed=k) for k, e in enumerate(episodes)]
+    env.close()
+    assert all(r.device is not None for r in recorded)
+    jumps, loop = recorded[:3], recorded[3:]
+    assert max(np.ptp(r.actions) for r in loop) < 0.3 < min(np.ptp(r.actions) for r in jumps)
+
+    def rise(recordings, scale):
+        changed = dataclasses.replace(slow, servo_full_torque_error_deg=slow.servo_full_torque_error_deg * scale)
+        return replay_cost(changed, 0.0, recordings) - replay_cost(slow, 0.0, recordings)
+
+    for scale in (0.5, 2.0):
+        assert rise(loop, scale) > 3 * max(rise(jumps, scale), 1e-7)
