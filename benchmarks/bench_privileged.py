@@ -12,17 +12,14 @@ told its own parameters.
 from __future__ import annotations
 
 import argparse
-import copy
 import dataclasses
-import time
 
 import gymnasium as gym
 import numpy as np
 
-from pendkit.agents.pretrained import POLICIES
-from pendkit.agents.rig_suite import preset_rigs, random_rigs, rig_env, summary, validation_rigs
-from pendkit.agents.runs import build_run, evaluate_agent, make_env, save_weights
-from pendkit.agents.train import train_sync
+from pendkit.agents.pretrained import POLICIES, train_keeping_best
+from pendkit.agents.rig_suite import policy_on_rigs, preset_rigs, random_rigs, summary, validation_rigs
+from pendkit.agents.runs import build_run, make_env, save_weights
 from pendkit.rig import RigParams
 from pendkit.sim.fidelity import resolve_fidelity
 from pendkit.sim.randomize import SERVO_FIELDS
@@ -58,15 +55,10 @@ class ToldTheRig(gym.ObservationWrapper):
         return np.concatenate([np.asarray(observation, np.float32), rig_features(self.env.unwrapped)])
 
 
-def on_rigs(spec, state, rigs, starts: int, seed: int = 10_000) -> dict:
-    outcomes = {}
-    for name, rig in rigs.items():
-        env = ToldTheRig(rig_env(rig, spec))
-        _, agent, inputs = build_run(spec, env)
-        agent.load_state_dict(state)
-        outcomes[name] = evaluate_agent(env, agent, inputs, 1 + starts, seed, ["rest"] + ["random"] * starts)
-        env.close()
-    return outcomes
+def validation(spec, state) -> tuple[int, float]:
+    """`pretrained.validation_score` for a learner told the rig."""
+    together = summary(policy_on_rigs(spec.run, state, validation_rigs(spec.validation_rigs), 1, wrap=ToldTheRig))
+    return together["solved"], float(together["mean_return"])
 
 
 def main() -> None:
@@ -81,24 +73,14 @@ def main() -> None:
                                episodes=args.episodes or spec.episodes)
     env = ToldTheRig(make_env(spec.run))
     _, agent, inputs = build_run(spec.run, env)
-    buffer = agent.new_buffer(spec.run.seed)
-    returns, best, started = [], None, time.perf_counter()
-    while len(returns) < spec.episodes:
-        returns += train_sync(env, agent, spec.check_every, inputs, buffer=buffer,
-                              seed=spec.run.seed * 7919 + len(returns))
-        checked = summary(on_rigs(spec.run, agent.state_dict(), validation_rigs(spec.validation_rigs), 1))
-        score = (checked["solved"], checked["mean_return"])
-        print(f"episodes={len(returns)} validation_solved={score[0]} validation_return={score[1]:.0f} "
-              f"train_return={sum(returns[-125:]) / 125:.0f} wall_s={time.perf_counter() - started:.0f}",
-              flush=True)
-        if best is None or score > best[0]:
-            best = (score, len(returns), copy.deepcopy(agent.state_dict()))
+    _, kept = train_keeping_best(env, agent, inputs, spec, score=validation)
     run = dataclasses.replace(spec.run, randomize="")
-    save_weights(args.out, agent, run, {"chosen_at_episode": best[1], "validation_solved": best[0][0]})
+    save_weights(args.out, agent, run, kept)
     for group, rigs in (("presets", preset_rigs()), ("held-out", random_rigs())):
-        outcome = summary(on_rigs(run, best[2], rigs, args.starts))
-        print(f"privileged seed={args.seed} kept={best[1]} rigs={group} solved={outcome['solved']}/"
-              f"{outcome['episodes']} median_upright_s={outcome['median_upright_s']}", flush=True)
+        outcome = summary(policy_on_rigs(run, agent.state_dict(), rigs, args.starts, wrap=ToldTheRig))
+        print(f"privileged seed={args.seed} kept={kept['chosen_at_episode']} rigs={group} "
+              f"solved={outcome['solved']}/{outcome['episodes']} median_upright_s={outcome['median_upright_s']}",
+              flush=True)
 
 
 if __name__ == "__main__":

@@ -42,11 +42,12 @@ def rig_env(rig: RandomRig, spec: RunSpec | None = None, **env_options):
 
 
 def policy_on_rigs(spec: RunSpec, state: dict, rigs: dict[str, RandomRig], starts: int = 5,
-                   seed: int = 10_000) -> dict[str, Evaluation]:
-    """Greedy episodes of a trained agent on each rig: one from rest, then `starts` random starts."""
+                   seed: int = 10_000, wrap=None) -> dict[str, Evaluation]:
+    """Greedy episodes of a trained agent on each rig: one from rest, then `starts` random starts. `wrap`: a
+    wrapper the agent's env had in training (an ablation's extra observation)."""
     outcomes = {}
     for name, rig in rigs.items():
-        env = rig_env(rig, spec)
+        env = rig_env(rig, spec) if wrap is None else wrap(rig_env(rig, spec))
         _, agent, inputs = build_run(spec, env)
         agent.load_state_dict(state)
         outcomes[name] = evaluate_agent(env, agent, inputs, 1 + starts, seed, ["rest"] + ["random"] * starts)
