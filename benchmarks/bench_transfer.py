@@ -3,6 +3,7 @@
     python benchmarks/bench_transfer.py zero-shot [--starts 5]        # each controller x presets and random rigs
     python benchmarks/bench_transfer.py ceiling [--starts 5]          # the classical designs as oracles
     python benchmarks/bench_transfer.py adapt [--rigs 6] [--seeds 0 1 2] [--jobs 2] [--policy r-dqn-robust]
+                                              [--loop-episodes 3]
     python benchmarks/bench_transfer.py ablations [--rigs 6] [--jobs 2]
     python benchmarks/bench_transfer.py device [--rigs 6]             # device designs on true parameters
 
@@ -146,9 +147,11 @@ def adapt_rigs(count: int):
     return [(f"hidden-{k:02d}", rig) for k, rig in enumerate(held_out_rigs(count, ADAPT_RIG_SEED))]
 
 
-def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy: str | None = None) -> str:
+def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy: str | None = None,
+              loop_episodes: int | None = None) -> str:
     """One adaptation of one rig; `variant` is "full", "identification-only" or a learner trained afresh;
-    `policy`: the shipped policy the first two start from (default: AdaptConfig's)."""
+    `policy`: the shipped policy the first two start from (default: AdaptConfig's); `loop_episodes`: the
+    excitation's episodes of small steps (default: AdaptConfig's)."""
     import torch
 
     torch.set_num_threads(1)
@@ -159,6 +162,8 @@ def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy
     out.mkdir(parents=True, exist_ok=True)
     rig.params.save(out / "hidden-rig.json")
     start = {"policy": policy} if policy else {}
+    if loop_episodes is not None:
+        start["loop_episodes"] = loop_episodes
     changes = {"full": start, "identification-only": {"episodes": AdaptConfig().excitation_episodes, **start}}
     config = AdaptConfig(seed=seed, evaluation_episodes=EVALUATION_EPISODES,
                          **changes.get(variant, {"policy": variant, "twin_episodes": 300}))
@@ -173,6 +178,7 @@ def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy
             f"rig_episodes={report['rig_s_adaptation'] / episode_s:.1f} wall_s={report['wall_s_adaptation']:.0f} "
             f"speed_error={speed:+.0%} omega_error={omega:+.0%} "
             f"servo_damping={found['servo_damping_ratio']:.2f}/{true.servo_damping_ratio:.2f} "
+            f"loop_error_deg={found['servo_full_torque_error_deg']:.2f}/{true.servo_full_torque_error_deg:.2f} "
             f"energy={classical['energy']['summary']} "
             f"trajopt={classical['trajopt']['summary']} device_energy={device['energy']['summary']} "
             f"device_trajopt={device['trajopt']['summary']} device_tried={device.get('tried', {}).get('summary', '-')} "
@@ -227,6 +233,8 @@ def main() -> None:
     parser.add_argument("--address", default=None, help="an existing Ray cluster (auto, or ray://HOST:10001)")
     parser.add_argument("--out", default=None, help="Where the adaptations write (default: a temporary folder).")
     parser.add_argument("--policy", default=None, help="The shipped policy adaptation starts from.")
+    parser.add_argument("--loop-episodes", type=int, default=None,
+                        help="Excitation episodes of small steps that show the servo's loop (default: adapt's).")
     args = parser.parse_args()
     if args.mode in ("zero-shot", "ceiling"):
         (zero_shot if args.mode == "zero-shot" else ceiling)(args.starts)
@@ -240,7 +248,7 @@ def main() -> None:
     if args.mode == "ablations":
         for rig_name, rig in rigs:
             print(randomisation_only(rig_name, rig), flush=True)
-    work = [(name, rig, seed, variant, out_root, args.policy)
+    work = [(name, rig, seed, variant, out_root, args.policy, args.loop_episodes)
             for variant in variants for seed in args.seeds for name, rig in rigs]
     for line in map_on_ray(adapt_one, work, args.address, args.jobs):  # the sweeps' Ray, one CPU per rig
         print(line, flush=True)

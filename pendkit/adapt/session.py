@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from pendkit.adapt.excitation import EXCITATION_STREAM, Excitation, record, rest_offset_counts, schedule
-from pendkit.adapt.identify import PRIOR_LATENCY_MS, Identification, identify_best, rig_values
+from pendkit.adapt.identify import PRIOR_LATENCY_MS, Identification, identify_best, refine_servo, rig_values
 from pendkit.adapt.plots import plot_identification
 from pendkit.adapt.routes import classical_on_device, classical_on_rig, fine_tune_on_rig, train_on_twin
 from pendkit.adapt.trials import Design, identified_design, trial_steps, try_on_device
@@ -71,6 +71,7 @@ class AdaptConfig:
     policy: str = "r-dqn-realistic"  # adapted from r-dqn-robust: 1/5 on the default rig, against 3/5 (docs/rl.md)
     identification_evaluations: int = 1200
     identification_restarts: int = 3  # from the same recordings; the best match is kept (docs/rl.md)
+    refinement_evaluations: int = 300  # the servo refined over the loop episodes too, when there are any
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -103,8 +104,11 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     say(f"(a) {len(recordings)} excitation episodes: {report['rig_s_excitation']:.0f} s of rig time")
 
     prior = rig.prior()
-    identification = identify_best(recordings, prior, config.identification_evaluations,
+    jumps = recordings[:config.excitation_episodes]
+    identification = identify_best(jumps, prior, config.identification_evaluations,
                                    seeds=[config.seed + k for k in range(config.identification_restarts)])
+    if len(recordings) > len(jumps):  # the loop episodes: the servo refined about that fit over all of them
+        identification = refine_servo(identification, recordings, prior, config.refinement_evaluations)
     identification = recalibrated(rig, recordings, identification, report, say)
     identification.params.save(out / "rig.json")
     report["identified"] = identification.values()

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from pendkit.adapt.excitation import EXCITATION_STREAM, Excitation, Recording, record, schedule
-from pendkit.adapt.identify import identify, matching_cost, measured_latency_ms
+from pendkit.adapt.identify import Identification, identify, matching_cost, measured_latency_ms, refine_servo
 from pendkit.adapt.replay import replay_cost
 from pendkit.adapt.rigs import twin_rig
 from pendkit.rig import RigParams
@@ -102,3 +102,24 @@ def test_the_loop_episodes_show_a_slow_servos_loop_that_the_big_jumps_hide(tmp_p
 
     for scale in (0.5, 2.0):
         assert rise(loop, scale) > 3 * max(rise(jumps, scale), 1e-7)
+
+
+def test_refining_the_servo_over_the_loop_episodes_mends_a_loop_the_jumps_misread(tmp_path):
+    """A fit whose loop is read twice too stiff (what the big jumps alone leave open on a slow servo) is
+    moved back towards the rig's loop by `refine_servo` over the jumps and the loop episodes together, and
+    never ends a worse match than it started."""
+    slow = RigParams.preset("hitec-d645mw-4v8")
+    rig = twin_rig(slow, IMPAIRMENTS["classroom-wifi"])
+    env = rig.make_env(stream=EXCITATION_STREAM, log_dir=str(tmp_path), **Excitation.env_kwargs())
+    recorded = [record(env, e, seed=k) for k, e in enumerate(schedule(2, loop_episodes=3))]
+    env.close()
+    true_error = slow.servo_full_torque_error_deg
+    misread = dataclasses.replace(slow, servo_full_torque_error_deg=true_error / 2)
+    # the twin's PWM frames start on the device's clock: phase 0, as the jumps' fit reads it
+    fit = Identification(misread, 10.0, cost=1.0, prior_cost=1.0, evaluations=5, seconds=0.0, pwm_phase_ms=0.0)
+    refined = refine_servo(fit, recorded, RigParams(), max_evaluations=120)
+    assert refined.cost <= replay_cost(misread, 0.0, recorded)
+    assert refined.evaluations > fit.evaluations
+    error = refined.params.servo_full_torque_error_deg
+    assert abs(np.log(error / true_error)) < 0.5 * abs(np.log(0.5))  # at least half the way back, in log scale
+    assert refined.params.pendulum_natural_frequency_rad_s == slow.pendulum_natural_frequency_rad_s  # kept
