@@ -46,6 +46,7 @@ MORE_BAD = [
     (["broker", "--port", "99999"], "65535"),
     (["sweep", "no-such-spec.yaml", "--out", "s"], "no sweep spec at"),
     (["sweep", "report", "not-a-run"], "not a sweep folder"),
+    (["adapt", "--backend", "sim", "--out", "o", "--loop-episodes", "-1"], "not in the range"),
 ]
 
 

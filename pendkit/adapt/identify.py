@@ -248,7 +248,18 @@ def identify_best(recordings: list[Recording], prior: RigParams | None = None, m
 # search over the longer record settled short of the truth (docs/rl.md)
 REFINED = ("servo_speed_s_per_60deg", "servo_stall_torque_kg_cm", "servo_full_torque_error_deg",
            "servo_damping_ratio")
-REFINE_SPAN = 1.6  # each field within x/÷ this of the fit it refines
+# each field within x/÷ this of the fit it refines; the tip (which stage 2 leaves at the prior's) as far as a
+# tip reprinted with a nut inside
+REFINE_SPAN = {"tip_mass_kg": 2.5}
+DEFAULT_REFINE_SPAN = 1.6
+
+
+def same_swing(params: RigParams, swung: RigParams) -> RigParams:
+    """`params` (another tip mass, say) with the dowel length and bearing damping that keep `swung`'s free swing:
+    its natural frequency and damping ratio, which the free swings read within a percent or two."""
+    fitted = length_for_frequency(params, swung.pendulum_natural_frequency_rad_s)
+    scale = fitted.pendulum_inertia_about_pivot_kg_m2 / swung.pendulum_inertia_about_pivot_kg_m2
+    return dataclasses.replace(fitted, pendulum_damping_n_m_s_per_rad=swung.pendulum_damping_n_m_s_per_rad * scale)
 
 
 def refine_servo(fit: Identification, recordings: list[Recording], prior: RigParams, max_evaluations: int = 300,
@@ -266,8 +277,9 @@ def refine_servo(fit: Identification, recordings: list[Recording], prior: RigPar
     last = fit.pwm_phase_ms if replayed else fit.latency_ms
 
     def params_at(x: np.ndarray) -> RigParams:
-        return dataclasses.replace(fit.params, **{name: getattr(fit.params, name) * math.exp(value)
-                                                  for name, value in zip(fields, x)})
+        params = dataclasses.replace(fit.params, **{name: getattr(fit.params, name) * math.exp(value)
+                                                    for name, value in zip(fields, x)})
+        return params if "tip_mass_kg" not in fields else same_swing(params, fit.params)
 
     def objective(x: np.ndarray) -> float:
         try:
@@ -276,12 +288,12 @@ def refine_servo(fit: Identification, recordings: list[Recording], prior: RigPar
             return 4.0
         return value if math.isfinite(value) else 4.0
 
-    span = math.log(REFINE_SPAN)
+    spans = np.log([REFINE_SPAN.get(name, DEFAULT_REFINE_SPAN) for name in fields])
     start = np.zeros(len(fields))
     start_cost = objective(start)
-    result = minimize(objective, start, method="Nelder-Mead", bounds=[(-span, span)] * len(fields),
+    result = minimize(objective, start, method="Nelder-Mead", bounds=list(zip(-spans, spans)),
                       options={"maxfev": max_evaluations, "xatol": 1e-3, "fatol": 1e-7,
-                               "initial_simplex": np.vstack([start, np.eye(len(fields)) * span / 4])})
+                               "initial_simplex": np.vstack([start, np.diag(spans) / 4])})
     best_x, best_cost = (result.x, float(result.fun)) if result.fun < start_cost else (start, start_cost)
     prior_cost = float(cost(prior, last, recordings))
     return dataclasses.replace(fit, params=params_at(best_x), cost=best_cost, prior_cost=prior_cost,

@@ -108,7 +108,10 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     identification = identify_best(jumps, prior, config.identification_evaluations,
                                    seeds=[config.seed + k for k in range(config.identification_restarts)])
     if len(recordings) > len(jumps):  # the loop episodes: the servo refined about that fit over all of them
+        before = identification
         identification = refine_servo(identification, recordings, prior, config.refinement_evaluations)
+        report["servo_refined"] = {"loop_episodes": len(recordings) - len(jumps),
+                                   "before": rig_values(before.params, before.latency_ms)}
     identification = recalibrated(rig, recordings, identification, report, say)
     identification.params.save(out / "rig.json")
     report["identified"] = identification.values()
@@ -239,6 +242,17 @@ def trials_markdown(report: dict) -> str:
             f"evaluated: {tried}. To run it: `pendkit deploy --blob {report['device_blob']} --rig ID`.\n\n")
 
 
+def refinement_markdown(report: dict) -> str:
+    refined = report.get("servo_refined")
+    if not refined:
+        return ""
+    before, after = refined["before"], report["identified"]
+    return (f"The servo refined over {refined['loop_episodes']} loop episodes as well: full-torque error "
+            f"{before['servo_full_torque_error_deg']:.2f} -> {after['servo_full_torque_error_deg']:.2f} deg, "
+            f"damping ratio {before['servo_damping_ratio']:.2f} -> {after['servo_damping_ratio']:.2f}, speed "
+            f"{before['servo_speed_s_per_60deg']:.3f} -> {after['servo_speed_s_per_60deg']:.3f} s/60 deg.\n\n")
+
+
 def report_markdown(report: dict) -> str:
     rows = "\n".join(f"| {name} | {report['prior'].get(name, float('nan')):.4g} | {value:.4g} |"
                      for name, value in report["identified"].items())
@@ -246,7 +260,7 @@ def report_markdown(report: dict) -> str:
             f"Rig time: {report['rig_s_adaptation']:.0f} s to adapt ({report['rig_s_excitation']:.0f} s of "
             f"excitation), {report['rig_s_total']:.0f} s with the evaluation; wall clock to adapt: "
             f"{report['wall_s_adaptation']:.0f} s.\n\n"
-            f"| parameter | prior | identified |\n|---|---|---|\n{rows}\n\n"
+            f"| parameter | prior | identified |\n|---|---|---|\n{rows}\n\n{refinement_markdown(report)}"
             f"Matching cost (mean squared angle error, rad^2): prior {report['matching_cost']['prior']:.4f}, "
             f"identified {report['matching_cost']['identified']:.4f}. Encoder: the hanging pendulum read "
             f"{report.get('encoder_recalibrated_counts', 0):+d} counts"

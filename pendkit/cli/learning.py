@@ -255,12 +255,15 @@ def policies_build(names: tuple[str, ...]) -> None:
 @click.option("--device-trials/--no-device-trials", default=False, show_default=True,
               help="Try the device's designs for five servo loops on the rig first (3.5 minutes of its time); "
                    "without: the identified twin's minimum-time design, which did as well (docs/rl.md).")
+@click.option("--loop-episodes", type=click.IntRange(0, 10), default=None,
+              help="Short excitation episodes of small quick steps that show the servo's loop (4 s of rig time each); "
+                   "the servo is then refined over them (default: AdaptConfig's).")
 @click.option("--identification-restarts", "restarts", type=click.IntRange(1, 10), default=3, show_default=True,
               help="Identify this many times from the same recordings (laptop time only, about a minute each) "
                    "and keep the twin that matches them best.")
 @click.option("--seed", type=int, default=0, show_default=True)
 def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, twin_episodes, evaluation_episodes,
-          policy_name, device_trials, restarts, seed) -> None:
+          policy_name, device_trials, loop_episodes, restarts, seed) -> None:
     """Fit the kit to one rig in a few of its episodes: excite it, identify its twin from the encoder, design
     the device's swing-up for it, train on that twin, fine-tune on the rig; report every route."""
     _torch_or_exit()
@@ -279,7 +282,8 @@ def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, t
             rig = mqtt_rig(rig_id, broker)
         config = AdaptConfig(episodes=episodes, excitation_episodes=min(6, episodes), twin_episodes=twin_episodes,
                              evaluation_episodes=evaluation_episodes, policy=policy_name,
-                             device_trials=device_trials, identification_restarts=restarts, seed=seed)
+                             device_trials=device_trials, identification_restarts=restarts, seed=seed,
+                             **({} if loop_episodes is None else {"loop_episodes": loop_episodes}))
         report = run_adaptation(rig, out_dir, config, say=click.echo)
     except ConfigError as error:
         raise click.ClickException(str(error)) from None

@@ -107,15 +107,17 @@ def test_free_swings_read_a_shorter_pendulums_higher_frequency():
     assert ratio == pytest.approx(expected, rel=0.05)
 
 
-def test_an_adaptation_session_writes_rig_policy_and_report_within_its_rig_time(tmp_path):
+@pytest.mark.parametrize("loop_episodes", [None, 1], ids=["default", "loop-episode"])
+def test_an_adaptation_session_writes_rig_policy_and_report_within_its_rig_time(tmp_path, loop_episodes):
     pytest.importorskip("torch")
     from pendkit.adapt.session import AdaptConfig, adapt
     from pendkit.device.controller_blob import pack
     from pendkit.device.swingup_design import design_swing_up
 
     rig = twin_rig(HIDDEN, "none")
+    looped = {} if loop_episodes is None else {"loop_episodes": loop_episodes, "refinement_evaluations": 12}
     config = AdaptConfig(episodes=2, excitation_episodes=2, twin_episodes=1, evaluation_episodes=1,
-                         policy="r-dqn-realistic", identification_evaluations=30)
+                         policy="r-dqn-realistic", identification_evaluations=30, **looped)
     report = adapt(rig, tmp_path, config, say=lambda text: None)
     identified = RigParams.load(tmp_path / "rig.json")
     assert identified != RigParams()  # something was identified
@@ -140,6 +142,12 @@ def test_an_adaptation_session_writes_rig_policy_and_report_within_its_rig_time(
     text = (tmp_path / "report.md").read_text()
     assert "| servo_speed_s_per_60deg |" in text and "run by the rig's own device" in text
     assert "without trials" in text and f"Deploy: {report['recommended'] or 'none of them'}" in text
+    # with loop episodes the servo is refined over them too, and the report says from what to what
+    assert ("servo_refined" in saved) == bool(config.loop_episodes)
+    if config.loop_episodes:
+        assert saved["servo_refined"]["loop_episodes"] == config.loop_episodes
+        assert saved["servo_refined"]["before"]["dowel_length_m"] == saved["identified"]["dowel_length_m"]
+        assert f"refined over {config.loop_episodes} loop episodes" in text
 
 
 def test_device_trials_when_asked_for_count_their_rig_time_and_choose_a_finalist():
