@@ -62,8 +62,8 @@ class AdaptConfig:
 
     episodes: int = 10
     excitation_episodes: int = 6
-    # short ones of small steps that show the servo's loop (pendkit.adapt.excitation); 3 of them solved fewer
-    # hidden rigs over 3 seeds, not more: the search settles on worse fits of the longer record (docs/rl.md)
+    # short ones of small steps that show the servo's loop (pendkit.adapt.excitation), the servo then refined over
+    # them too; 3 of them read the loop closer but solved no more hidden rigs over 3 seeds (docs/rl.md)
     loop_episodes: int = 0
     device_trials: bool = False  # on recalibrated rigs the trials chose no better than the identified twin's
     twin_episodes: int = 60
