@@ -46,3 +46,36 @@ def test_broker_config_command(tmp_path):
     assert "set_tcp_nodelay true" in (tmp_path / "mosquitto.conf").read_text()
     bad = CliRunner().invoke(main, ["broker-config", "--rigs", "r01", "--rigs", "r01", "--out", str(tmp_path)])
     assert bad.exit_code == 2 and "distinct" in bad.output
+
+
+def test_virtual_rig_serves_the_rig_a_parameter_file_describes(tmp_path):
+    """`pendkit virtual-rig --params RIG.json` (RigParams.save's format) serves that rig, not the default:
+    its status reports the file's servo end counts, which is all a rig's firmware says of itself."""
+    import dataclasses
+
+    from pendkit.adapt.rigs import rig_status
+    from pendkit.rig import RigParams
+
+    narrow = dataclasses.replace(RigParams().with_dowel_length(0.33), servo_min_counts=183, servo_max_counts=417)
+    narrow.save(tmp_path / "rig.json")
+    port = free_port()
+    url = f"mqtt://127.0.0.1:{port}"
+    broker = subprocess.Popen([sys.executable, "-m", "pendkit.cli", "broker", "--port", str(port)],
+                              stdout=subprocess.PIPE, text=True)
+    rig = None
+    try:
+        assert wait_for_port("127.0.0.1", port, 15)
+        rig = subprocess.Popen([sys.executable, "-m", "pendkit.cli", "virtual-rig", "--rig", "r08", "--broker", url,
+                                "--params", str(tmp_path / "rig.json")], stdout=subprocess.PIPE, text=True)
+        status = {}
+        for _ in range(20):  # the rig process starts MuJoCo first
+            status = rig_status("r08", url, wait_s=1.0)
+            if status:
+                break
+        assert status.get("servo_counts_range") == [183, 417]
+        assert RigParams().servo_min_counts != 183  # the default would not say so
+    finally:
+        for process in (rig, broker):
+            if process is not None:
+                process.send_signal(signal.SIGINT)
+                process.wait(timeout=10)
