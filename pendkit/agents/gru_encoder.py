@@ -15,11 +15,14 @@ import numpy as np
 import torch
 from torch import nn
 
+from pendkit.agents.threads import use_kit_threads
+
 
 class GruEncoder:
     """Encodes the episode so far; call `reset()` at each episode start, `encode(x)` once per step."""
 
     def __init__(self, input_dim: int, hidden_size: int = 32, seed: int = 0) -> None:
+        use_kit_threads()
         generator = torch.Generator().manual_seed(seed)
         self.cell = nn.GRUCell(input_dim, hidden_size)
         with torch.no_grad():

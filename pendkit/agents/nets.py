@@ -5,9 +5,12 @@ from __future__ import annotations
 import torch
 from torch import nn
 
+from pendkit.agents.threads import use_kit_threads
+
 
 def mlp(input_dim: int, output_dim: int, hidden: tuple[int, ...]) -> nn.Sequential:
-    """Linear layers with ReLU between them; the last layer is linear."""
+    """Linear layers with ReLU between them; the last layer is linear (torch then runs on the kit's threads)."""
+    use_kit_threads()
     layers: list[nn.Module] = []
     width = input_dim
     for size in hidden:

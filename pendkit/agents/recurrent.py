@@ -6,12 +6,15 @@ from __future__ import annotations
 import torch
 from torch import nn
 
+from pendkit.agents.threads import use_kit_threads
+
 
 class GruTrunk(nn.Module):
     """A GRU over normalised step inputs. `features(x, h)` = [x, h] is what the heads see."""
 
     def __init__(self, input_dim: int, gru_size: int) -> None:
         super().__init__()
+        use_kit_threads()
         self.gru = nn.GRU(input_dim, gru_size, batch_first=True)
         self.input_dim, self.gru_size = input_dim, gru_size
 

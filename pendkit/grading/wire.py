@@ -1,7 +1,7 @@
 """Values between the grader and a student's kernel, as data only (JSON), never as code or pickles.
 
-Both ways: None, bool, int, float (nan and inf included), complex, str, list, tuple, dict, numpy arrays
-and scalars of numeric or boolean dtype. Grader to kernel also: the kit's own frozen dataclasses
+Both ways: None, bool, int, float (nan and inf included), complex, str, bytes, bytearray, list, tuple, dict,
+numpy arrays and scalars of numeric or boolean dtype, numpy record arrays (structured dtypes of those). Grader to kernel also: the kit's own frozen dataclasses
 (e.g. `FurutaModel`), rebuilt in the kernel from their fields. Kernel to grader, anything else arrives as an
 `Opaque` value that says what it was: a student's object never runs code in the grader.
 """
@@ -50,7 +50,7 @@ def digest(value: Any) -> str:
 def loads(text: str, allow_kit: bool = False) -> Any:
     try:
         return decode(json.loads(text), allow_kit)
-    except (ValueError, TypeError, KeyError, RecursionError) as error:
+    except (ValueError, TypeError, KeyError, IndexError, AttributeError, RecursionError) as error:
         raise WireError(f"not a grading message: {error}") from None
 
 
@@ -68,6 +68,11 @@ def encode(value: Any, allow_kit: bool = False, depth: int = 0) -> Any:
         return _encode_numpy(value)
     if isinstance(value, str):
         return {"str": str(value)[:MAX_TEXT]}
+    if isinstance(value, (bytes, bytearray)):
+        if len(value) > MAX_ELEMENTS:
+            return {"opaque": [type(value).__name__, f"{len(value)} bytes, too many to send"]}
+        key = "bytes" if isinstance(value, bytes) else "bytearray"
+        return {key: base64.b64encode(bytes(value)).decode("ascii")}
     if isinstance(value, int):
         return {"int": int.__repr__(value)} if abs(value) < 10**4000 else {"opaque": ["int", "too large"]}
     if isinstance(value, float):
@@ -96,13 +101,38 @@ def encode(value: Any, allow_kit: bool = False, depth: int = 0) -> Any:
 
 def _encode_numpy(value) -> Any:
     array = np.asarray(value)
-    if array.dtype.kind not in "biufc":
+    if not _numeric(array.dtype):
         return {"opaque": [f"numpy {array.dtype}", f"shape {array.shape}"]}
     if array.size > MAX_ELEMENTS:
         return {"opaque": ["numpy.ndarray", f"{array.size} elements, too many to send"]}
     data = base64.b64encode(np.ascontiguousarray(array).tobytes()).decode("ascii")
     key = "ndarray" if isinstance(value, np.ndarray) else "npscalar"
-    return {key: [array.dtype.str, list(array.shape), data]}
+    dtype = array.dtype.descr if array.dtype.names else array.dtype.str
+    return {key: [dtype, list(array.shape), data]}
+
+
+def _numeric(dtype: np.dtype) -> bool:
+    """Numbers or booleans, or records whose every field is (recursively): nothing that holds objects."""
+    if dtype.names:
+        return all(_numeric(dtype.fields[name][0]) for name in dtype.names)
+    if dtype.subdtype is not None:
+        return _numeric(dtype.subdtype[0])
+    return dtype.kind in "biufc"
+
+
+def _dtype_from_wire(described) -> np.dtype:
+    if isinstance(described, str):
+        dtype = np.dtype(described)
+    else:  # a record's fields, as numpy's descr: [[name, type] or [name, type, shape], ...]
+        dtype = np.dtype([(str(f[0]), _field_type(f[1])) + ((tuple(int(n) for n in f[2]),) if len(f) > 2 else ())
+                          for f in described])
+    if not _numeric(dtype):
+        raise WireError(f"dtype {dtype} is not numeric")
+    return dtype
+
+
+def _field_type(described):
+    return str(described) if isinstance(described, str) else _dtype_from_wire(described)
 
 
 def decode(obj: Any, allow_kit: bool = False) -> Any:
@@ -124,11 +154,13 @@ def decode(obj: Any, allow_kit: bool = False) -> Any:
         return items if key == "list" else tuple(items)
     if key == "dict":
         return {_hashable(decode(k, allow_kit)): decode(v, allow_kit) for k, v in body}
+    if key in ("bytes", "bytearray"):
+        raw = base64.b64decode(str(body), validate=True)
+        return raw if key == "bytes" else bytearray(raw)
     if key in ("ndarray", "npscalar"):
-        dtype, shape, data = body
-        if np.dtype(dtype).kind not in "biufc":
-            raise WireError(f"dtype {dtype} is not numeric")
-        array = np.frombuffer(base64.b64decode(data), dtype=np.dtype(dtype)).reshape([int(n) for n in shape]).copy()
+        described, shape, data = body
+        dtype = _dtype_from_wire(described)
+        array = np.frombuffer(base64.b64decode(data), dtype=dtype).reshape([int(n) for n in shape]).copy()
         return array if key == "ndarray" else array[()]
     if key == "opaque":
         return Opaque(str(body[0])[:100], str(body[1])[:200])
