@@ -1,9 +1,10 @@
 """Values between the grader and a student's kernel, as data only (JSON), never as code or pickles.
 
 Both ways: None, bool, int, float (nan and inf included), complex, str, bytes, bytearray, list, tuple, dict,
-numpy arrays and scalars of numeric or boolean dtype, numpy record arrays (structured dtypes of those). Grader to kernel also: the kit's own frozen dataclasses
-(e.g. `FurutaModel`), rebuilt in the kernel from their fields. Kernel to grader, anything else arrives as an
-`Opaque` value that says what it was: a student's object never runs code in the grader.
+numpy arrays and scalars of numeric or boolean dtype, numpy record arrays (structured dtypes of those).
+Grader to kernel also: the kit's own frozen dataclasses (e.g. `FurutaModel`), rebuilt in the kernel from
+their fields. Kernel to grader, anything else arrives as an `Opaque` value that says what it was: a
+student's object never runs code in the grader.
 """
 
 from __future__ import annotations
