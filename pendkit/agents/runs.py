@@ -17,7 +17,7 @@ from pendkit.errors import ConfigError
 
 WEIGHTS_FORMAT = "pendkit-weights/1"
 SOLVED_TAIL_STEPS = 200
-SOLVED_SEED = 123
+SOLVED_SEED = 123  # one greedy episode's default start seed (the rule's training starts begin here too)
 
 
 @dataclass(frozen=True)
@@ -119,7 +119,8 @@ def greedy_episode(env, agent: Agent, inputs: StepInputs, seed: int = SOLVED_SEE
 
 
 def solved(infos: list[dict], tail_steps: int = SOLVED_TAIL_STEPS) -> bool:
-    """The kit's "solved": within 0.3 rad of upright for the episode's last `tail_steps` steps."""
+    """One episode holds: within 0.3 rad of upright for its last `tail_steps` steps (a *policy* is solved
+    only by the rule over many starts: `pendkit.agents.policy_rule`)."""
     from pendkit.features import holds_upright
 
     return holds_upright([info["angle_from_upright_rad"] for info in infos], tail_steps)
@@ -188,34 +189,3 @@ def evaluate_agent(env, agent: Agent, inputs: StepInputs, episodes: int, seed: i
         outcome += Evaluation([solved(infos)], [time_to_upright_s(angles, env.unwrapped.dt)], [total],
                               [held_fraction(angles)])
     return outcome
-
-
-def train_until_solved(env, agent: Agent, inputs: StepInputs, max_episodes: int, check_every: int = 10,
-                       probe=None, probe_inputs: StepInputs | None = None, max_wall_s: float = float("inf"),
-                       on_check=None, spent_s: float = 0.0, **train_options) -> tuple[list[float], int | None]:
-    """Train, and every `check_every` episodes run the greedy policy from hanging on `probe` (default: `env`)
-    with the kit's "solved" rule; stop once it holds or after `max_episodes` (or `max_wall_s` seconds, counted
-    from `spent_s` before a resume). Returns (every episode's return, the episodes it took, or None).
-    `on_check(episodes, wall_s, solved, greedy_return)` sees each check; `train_options` go to train_sync."""
-    import time
-
-    from pendkit.agents.train import train_sync
-
-    probe, probe_inputs = (probe, probe_inputs) if probe is not None else (env, inputs)
-    started = time.perf_counter() - spent_s
-    outcome = {"solved_at": None}
-
-    def check(episodes_done: int, returns: list[float]):
-        if episodes_done % check_every and episodes_done < max_episodes:
-            return True
-        total, infos = greedy_episode(probe, agent, probe_inputs)
-        held, wall_s = solved(infos), time.perf_counter() - started
-        if on_check is not None:
-            on_check(episodes_done, wall_s, held, total)
-        if held:
-            outcome["solved_at"] = episodes_done
-            return False
-        return wall_s <= max_wall_s
-
-    returns = train_sync(env, agent, max_episodes, inputs, on_episode=check, **train_options)
-    return returns, outcome["solved_at"]

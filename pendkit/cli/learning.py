@@ -117,7 +117,8 @@ def _train_on_rig(spec, out_dir, rig_id, broker, seconds) -> None:
 @click.command("eval")
 @click.argument("run_dir", type=click.Path(exists=True, file_okay=False, path_type=Path), required=False)
 @click.option("--policy", "policy_name", default=None, help="A shipped policy (`pendkit policies list`).")
-@click.option("--episodes", type=click.IntRange(1), default=20, show_default=True)
+@click.option("--episodes", type=click.IntRange(1), default=10, show_default=True,
+              help="Greedy episodes; the kit's rule judges the first 10 of --start rule.")
 @click.option("--backend", type=click.Choice(("sim", "rig")), default="sim", show_default=True,
               help="sim: the run's own twin; rig: a (virtual) rig over MQTT.")
 @click.option("--rig", "rig_id", default="r01", show_default=True, help="With --backend rig.")
@@ -126,16 +127,21 @@ def _train_on_rig(spec, out_dir, rig_id, broker, seconds) -> None:
               help="On the twin: this servo preset instead of the one trained on.")
 @click.option("--params", "params_path", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
               help="On the twin: a rig saved by RigParams.save (e.g. identified by pendkit adapt).")
-@click.option("--start", type=click.Choice(("random", "rest")), default="random", show_default=True,
-              help="On the twin: the authors' random start, or hanging still (a rig starts as it is).")
-@click.option("--seed", type=int, default=10_000, show_default=True, help="Seed of the first episode's start.")
+@click.option("--start", type=click.Choice(("rule", "random", "rest")), default="rule", show_default=True,
+              help="On the twin: the kit's rule (hanging still and the authors' random starts in turn), only random "
+                   "starts, or only hanging still (a rig starts as it is).")
+@click.option("--seed", type=int, default=None,
+              help="Seed of the first episode's start (default: the rule's reporting starts, never trained on).")
 def evaluate(run_dir: Path | None, policy_name: str | None, episodes: int, backend: str, rig_id: str,
              broker: str | None, preset: str | None, params_path: Path | None, start: str, seed: int) -> None:
-    """Greedy episodes of a trained run or a shipped policy, on the twin or a rig. The last line is
-    `solved=K/N median_upright_s=X`: solved = within 0.3 rad of upright for the last 200 steps."""
+    """Greedy episodes of a trained run or a shipped policy, on the twin or a rig. Prints the kit's rule and,
+    from the first 10 episodes of --start rule, whether the policy is solved by it (`policy_solved=K/10`);
+    the last line is `solved=K/N median_upright_s=X` over every episode (an episode is solved when within
+    0.3 rad of upright for its last 200 steps)."""
     _torch_or_exit()
     import dataclasses
 
+    from pendkit.agents.policy_rule import REPORT_SEED, RULE_STARTS, RULE_TEXT, PolicyVerdict
     from pendkit.agents.runs import build_run, evaluate_agent, load_weights, make_env
     from pendkit.errors import ConfigError
 
@@ -161,9 +167,19 @@ def evaluate(run_dir: Path | None, policy_name: str | None, episodes: int, backe
         raise click.ClickException(str(error)) from None
     _, agent, inputs = build_run(spec, env)
     agent.load_state_dict(state)
-    outcome = evaluate_agent(env, agent, inputs, episodes, seed, start if backend == "sim" else None)
+    seed = REPORT_SEED if seed is None else seed
+    starts = [RULE_STARTS[k % len(RULE_STARTS)] for k in range(episodes)] if start == "rule" else start
+    outcome = evaluate_agent(env, agent, inputs, episodes, seed, starts if backend == "sim" else None)
     env.close()
     click.echo(f"mean return {outcome.mean_return:.1f} over {episodes} episodes")
+    click.echo(f"rule: {RULE_TEXT}")
+    if start == "rule" and episodes >= len(RULE_STARTS):
+        first = dataclasses.replace(outcome, **{name: getattr(outcome, name)[:len(RULE_STARTS)] for name in
+                                                ("solved", "upright_s", "returns", "held_fractions")})
+        verdict = PolicyVerdict(first, RULE_STARTS if backend == "sim" else (None,) * len(RULE_STARTS), seed)
+        click.echo(f"policy: {verdict.summary()} " + " ".join(f"{k}={v}" for k, v in verdict.held_by_start().items()))
+    else:
+        click.echo(f"policy: not judged (the rule takes --start rule and at least {len(RULE_STARTS)} episodes)")
     click.echo(outcome.summary())
 
 

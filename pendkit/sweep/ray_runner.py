@@ -151,5 +151,6 @@ def trial_lines_callback(out: Path, say, total: int):
 def trial_line(row: dict) -> str:
     episodes = row["episodes_to_solve"] if row["solved"] else "-"
     return (f"trial={row['trial_id']} learner={row['learner']} setting={row['setting_name']} seed={row['seed']} "
-            f"solved={row['solved']} episodes_to_solve={episodes} episodes={row['episodes']} "
+            f"solved={row['solved']} episodes_to_solve={episodes} policy_solved={row.get('policy_solved', '-')} "
+            f"episodes={row['episodes']} "
             f"wall_s={row['wall_s']:.1f} host={row['host']} node={(row.get('node_id') or '-')[:8]}")

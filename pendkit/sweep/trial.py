@@ -1,9 +1,11 @@
-"""One trial of a sweep, in its own folder: learn, check the greedy policy every `check_every` episodes with
-the kit's "solved" rule, stop when solved or out of budget. Everything it needs to resume is on disk:
+"""One trial of a sweep, in its own folder: learn, judge the greedy policy every `check_every` episodes by
+the kit's rule (`pendkit.agents.policy_rule`, on the training starts), stop when solved or out of budget,
+then evaluate the final policy on the rule's reporting starts (which training never saw). Everything it
+needs to resume is on disk:
 
     trials/<id>/checkpoint.pt   the kit's training checkpoint (pendkit.agents.checkpoint), every check
     trials/<id>/curve.csv       return of every training episode (the learning curve)
-    trials/<id>/checks.csv      every check: episodes, wall seconds, solved, greedy return
+    trials/<id>/checks.csv      every check: episodes, wall seconds, solved, the screen's return, held k/n
     trials/<id>/weights.pt      the final agent (pendkit eval reads it)
     trials/<id>/result.json     written last: a trial with it is finished and never run again
 
@@ -58,7 +60,8 @@ def run_trial(trial: Trial, folder: str | Path) -> dict:
     """Run (or resume) `trial` in `folder`; return its result row (also written to result.json)."""
     import torch
 
-    from pendkit.agents.runs import build_run, make_env, save_weights, train_until_solved
+    from pendkit.agents.policy_rule import REPORT_SEED, judge_policy, train_until_solved
+    from pendkit.agents.runs import build_run, make_env, save_weights
 
     folder = Path(folder)
     if (folder / RESULT).exists():
@@ -75,9 +78,9 @@ def run_trial(trial: Trial, folder: str | Path) -> dict:
     resumed_from = checks[-1]["episodes"] if checks else 0
     solved_at: dict = {}
 
-    def record(episodes: int, wall_s: float, held: bool, greedy_return: float) -> None:
-        _append_check(folder / "checks.csv", episodes, wall_s, held, greedy_return)
-        if held:
+    def record(episodes: int, wall_s: float, verdict) -> None:
+        _append_check(folder / "checks.csv", episodes, wall_s, verdict)
+        if verdict.solved:
             solved_at["episodes"], solved_at["wall_s"] = episodes, wall_s
 
     started = time.perf_counter() - spent_s
@@ -88,12 +91,14 @@ def run_trial(trial: Trial, folder: str | Path) -> dict:
                                     checkpoint_every=budget.check_every, resume=True)
     if not solved_at and checks and checks[-1]["solved"]:  # solved just before a kill
         solved_at.update(episodes=checks[-1]["episodes"], wall_s=checks[-1]["wall_s"])
+    held_out = judge_policy(probe, agent, probe_inputs, REPORT_SEED)
     save_weights(folder / "weights.pt", agent, spec if isinstance(spec.fidelity, str) else _named(spec),
                  {"trial": trial.trial_id})
     env.close()
     probe.close()
     result = {**trial.to_dict(), "solved": bool(solved_at), "episodes_to_solve": solved_at.get("episodes"),
               "wall_s_to_solve": round(solved_at["wall_s"], 1) if solved_at else None,
+              "policy_solved": f"{held_out.held}/{len(held_out.starts)}", "held_out_solved": held_out.solved,
               "episodes": len(returns), "wall_s": round(time.perf_counter() - started, 1),
               "resumed_from_episode": resumed_from, "curve": f"trials/{folder.name}/curve.csv", **where_am_i()}
     temporary = folder / (RESULT + ".tmp")
@@ -118,10 +123,11 @@ def _read_checks(path: Path) -> list[dict]:
                 for row in csv.DictReader(handle)]
 
 
-def _append_check(path: Path, episodes: int, wall_s: float, held: bool, greedy_return: float) -> None:
+def _append_check(path: Path, episodes: int, wall_s: float, verdict) -> None:
     new = not path.exists()
     with path.open("a", newline="") as handle:
         writer = csv.writer(handle)
         if new:
-            writer.writerow(["episodes", "wall_s", "solved", "greedy_return"])
-        writer.writerow([episodes, f"{wall_s:.2f}", int(held), f"{greedy_return:.2f}"])
+            writer.writerow(["episodes", "wall_s", "solved", "screen_return", "held"])
+        writer.writerow([episodes, f"{wall_s:.2f}", int(verdict.solved), f"{verdict.evaluation.returns[0]:.2f}",
+                         f"{verdict.held}/{len(verdict.starts)}"])

@@ -54,6 +54,7 @@ def _row(learner, steps, seed, episodes):
                        "budget": {"max_episodes": 300}})
     return {**spec.trials[0].to_dict(), "solved": episodes is not None, "episodes_to_solve": episodes,
             "wall_s_to_solve": None if episodes is None else 2.0 * episodes, "episodes": episodes or 300,
+            "policy_solved": "9/10" if episodes else "2/10", "held_out_solved": episodes is not None,
             "wall_s": 600.0, "host": "h", "node_id": "n"}
 
 
@@ -68,8 +69,10 @@ def test_a_delay_sweep_becomes_lab_08s_file_and_the_benchmarks_lines(tmp_path):
     assert sweep.delays_ms == [0.0, 120.0] and sweep.seeds == 2
     assert sweep.success_rate == {"dqn": [1.0, 0.0], "r-dqn": [0.5, 1.0]}
     lines = summary_lines(rows, ["r-dqn--ideal-delayed-4-steps--seed0"])
-    assert ("algo=r-dqn fidelity=ideal-delayed-2-steps solved=2/2 median_episodes_to_solve=175 "
-            "median_wall_s=350") in lines
+    assert ("algo=r-dqn fidelity=ideal-delayed-2-steps solved=2/2 median_episodes_to_policy=175 "
+            "median_wall_s_to_policy=350 held_out=2/2 policy_solved=18/20") in lines
+    assert ("algo=dqn fidelity=ideal-delayed-2-steps solved=0/2 median_episodes_to_policy=nan "
+            "median_wall_s_to_policy=nan held_out=0/2 policy_solved=4/20") in lines
     assert "summary algo=dqn ideal-delayed-0-steps=2/2 ideal-delayed-2-steps=0/2" in lines
     assert "sweep algo=dqn success_rate: 0ms=1.00 120ms=0.00 largest_delay_solved_ms=0" in lines
     assert "sweep algo=r-dqn success_rate: 0ms=0.50 120ms=1.00 largest_delay_solved_ms=120" in lines
@@ -87,6 +90,7 @@ def _finished_folder(folder, seeds, solved_at):
         (folder / "trials" / trial.trial_id).mkdir(parents=True)
         row = {**trial.to_dict(), "solved": episodes is not None, "episodes_to_solve": episodes,
                "wall_s_to_solve": episodes and episodes * 0.7, "episodes": episodes or 100, "wall_s": 70.0,
+               "policy_solved": "10/10" if episodes else "0/10", "held_out_solved": episodes is not None,
                "host": "laptop", "node_id": None, "curve": f"trials/{trial.trial_id}/curve.csv"}
         (folder / "trials" / trial.trial_id / "result.json").write_text(json.dumps(row))
 
@@ -100,7 +104,8 @@ def test_a_class_gathers_each_students_seeds_into_one_table(tmp_path):
     lines = []
     rows = report(tmp_path / "ana", say=lines.append, figure=False, more=[tmp_path / "ben", tmp_path / "chloe"])
     assert [r["seed"] for r in rows] == [0, 1, 2, 3]
-    assert "algo=dqn fidelity=ideal solved=3/4 median_episodes_to_solve=50 median_wall_s=35" in lines
+    assert ("algo=dqn fidelity=ideal solved=3/4 median_episodes_to_policy=50 median_wall_s_to_policy=35 "
+            "held_out=3/4 policy_solved=30/40") in lines
     table = (tmp_path / "ana" / "table.csv").read_text().splitlines()
     assert len(table) == 5 and str(tmp_path / "ben") in table[2]
     report(tmp_path / "class", say=lines.append, figure=False, more=[tmp_path / "ben", tmp_path / "chloe"])
