@@ -25,6 +25,7 @@ from pendkit.agents.runs import RunSpec, build_run, load_weights, save_weights
 from pendkit.errors import ConfigError
 
 POLICY_DIR = Path(__file__).resolve().parents[1] / "data" / "policies"
+MEASURED_FILE = POLICY_DIR / "measured.json"  # written by benchmarks/bench_policies.py --record
 
 
 @dataclass(frozen=True)
@@ -63,6 +64,26 @@ class GreedyPolicy:
         self._x = self.inputs.reset(observation) if self._x is None else self.inputs.step(observation, self._last)
         self._last = self.agent.act(self._x, explore=False)
         return self._last
+
+
+def weights_digest(name: str) -> str:
+    """SHA-256 of a shipped policy's weights file: measured figures name the weights they were measured on."""
+    import hashlib
+
+    return hashlib.sha256((POLICY_DIR / f"{name}.pt").read_bytes()).hexdigest()
+
+
+def measured_figures() -> tuple[dict, str]:
+    """({policy: {condition: figures}}, the command that measured them) from MEASURED_FILE ({} if absent)."""
+    import json
+
+    if not MEASURED_FILE.exists():
+        return {}, ""
+    try:
+        record = json.loads(MEASURED_FILE.read_text())
+        return dict(record["policies"]), str(record["command"])
+    except (ValueError, KeyError, TypeError):
+        return {}, ""
 
 
 def policy_weights(name: str) -> tuple[RunSpec, dict]:

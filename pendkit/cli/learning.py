@@ -226,13 +226,27 @@ def policies() -> None:
 
 @policies.command("list")
 def policies_list() -> None:
-    """Name, learner, twin and training episodes of each shipped policy."""
-    from pendkit.agents.pretrained import POLICIES
+    """Name, learner, twin and training episodes of each shipped policy, and what it measured on its twin
+    (random starts solved, starts hanging still solved, the smallest held share; benchmarks/bench_policies.py)."""
+    from pendkit.agents.pretrained import POLICIES, POLICY_DIR, measured_figures, weights_digest
 
+    measured, command = measured_figures()
     for name, spec in POLICIES.items():
         twin = spec.run.fidelity + (f" over rigs ({spec.run.randomize})" if spec.run.randomize else "")
         click.echo(f"{name:<18} {spec.run.learner:<8} {twin:<30} {spec.episodes:>5} episodes"
                    + ("" if spec.built_by_default else " (built only when named)"))
+        figures_of = dict(measured.get(name, {}))
+        sha = figures_of.pop("weights_sha256", None)
+        if figures_of and (POLICY_DIR / f"{name}.pt").exists() and sha != weights_digest(name):
+            click.echo(f"{'':<18} (stale: the weights changed since they were measured)")
+        for condition, figures in figures_of.items():
+            where = "on its twin" if condition == "twin" else f"with two {condition.removeprefix('pushes_')} pushes"
+            click.echo(f"{'':<18} measured {where}: random starts {figures['solved']}, hanging {figures['rest']}, "
+                       f"held_min {figures['held_min'] if figures['held_min'] is not None else '-'}")
+        if name not in measured:
+            click.echo(f"{'':<18} not measured yet: python benchmarks/bench_policies.py --record")
+    if command:
+        click.echo(f"measured by: {command}")
 
 
 @policies.command("build")

@@ -235,6 +235,13 @@ class SimBackend:
         return observation_to_state(observation, self.params, (self._device.now_ms - delivered_ms) / 1000.0,
                                     time_since_action_s, self._device.mcu.servo_counts)
 
+    def push_pendulum(self, rate_change_rad_s: float) -> None:
+        """Change the pendulum's rate at once, as a hand's tap on the dowel does (`pendkit.sim.pushes`)."""
+        if not math.isfinite(rate_change_rad_s):
+            raise ConfigError(f"a push must be a finite rate change, got {rate_change_rad_s!r}")
+        self.data.qvel[self._pend_v] += rate_change_rad_s
+        mujoco.mj_forward(self.model, self.data)
+
     # --- inspection ---
     def true_state(self) -> dict[str, float]:
         """The twin's exact joint state (for info and tests; a real rig has no such thing)."""

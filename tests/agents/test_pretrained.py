@@ -62,3 +62,16 @@ def test_the_robust_policy_swings_up_and_holds_the_default_rig_from_rest():
     assert outcome.solved == [True]  # the kit's rule: within 0.3 rad for the last 200 steps
     # simulated seconds on a seeded twin, not wall-clock time: the same on any machine
     assert outcome.upright_s[0] < 8.0 and outcome.held_fractions[0] > 0.9
+
+
+def test_policies_list_prints_each_policys_measured_figures_and_how_they_were_measured():
+    from pendkit.agents.pretrained import measured_figures
+
+    measured, command = measured_figures()
+    assert set(measured) == set(POLICIES) and command.startswith("python benchmarks/bench_policies.py")
+    out = CliRunner().invoke(main, ["policies", "list"]).output
+    for name, conditions in measured.items():
+        figures = conditions["twin"]
+        block = out.split(name, 1)[1]
+        assert f"measured on its twin: random starts {figures['solved']}, hanging {figures['rest']}" in block
+    assert f"measured by: {command}" in out
