@@ -22,6 +22,12 @@ json load(const std::string& name) {
   return json::parse(file);
 }
 
+std::string from_hex(const std::string& hex) {  // an upload chunk written as hex in a scenario
+  std::string bytes;
+  for (size_t i = 0; i + 1 < hex.size(); i += 2) bytes.push_back(static_cast<char>(std::stoi(hex.substr(i, 2), nullptr, 16)));
+  return bytes;
+}
+
 }  // namespace
 
 TEST_CASE("encoder frames: status and position") {
@@ -145,7 +151,8 @@ TEST_CASE("the device's loop: scheduler scenarios") {
       const uint32_t now = loop_ms.get<uint32_t>();
       while (next_command < commands.size() && commands[next_command][0].get<uint32_t>() <= now) {
         const std::string text = commands[next_command++][1].get<std::string>();
-        records.push_back({{"t", now}, {"cmd", text}, {"taken", scheduler.receive(text.data(), text.size(), now)}});
+        const std::string sent = text.rfind("hex:", 0) == 0 ? from_hex(text.substr(4)) : text;  // an upload chunk
+        records.push_back({{"t", now}, {"cmd", text}, {"taken", scheduler.receive(sent.data(), sent.size(), now)}});
       }
       char buffer[640];
       if (scheduler.take_status_request()) {
@@ -157,7 +164,9 @@ TEST_CASE("the device's loop: scheduler scenarios") {
         status.erase("rig");
         records.push_back({{"t", now}, {"status", status}});
       }
-      if (scheduler.acting_due(now)) records.push_back({{"t", now}, {"act", scheduler.device().act(now)}});
+      // the encoder read at the acting tick: the same pendulum as the frames, a count every 3 ms
+      const int32_t raw = static_cast<int32_t>((now / 3) % 1024);
+      if (scheduler.acting_due(now)) records.push_back({{"t", now}, {"act", scheduler.device().act(now, raw)}});
       if (scheduler.streaming_due(now)) {
         const json& want = scenario["records"].at(records.size());  // it names the encoder frame read now
         const int64_t frame = want.value("frame", int64_t{0});

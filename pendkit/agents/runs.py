@@ -80,14 +80,12 @@ def build_run(spec: RunSpec, env=None) -> tuple[object, Agent, StepInputs]:
 
 
 def save_weights(path: str | Path, agent: Agent, spec: RunSpec, notes: dict | None = None) -> Path:
-    """The agent's state with the spec that rebuilds it: what `load_weights` and `pendkit eval` read."""
-    import torch
+    """The agent's state with the spec that rebuilds it: what `load_weights` and `pendkit eval` read (as data
+    only: `pendkit.agents.data_files`)."""
+    from pendkit.agents.data_files import save_data
 
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    torch.save({"format": WEIGHTS_FORMAT, "spec": spec.to_dict(), "agent": agent.state_dict(),
-                "notes": notes or {}}, path)
-    return path
+    return save_data(path, {"format": WEIGHTS_FORMAT, "spec": spec.to_dict(), "agent": agent.state_dict(),
+                            "notes": notes or {}})
 
 
 def load_weights(path: str | Path) -> tuple[RunSpec, dict]:
@@ -95,17 +93,20 @@ def load_weights(path: str | Path) -> tuple[RunSpec, dict]:
     from the run's config.json beside it)."""
     import json
 
-    import torch
+    from pendkit.agents.data_files import load_data
 
     path = Path(path)
     if not path.exists():
         raise ConfigError(f"no weights at {path}")
-    record = torch.load(path, weights_only=False)
-    if isinstance(record, dict) and record.get("format") == WEIGHTS_FORMAT:
-        return RunSpec.from_dict(record["spec"]), record["agent"]
-    config = path.parent / "config.json"
-    if isinstance(record, dict) and "agent" in record and config.exists():
-        return RunSpec.from_dict(json.loads(config.read_text())), record["agent"]
+    record = load_data(path)
+    try:
+        if isinstance(record, dict) and record.get("format") == WEIGHTS_FORMAT:
+            return RunSpec.from_dict(dict(record["spec"])), record["agent"]
+        config = path.parent / "config.json"
+        if isinstance(record, dict) and "agent" in record and config.exists():
+            return RunSpec.from_dict(json.loads(config.read_text())), record["agent"]
+    except (TypeError, ValueError, KeyError) as error:
+        raise ConfigError(f"{path}: its run spec is not one the kit can build ({error})") from None
     raise ConfigError(f"{path} is neither a weights file ({WEIGHTS_FORMAT}) nor a checkpoint beside its config.json")
 
 

@@ -70,6 +70,7 @@ class McuLogic:
         self._servo_at_last_change = servo_counts
         self.flags: set[str] = set()
         self.onboard.stop()
+        self._onboard_was_running = False
         self.last_observation = None
 
     # --- commands ---
@@ -85,7 +86,8 @@ class McuLogic:
         """The one entry for a decoded `pendkit.device.commands.DeviceCommand` (actions, settings, heartbeat)."""
         kind, value = command.kind, command.value
         if kind in ("action", "target"):
-            self.onboard.stop()  # the host takes over
+            self.onboard.stop()  # the host takes over: its command is in force, not a hold
+            self._onboard_was_running = False
         if kind == "action":
             self.receive(discrete_command(int(value), self.params), now_ms)
         elif kind == "target":
@@ -125,6 +127,11 @@ class McuLogic:
         p = self.params
         if now_ms - self.last_command_ms > self.watchdog_timeout_ms:
             self.flags.add("watchdog")
+        if self._onboard_was_running and not self.onboard.running:
+            # stopped by k0, a new blob or anything else: hold here until the host commands, never resume
+            # the host's command from before k1 (a stale target, or a policy's last ramp to the arm's limit)
+            self.command = STOP
+        self._onboard_was_running = self.onboard.running
         if self.onboard.running and self.onboard.runs_a_policy:
             action = self.onboard.runtime.tick(self.last_observation, now_ms)
             if action is not None:  # as a host's action command would, without feeding the watchdog

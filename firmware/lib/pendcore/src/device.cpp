@@ -39,6 +39,7 @@ void Device::reset(int32_t servo_counts, uint32_t now_ms) {
   servo_at_last_change_ = servo_counts;
   flags_ = 0;
   onboard_.stop();
+  onboard_was_running_ = false;
   has_observation_ = false;
 }
 
@@ -54,7 +55,10 @@ float Device::servo_rad(int32_t counts) const {
 
 void Device::apply(const Command& command, uint32_t now_ms) {
   // An action or a target: the host takes over from the onboard controller.
-  if (command.kind == CommandKind::kAction || command.kind == CommandKind::kTarget) onboard_.stop();
+  if (command.kind == CommandKind::kAction || command.kind == CommandKind::kTarget) {
+    onboard_.stop();
+    onboard_was_running_ = false;  // the host's command is in force, not a hold
+  }
   switch (command.kind) {
     case CommandKind::kAction:
       discrete_ = true;
@@ -94,6 +98,13 @@ void Device::apply(const Command& command, uint32_t now_ms) {
 
 int32_t Device::act(uint32_t now_ms, int32_t raw_counts) {
   if (static_cast<double>(elapsed_ms(now_ms, last_command_ms_)) > watchdog_timeout_ms_) set(kFlagWatchdog, true);
+  if (onboard_was_running_ && !onboard_.running()) {
+    // stopped by k0, a new blob or anything else: hold here until the host commands, never resume the
+    // host's command from before k1 (a stale target, or a policy's last ramp to the arm's limit)
+    discrete_ = true;
+    increment_counts_ = 0;
+  }
+  onboard_was_running_ = onboard_.running();
   int32_t wanted;
   int action = 0;
   if (onboard_.running() && onboard_.runs_policy() &&

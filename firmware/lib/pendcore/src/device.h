@@ -53,6 +53,7 @@ class Device {
   double overspin_limit_rev_s_ = kOverspinLimitRevS;
   double device_filter_ = 0.0;  // the kit filters on the host; `e<c>` restores the authors' device filter
   bool discrete_ = true;
+  bool onboard_was_running_ = false;  // to hold the servo when the onboard controller stops
   int32_t increment_counts_ = 0;
   double target_unit_ = 0.0;
   double filtered_unit_ = 0.0;
