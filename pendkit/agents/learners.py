@@ -54,21 +54,41 @@ def _r_td3(input_dim: int, env, seed: int, config: dict) -> Agent:
 @dataclass(frozen=True)
 class Algorithm:
     """How to make the agent (`make(input_dim, env, seed, config overrides)`), which action mode it needs,
-    and whether its inputs pass through a fixed random GRU first (the reservoir ablation)."""
+    whether its inputs pass through a fixed random GRU first (the reservoir ablation), and its config class
+    ("module:Class", for checking settings before anything runs)."""
 
     make: Callable[[int, object, int, dict], Agent]
     continuous: bool
+    config: str
     reservoir: bool = False
 
 
 ALGORITHMS: dict[str, Algorithm] = {
-    "dqn": Algorithm(_dqn, continuous=False),
-    "r-dqn": Algorithm(_r_dqn, continuous=False),
-    "r-dqn-reservoir": Algorithm(_dqn, continuous=False, reservoir=True),
-    "td3": Algorithm(_td3, continuous=True),
-    "r-td3": Algorithm(_r_td3, continuous=True),
-    "r-td3-reservoir": Algorithm(_td3, continuous=True, reservoir=True),
+    "dqn": Algorithm(_dqn, continuous=False, config="pendkit.agents.dqn:DqnConfig"),
+    "r-dqn": Algorithm(_r_dqn, continuous=False, config="pendkit.agents.recurrent_dqn:RecurrentDqnConfig"),
+    "r-dqn-reservoir": Algorithm(_dqn, continuous=False, config="pendkit.agents.dqn:DqnConfig", reservoir=True),
+    "td3": Algorithm(_td3, continuous=True, config="pendkit.agents.td3:Td3Config"),
+    "r-td3": Algorithm(_r_td3, continuous=True, config="pendkit.agents.recurrent_td3:RecurrentTd3Config"),
+    "r-td3-reservoir": Algorithm(_td3, continuous=True, config="pendkit.agents.td3:Td3Config", reservoir=True),
 }
+
+
+def check_agent_settings(name: str, settings: dict) -> None:
+    """Refuse, by name, a setting learner `name`'s agent does not have or a value it does not take."""
+    import dataclasses
+    import importlib
+
+    module, _, cls = ALGORITHMS[learner(name).algorithm].config.partition(":")
+    config_class = getattr(importlib.import_module(module), cls)
+    known = {f.name for f in dataclasses.fields(config_class)} - {"seed"}
+    unknown = sorted(set(settings) - known)
+    if unknown:
+        raise ConfigError(f"agent: {', '.join(map(str, unknown))} is not a setting of {name}; its settings: "
+                          f"{', '.join(sorted(known))}")
+    try:
+        config_class(**settings)
+    except (TypeError, ValueError) as error:
+        raise ConfigError(f"agent: {error}") from None
 
 
 @dataclass(frozen=True)

@@ -30,14 +30,21 @@ MEASURED_FILE = POLICY_DIR / "measured.json"  # written by benchmarks/bench_poli
 
 @dataclass(frozen=True)
 class PretrainedSpec:
-    """`check_every` > 0: after each such stretch the greedy agent is scored on `validation_rigs` rigs drawn
-    from the training ranges (`rig_suite.validation_rigs`) and the best checkpoint is kept, not the last."""
+    """`check_every` > 0: after each such stretch the greedy agent is scored and the best checkpoint is kept,
+    not the last. `kept_by="rigs"`: on `validation_rigs` rigs drawn from the training ranges
+    (`rig_suite.validation_rigs`); `"rule"`: by the kit's rule on its training starts (episodes held, then
+    mean return; `pendkit.agents.policy_rule`)."""
 
     run: RunSpec
     episodes: int
     check_every: int = 0
     validation_rigs: int = 8
     built_by_default: bool = True  # False: only when named (an hour's training)
+    kept_by: str = "rigs"
+
+    def __post_init__(self) -> None:
+        if self.kept_by not in ("rigs", "rule"):
+            raise ConfigError(f"kept_by must be 'rigs' or 'rule', got {self.kept_by!r}")
 
 
 # the larger network and buffer: over rigs that change every episode the default R-DQN plateaus (docs/rl.md)
@@ -116,7 +123,8 @@ def build(names: list[str] | None = None) -> None:
         env, agent, inputs = build_run(spec.run)
         notes = {"episodes": spec.episodes}
         if spec.check_every:
-            returns, chosen = train_keeping_best(env, agent, inputs, spec)
+            score = rule_score if spec.kept_by == "rule" else validation_score
+            returns, chosen = train_keeping_best(env, agent, inputs, spec, score)
             notes.update(chosen)
         else:
             returns = train_sync(env, agent, spec.episodes, inputs, seed=spec.run.seed)
@@ -133,6 +141,17 @@ def validation_score(spec: PretrainedSpec, state: dict) -> tuple[int, float]:
 
     together = summary(policy_on_rigs(spec.run, state, validation_rigs(spec.validation_rigs), starts=1))
     return together["solved"], float(together["mean_return"])
+
+
+def rule_score(spec: PretrainedSpec, state: dict) -> tuple[int, float]:
+    """(episodes held, mean return) of the greedy agent by the kit's rule on its training starts."""
+    from pendkit.agents.policy_rule import JUDGE_SEED, judge_policy
+
+    env, agent, inputs = build_run(spec.run)
+    agent.load_state_dict(state)
+    verdict = judge_policy(env, agent, inputs, JUDGE_SEED)
+    env.close()
+    return verdict.held, verdict.evaluation.mean_return
 
 
 def train_keeping_best(env, agent, inputs, spec: PretrainedSpec, score=validation_score) -> tuple[list[float], dict]:

@@ -36,8 +36,16 @@ def prepare_folder(spec: SweepSpec, out: Path, resume: bool) -> list[Trial]:
     copy = out / SPEC_COPY
     if copy.exists() and not resume:
         raise ConfigError(f"{out} already holds a sweep: add --resume to continue it, or choose another --out")
+    if not copy.exists() and out.is_dir() and any(out.iterdir()):
+        raise ConfigError(f"{out} holds files but no sweep: give an empty or new folder as --out (a sweep writes "
+                          "table.csv, trials/ and more there)")
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"{out} is a file: --out is a folder")
     if copy.exists():
-        recorded = json.loads(copy.read_text())["trials"]
+        try:
+            recorded = json.loads(copy.read_text())["trials"]
+        except (ValueError, KeyError, TypeError):
+            raise ConfigError(f"{copy} is not a sweep's record: choose another --out") from None
         if recorded != [t.to_dict() for t in spec.trials]:
             raise ConfigError(f"{out} holds another sweep than this spec's; resume it with its own spec, or "
                               "choose another --out")
@@ -153,4 +161,4 @@ def trial_line(row: dict) -> str:
     return (f"trial={row['trial_id']} learner={row['learner']} setting={row['setting_name']} seed={row['seed']} "
             f"solved={row['solved']} episodes_to_solve={episodes} policy_solved={row.get('policy_solved', '-')} "
             f"episodes={row['episodes']} "
-            f"wall_s={row['wall_s']:.1f} host={row['host']} node={(row.get('node_id') or '-')[:8]}")
+            f"wall_s={row['wall_s']:.1f} host={row.get('host', '-')} node={str(row.get('node_id') or '-')[:8]}")

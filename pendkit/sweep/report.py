@@ -5,12 +5,15 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 from pathlib import Path
 
 from pendkit.agents.policy_rule import RULE_TEXT
 from pendkit.errors import ConfigError
 from pendkit.sweep.ray_runner import SPEC_COPY, trial_line
 from pendkit.sweep.trial import RESULT
+
+TRIAL_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,200}")  # what Trial.trial_id makes: a folder name
 
 COLUMNS = ("trial_id", "learner", "setting_name", "seed", "solved", "episodes_to_solve", "wall_s_to_solve",
            "policy_solved", "held_out_solved", "episodes", "wall_s", "max_episodes", "max_wall_s",
@@ -22,33 +25,78 @@ def solved_rule(budget: dict) -> str:
             "policy_solved on the reporting starts")
 
 
-def gather_many(folders: list[Path]) -> tuple[list[dict], list[str]]:
-    """Several sweep folders as one table (a class's runs, each student's seeds): each row says its folder."""
+def gather_many(folders: list[Path], skipped: list[str] | None = None) -> tuple[list[dict], list[str]]:
+    """Several sweep folders as one table (a class's runs, each student's seeds): each row says its folder.
+    A folder that is not a readable sweep is left out, its reason appended to `skipped`."""
     rows, missing = [], []
+    skipped = skipped if skipped is not None else []
     for folder in folders:
-        found, absent = gather(folder)
+        try:
+            found, absent = gather(folder, skipped)
+        except ConfigError as error:
+            skipped.append(str(error))
+            continue
         rows += [row | {"source": str(folder), "curve": str(Path(folder) / row["curve"])} for row in found]
         missing += absent
     return rows, missing
 
 
-def gather(out: str | Path) -> tuple[list[dict], list[str]]:
-    """(finished rows in the spec's order, ids of trials not finished yet)."""
+def gather(out: str | Path, skipped: list[str] | None = None) -> tuple[list[dict], list[str]]:
+    """(finished rows in the spec's order, ids of trials not finished yet). A trial whose result.json is
+    not what a trial writes is left out, its reason appended to `skipped`."""
     out = Path(out)
     if not (out / SPEC_COPY).exists():
         raise ConfigError(f"{out} is not a sweep folder (no {SPEC_COPY}): run `pendkit sweep SPEC --out {out}`")
-    trials = json.loads((out / SPEC_COPY).read_text())["trials"]
+    try:
+        trials = json.loads((out / SPEC_COPY).read_text())["trials"]
+        ids = [str(trial["trial_id"]) for trial in trials]
+    except (ValueError, KeyError, TypeError, UnicodeDecodeError) as error:
+        raise ConfigError(f"{out / SPEC_COPY} is not a sweep's record ({type(error).__name__}): "
+                          "left out") from None
     rows, missing = [], []
-    for trial in trials:
-        path = out / "trials" / trial["trial_id"] / RESULT
-        if path.exists():
-            row = json.loads(path.read_text())
-            budget = row["budget"]
-            rows.append(row | {"max_episodes": budget["max_episodes"], "max_wall_s": budget["max_wall_s"],
-                               "solved_rule": solved_rule(budget)})
-        else:
-            missing.append(trial["trial_id"])
+    for trial, trial_id in zip(trials, ids):
+        if not TRIAL_ID.fullmatch(trial_id):
+            (skipped if skipped is not None else []).append(f"{out}: a trial id {trial_id[:40]!r} that is no "
+                                                            "folder name: left out")
+            continue
+        path = out / "trials" / trial_id / RESULT
+        if not path.exists():
+            missing.append(trial_id)
+            continue
+        try:
+            row = _checked_row(json.loads(path.read_text()), trial)
+        except (ValueError, KeyError, TypeError, UnicodeDecodeError) as error:
+            (skipped if skipped is not None else []).append(f"{path}: not a trial's result ({error}): left out")
+            continue
+        budget = row["budget"]
+        rows.append(row | {"max_episodes": budget["max_episodes"], "max_wall_s": budget["max_wall_s"],
+                           "solved_rule": solved_rule(budget)})
     return rows, missing
+
+
+def _checked_row(row, trial: dict) -> dict:
+    """`row` if it is what `run_trial` writes for `trial` (its learner, setting and seed, fields of the
+    right types); ValueError naming what is wrong otherwise."""
+    if not isinstance(row, dict):
+        raise ValueError("not a mapping")
+    for key in ("learner", "setting_name", "seed"):
+        if row.get(key) != trial.get(key):
+            raise ValueError(f"its {key} is {row.get(key)!r}, the spec's {trial.get(key)!r}")
+    if not isinstance(row.get("solved"), bool):
+        raise ValueError("solved is not true or false")
+    for key in ("episodes", "wall_s"):
+        if isinstance(row.get(key), bool) or not isinstance(row.get(key), (int, float)) or row[key] < 0:
+            raise ValueError(f"{key} is not a number >= 0")
+    if row["solved"] and not (isinstance(row.get("episodes_to_solve"), int)
+                              and isinstance(row.get("wall_s_to_solve"), (int, float))):
+        raise ValueError("solved without episodes_to_solve and wall_s_to_solve")
+    budget = row.get("budget")
+    if not isinstance(budget, dict) or not all(isinstance(budget.get(k), (int, float)) for k in
+                                               ("max_episodes", "max_wall_s", "check_every")):
+        raise ValueError("its budget is not the trial's")
+    if not isinstance(row.get("trial_id"), str) or not isinstance(row.get("curve"), str):
+        raise ValueError("trial_id or curve is not text")
+    return row
 
 
 def write_table(out: str | Path, rows: list[dict]) -> None:
@@ -194,11 +242,14 @@ def report(out: str | Path, say=print, figure: bool = True, more: list[Path] = (
     """Gather, write table.csv/json (and summary.png) into `out`, print the summary lines; returns the rows.
     With `more` folders, their trials join `out`'s in one table (a class's seeds side by side)."""
     out = Path(out)
+    skipped: list[str] = []
     if more:  # DIR may be a sweep of its own or just where the class's table goes
         out.mkdir(parents=True, exist_ok=True)
-        rows, missing = gather_many(([out] if (out / SPEC_COPY).exists() else []) + list(more))
+        rows, missing = gather_many(([out] if (out / SPEC_COPY).exists() else []) + list(more), skipped)
     else:
-        rows, missing = gather(out)
+        rows, missing = gather(out, skipped)
+    for reason in skipped:
+        say(f"skipped: {reason}")
     write_table(out, rows)
     for line in summary_lines(rows, missing):
         say(line)

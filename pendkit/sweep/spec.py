@@ -20,6 +20,8 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import json
+import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -27,6 +29,9 @@ from pendkit.errors import ConfigError
 
 SETTING_KINDS = ("fidelities", "delay_steps", "delay_ms", "rigs")
 KNOWN_KEYS = {"name", "learners", "seeds", "budget", "randomize", "agent", *SETTING_KINDS}
+MAX_TRIALS = 10_000  # a spec that expands to more is a typo (seeds: 1000000), refused before it is built
+MAX_SEED = 2**32 - 1  # numpy's and torch's seeds
+NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,63}")  # a folder name inside --out, never a path
 
 
 @dataclass(frozen=True)
@@ -38,8 +43,12 @@ class Budget:
     check_every: int = 10
 
     def __post_init__(self) -> None:
-        if self.max_episodes < 1 or self.check_every < 1 or not self.max_wall_s > 0:
-            raise ConfigError(f"a budget needs max_episodes >= 1, check_every >= 1 and max_wall_s > 0, got {self}")
+        whole = all(isinstance(v, int) and not isinstance(v, bool) for v in (self.max_episodes, self.check_every))
+        number = isinstance(self.max_wall_s, (int, float)) and not isinstance(self.max_wall_s, bool)
+        if not (whole and number) or self.max_episodes < 1 or self.check_every < 1 or not (
+                math.isfinite(self.max_wall_s) and self.max_wall_s > 0):
+            raise ConfigError("budget: max_episodes and check_every whole numbers >= 1, max_wall_s seconds > 0, "
+                              f"got {self.max_episodes!r}, {self.check_every!r}, {self.max_wall_s!r}")
 
 
 @dataclass(frozen=True)
@@ -101,20 +110,35 @@ def read_spec_file(path: str | Path) -> dict:
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"no sweep spec at {path}")
-    text = path.read_text()
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as error:
+        raise ConfigError(f"{path}: cannot read it as text ({error})") from None
     if path.suffix in (".yaml", ".yml"):
         try:
             import yaml
         except ImportError:
             raise ConfigError('a YAML spec needs PyYAML: pip install -e ".[cluster]" (or write the spec as '
                               "TOML)") from None
-        record = yaml.safe_load(text)
+        try:
+            record = yaml.safe_load(text)  # safe: a !!python tag is refused, never run
+        except yaml.YAMLError as error:
+            mark = getattr(error, "problem_mark", None)
+            where = f":{mark.line + 1}:{mark.column + 1}" if mark is not None else ""
+            problem = getattr(error, "problem", None) or str(error).splitlines()[0]
+            raise ConfigError(f"{path}{where}: not valid YAML ({problem})") from None
     elif path.suffix == ".toml":
         import tomllib
 
-        record = tomllib.loads(text)
+        try:
+            record = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as error:
+            raise ConfigError(f"{path}: not valid TOML ({error})") from None
     elif path.suffix == ".json":
-        record = json.loads(text)
+        try:
+            record = json.loads(text)
+        except json.JSONDecodeError as error:
+            raise ConfigError(f"{path}:{error.lineno}:{error.colno}: not valid JSON ({error.msg})") from None
     else:
         raise ConfigError(f"{path}: a sweep spec is a .yaml, .toml or .json file")
     if not isinstance(record, dict):
@@ -139,17 +163,30 @@ def parse_spec(record: dict, folder: Path = Path(".")) -> SweepSpec:
     if unknown:
         raise ConfigError(f"unknown keys in the sweep spec: {', '.join(unknown)}; "
                           f"known: {', '.join(sorted(KNOWN_KEYS))}")
+    name = record.get("name", "sweep")
+    if not isinstance(name, str) or not NAME_PATTERN.fullmatch(name):
+        raise ConfigError(f"name: letters, digits, '.', '-' and '_' (at most 64, no path), got {name!r}")
     learners = _as_list(record.get("learners"), "learners")
-    for name in learners:
-        learner(name)  # an unknown learner is named with the choices
+    for learner_name in learners:
+        if not isinstance(learner_name, str):
+            raise ConfigError(f"learners: names, got {learner_name!r}")
+        learner(learner_name)  # an unknown learner is named with the choices
     settings = [Setting(kind, _setting_value(kind, value, folder))
                 for kind in SETTING_KINDS for value in _as_list(record.get(kind, []), kind, allow_empty=True)]
     if not settings:
         raise ConfigError(f"the sweep spec names no setting: give one of {', '.join(SETTING_KINDS)}")
     seeds = record.get("seeds", 1)
-    seeds = list(range(seeds)) if isinstance(seeds, int) and not isinstance(seeds, bool) else _as_list(seeds, "seeds")
-    if not seeds or not all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in seeds):
-        raise ConfigError(f"seeds: a count >= 1 or a list of integers >= 0, got {record.get('seeds')!r}")
+    if isinstance(seeds, int) and not isinstance(seeds, bool):
+        if not 1 <= seeds <= MAX_TRIALS:
+            raise ConfigError(f"seeds: a count in [1, {MAX_TRIALS}] or a list of seeds, got {seeds}")
+        seeds = list(range(seeds))
+    seeds = _as_list(seeds, "seeds")
+    if not seeds or not all(isinstance(s, int) and not isinstance(s, bool) and 0 <= s <= MAX_SEED for s in seeds):
+        raise ConfigError(f"seeds: a count >= 1 or a list of integers in [0, {MAX_SEED}], got {record.get('seeds')!r}")
+    count = len(learners) * len(settings) * len(seeds)
+    if count > MAX_TRIALS:
+        raise ConfigError(f"the spec expands to {count} trials, more than the {MAX_TRIALS} a sweep takes: fewer "
+                          "seeds, settings or learners (or several sweeps)")
     budget_record = record.get("budget", {})
     if not isinstance(budget_record, dict):
         raise ConfigError(f"budget: a mapping (max_episodes, max_wall_s, check_every), got {budget_record!r}")
@@ -158,6 +195,8 @@ def parse_spec(record: dict, folder: Path = Path(".")) -> SweepSpec:
     except TypeError as error:
         raise ConfigError(f"budget: {error}") from None
     randomize = record.get("randomize", "") or ""
+    if not isinstance(randomize, str):
+        raise ConfigError(f"randomize: factors as text (e.g. servo,latency or robust), got {randomize!r}")
     if randomize:
         from pendkit.sim.randomize import parse_randomize
 
@@ -165,12 +204,16 @@ def parse_spec(record: dict, folder: Path = Path(".")) -> SweepSpec:
     agent = record.get("agent", {}) or {}
     if not isinstance(agent, dict):
         raise ConfigError(f"agent: a mapping of agent settings, got {agent!r}")
-    trials = tuple(Trial(name, setting, seed, budget, randomize, dict(agent))
-                   for setting, name, seed in itertools.product(settings, learners, seeds))
+    from pendkit.agents.learners import check_agent_settings
+
+    for learner_name in learners:
+        check_agent_settings(learner_name, agent)
+    trials = tuple(Trial(learner_name, setting, seed, budget, randomize, dict(agent))
+                   for setting, learner_name, seed in itertools.product(settings, learners, seeds))
     ids = [t.trial_id for t in trials]
     if len(set(ids)) != len(ids):
         raise ConfigError("the sweep spec names the same trial twice (a repeated learner, setting or seed)")
-    return SweepSpec(str(record.get("name", "sweep")), trials, record)
+    return SweepSpec(name, trials, record)
 
 
 def _as_list(value, key: str, allow_empty: bool = False) -> list:
@@ -183,7 +226,7 @@ def _setting_value(kind: str, value, folder: Path):
     if kind == "fidelities":
         from pendkit.sim.fidelity import FIDELITY_PRESETS
 
-        if value not in FIDELITY_PRESETS:
+        if not isinstance(value, str) or value not in FIDELITY_PRESETS:
             raise ConfigError(f"fidelities: unknown {value!r}; choose from {', '.join(FIDELITY_PRESETS)}")
         return value
     if kind == "delay_steps":
@@ -194,8 +237,16 @@ def _setting_value(kind: str, value, folder: Path):
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < 10_000:
             raise ConfigError(f"delay_ms: milliseconds in [0, 10000), got {value!r}")
         return float(value)
-    path = Path(str(value))
+    if not isinstance(value, str):
+        raise ConfigError(f"{kind}: a parameter file's path, got {value!r}")
+    path = Path(value)
     path = path if path.is_absolute() else folder / path
     if not path.is_file():
         raise ConfigError(f"rigs: no parameter file at {path}")
+    from pendkit.rig import RigParams
+
+    try:
+        RigParams.load(path)
+    except (ConfigError, ValueError, TypeError, KeyError, OSError) as error:
+        raise ConfigError(f"rigs: {path} is not a rig's parameter file ({error})") from None
     return str(path.resolve())
