@@ -50,6 +50,9 @@ def make(**kwargs) -> gymnasium.Env:
         raise ConfigError("render_mode='human' (a window) is not offered: use render_mode='rgb_array' and show the "
                           "frames yourself, or watch live in a notebook with pendkit.widgets (`pendkit demo` "
                           "writes a GIF)")
+    # Gymnasium's passive checker is off: after a reset refused for a bad option it breaks every later
+    # step (it expects its first reset to have returned); tests/test_env.py runs check_env on the env instead.
+    kwargs.setdefault("disable_env_checker", True)
     return gymnasium.make(ENV_ID, **kwargs)
 
 

@@ -168,6 +168,7 @@ class SwingUpEnv(gym.Env):
         self._state: RigState | None = None
         self._shown: RigState | None = None  # what the observation is made of: measured, or estimated
         self._estimator = None
+        self.feature_source = features  # "measured" or "estimated": what a learner built for this env expects
         if features == "estimated":
             self._estimator = self._new_estimator()
         self._filtered_unit = 0.0
@@ -344,6 +345,8 @@ def _continuous_value(action) -> float:
 
 def _make_backend(backend, params: RigParams, fidelity, log_dir, rig: str, broker: str | None, rig_options: dict):
     if backend == "sim":
+        if broker is not None or rig_options:
+            raise ConfigError("broker= and rig_options= are for backend='rig'; the twin (backend='sim') takes neither")
         return SimBackend(params, fidelity, log_dir)
     if backend == "rig":
         from pendkit.link.rig_backend import RigBackend

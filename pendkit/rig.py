@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+import numbers
 from dataclasses import dataclass
 from typing import Any
 
@@ -104,6 +105,7 @@ class RigParams:
 
     def __post_init__(self) -> None:
         for field in dataclasses.fields(self):
+            _check_type(self, field)
             value = getattr(self, field.name)
             if field.name.endswith(("_m", "_kg", "_ms", "_deg", "_s_per_60deg", "_kg_cm")) and not value > 0:
                 raise ConfigError(f"{field.name} must be > 0, got {value!r}")
@@ -285,6 +287,24 @@ class RigParams:
         if unknown:
             raise ConfigError(f"{path}: unknown rig parameters {unknown}")
         return cls(**values)
+
+
+def _check_type(params: RigParams, field: dataclasses.Field) -> None:
+    """Each field as its declared type (a rig file is JSON: 1024.0 is taken as 1024, 930.5 counts, a string or
+    null where a number belongs are refused by name)."""
+    value = getattr(params, field.name)
+    if field.type == "str":
+        if not isinstance(value, str):
+            raise ConfigError(f"{field.name} must be text, got {value!r}")
+        return
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ConfigError(f"{field.name} must be a number, got {value!r}")
+    if field.type == "int":
+        if not float(value).is_integer():
+            raise ConfigError(f"{field.name} must be a whole number, got {value!r}")
+        object.__setattr__(params, field.name, int(value))
+    else:
+        object.__setattr__(params, field.name, float(value))
 
 
 # Counts and increments for the Turnigy and the HSB-9380TH are the authors' settings (rig-facts.md).

@@ -88,3 +88,43 @@ def test_make_names_the_bad_argument(kwargs, says):
 def test_settings_outside_their_range_are_refused(build, says):
     with pytest.raises(pendkit.ConfigError, match=says):
         build()
+
+
+def test_the_env_works_again_after_a_refused_reset():
+    env = pendkit.make(fidelity="ideal")
+    with pytest.raises(pendkit.ConfigError, match="start must be one of"):
+        env.reset(options={"start": "sideways"})
+    env.reset(seed=1)
+    _, reward, *_ = env.step(0)
+    assert np.isfinite(reward)
+
+
+@pytest.mark.parametrize("options, says", [
+    ({"pendulum_velocity_rad_s": 1e9}, "within \\+-40"), ({"pendulum_angle_rad": True}, "a finite number"),
+    ({"arm_angle_rad": float("nan")}, "a finite number"),
+])
+def test_a_start_outside_physical_ranges_is_refused_and_changes_nothing(options, says):
+    env = pendkit.make(fidelity="ideal")
+    env.reset(seed=0)
+    before = env.unwrapped.backend.true_state()
+    with pytest.raises(pendkit.ConfigError, match=says):
+        env.reset(options=options)
+    assert env.unwrapped.backend.true_state() == before
+
+
+def test_the_twin_refuses_a_broker():
+    with pytest.raises(pendkit.ConfigError, match="for backend='rig'"):
+        pendkit.make(fidelity="ideal", broker="mqtt://127.0.0.1:1883")
+
+
+@pytest.mark.parametrize("url", ["mqtt://127.0.0.1:99999", "mqtt://[::1", "mqtt://:1883", "http://host", "mqtt://h:0"])
+def test_a_malformed_broker_url_is_one_line_from_every_command(url):
+    from click.testing import CliRunner
+
+    from pendkit.cli import main
+
+    for args in (["eval", "--policy", "dqn-ideal", "--backend", "rig"], ["deploy", "--rig", "r01", "--controller",
+                                                                        "energy"], ["virtual-rig"]):
+        result = CliRunner().invoke(main, [*args, "--broker", url])
+        assert result.exit_code != 0 and "broker must look like mqtt://host:1883" in result.output, (args, result.output)
+        assert "Traceback" not in result.output

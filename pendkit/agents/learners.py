@@ -161,5 +161,9 @@ def build_learner(name: str, env, seed: int = 0, **config) -> tuple[Agent, StepI
     if env.unwrapped.action_mode != chosen.action_mode:
         raise ConfigError(f"{name} needs action_mode={chosen.action_mode!r}, the env has "
                           f"{env.unwrapped.action_mode!r}")
+    source = getattr(env.unwrapped, "feature_source", "measured")
+    if source != chosen.features:
+        raise ConfigError(f"{name} reads features={chosen.features!r}, the env has features={source!r}: make it "
+                          f"with pendkit.make(..., **learner({name!r}).env_kwargs())")
     inputs = inputs_for(name, env, seed)
     return ALGORITHMS[chosen.algorithm].make(inputs.dim, env, seed, config), inputs

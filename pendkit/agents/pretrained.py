@@ -52,6 +52,10 @@ ROBUST_AGENT = {"hidden": [128, 128], "gru_size": 64, "sequence_length": 16, "le
                 "buffer_capacity": 1_000_000}
 POLICIES = {"dqn-ideal": PretrainedSpec(RunSpec("dqn", "ideal"), 120),
             "r-dqn-realistic": PretrainedSpec(RunSpec("r-dqn", "realistic"), 260),
+            # continuous, through the c = 0.85 filter, reading the observer's estimate of the present state
+            # (plain TD3 and R-TD3 on the raw readings spin the pendulum round instead: docs/results/learning.md)
+            "td3-realistic": PretrainedSpec(RunSpec("td3+estimated", "realistic", seed=1), 300, check_every=20,
+                                            kept_by="rule"),
             "r-dqn-robust": PretrainedSpec(RunSpec("r-dqn", "realistic", randomize="robust", agent=ROBUST_AGENT),
                                            1500, check_every=125, built_by_default=False)}
 
@@ -78,6 +82,17 @@ def weights_digest(name: str) -> str:
     import hashlib
 
     return hashlib.sha256((POLICY_DIR / f"{name}.pt").read_bytes()).hexdigest()
+
+
+def policy_env_options(name: str) -> dict:
+    """What `pendkit.make` needs for shipped policy `name` on its own twin or a rig: its fidelity (twin
+    only), action mode and features, e.g. `pendkit.make(**policy_env_options(name), start="rest")`."""
+    from pendkit.agents.learners import learner
+
+    if name not in POLICIES:
+        raise ConfigError(f"unknown policy {name!r}; the kit ships {sorted(POLICIES)}")
+    run = POLICIES[name].run
+    return {"fidelity": run.fidelity, **learner(run.learner).env_kwargs()}
 
 
 def measured_figures() -> tuple[dict, str]:

@@ -53,13 +53,20 @@ class BrokerAddress:
     @classmethod
     def parse(cls, url: str) -> BrokerAddress:
         """`mqtt://host:port`, `mqtts://host:port` (TLS), or `host[:port]`."""
+        usage = "broker must look like mqtt://host:1883 or mqtts://host:8883 (port 1-65535)"
+        if not isinstance(url, str):
+            raise ConfigError(f"{usage}, got {url!r}")
         if "://" not in url:
             url = f"mqtt://{url}"
-        parsed = urlparse(url)
-        if parsed.scheme not in ("mqtt", "mqtts", "tcp", "ssl") or not parsed.hostname:
-            raise ConfigError(f"broker must look like mqtt://host:1883 or mqtts://host:8883, got {url!r}")
+        try:  # urlparse raises on a malformed IPv6 host, .port on a port out of range
+            parsed = urlparse(url)
+            host, port = parsed.hostname, parsed.port
+        except ValueError:
+            raise ConfigError(f"{usage}, got {url!r}") from None
+        if parsed.scheme not in ("mqtt", "mqtts", "tcp", "ssl") or not host or port == 0:
+            raise ConfigError(f"{usage}, got {url!r}")
         tls = parsed.scheme in ("mqtts", "ssl")
-        return cls(parsed.hostname, parsed.port or (8883 if tls else 1883), tls)
+        return cls(host, port or (8883 if tls else 1883), tls)
 
     def __str__(self) -> str:
         return f"{'mqtts' if self.tls else 'mqtt'}://{self.host}:{self.port}"

@@ -30,6 +30,7 @@ RANDOM_PENDULUM_ANGLE_RAD = 3.01
 RANDOM_PENDULUM_VELOCITY_RAD_S = 2.01
 RANDOM_ARM_FRACTION_OF_RANGE = 0.5
 UPRIGHT_PERTURBATION_RAD = 0.05
+MAX_INITIAL_RATE_RAD_S = 40.0  # about 6 rev/s: beyond any swing-up, far beyond the firmware's over-spin stop
 TWIN_OBS_TOPIC, TWIN_ACT_TOPIC = "pendulum-r/obs/twin", "pendulum-r/act/twin"
 # reset(options=...) may set these; the pendulum angle is from the bottom (pi = upright).
 INITIAL_STATE_KEYS = ("arm_angle_rad", "pendulum_angle_rad", "pendulum_velocity_rad_s")
@@ -100,8 +101,12 @@ class SimBackend:
         if unknown:
             raise ConfigError(f"unknown initial state keys {sorted(unknown)}; expected some of {INITIAL_STATE_KEYS}")
         for key, value in initial.items():
-            if not isinstance(value, (int, float)) or not math.isfinite(value):
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise ConfigError(f"initial {key} must be a finite number, got {value!r}")
+        rate = initial.get("pendulum_velocity_rad_s", 0.0)
+        if abs(rate) > MAX_INITIAL_RATE_RAD_S:
+            raise ConfigError(f"initial pendulum_velocity_rad_s must be within +-{MAX_INITIAL_RATE_RAD_S} rad/s (a "
+                              f"fast hand spin; beyond it the twin's physics is not the rig's), got {rate}")
         self._rng = rng
         mujoco.mj_resetData(self.model, self.data)
         arm, pendulum, pendulum_velocity = 0.0, 0.0, 0.0
