@@ -126,5 +126,6 @@ def test_a_malformed_broker_url_is_one_line_from_every_command(url):
     for args in (["eval", "--policy", "dqn-ideal", "--backend", "rig"], ["deploy", "--rig", "r01", "--controller",
                                                                         "energy"], ["virtual-rig"]):
         result = CliRunner().invoke(main, [*args, "--broker", url])
-        assert result.exit_code != 0 and "broker must look like mqtt://host:1883" in result.output, (args, result.output)
+        assert result.exit_code != 0, (args, result.output)
+        assert "broker must look like mqtt://host:1883" in result.output, (args, result.output)
         assert "Traceback" not in result.output

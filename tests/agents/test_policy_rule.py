@@ -2,8 +2,14 @@
 
 from click.testing import CliRunner
 
-from pendkit.agents.policy_rule import (JUDGE_SEED, REPORT_SEED, RULE_MIN_HELD, RULE_STARTS, judge_policy,
-                                        train_until_solved)
+from pendkit.agents.policy_rule import (
+    JUDGE_SEED,
+    REPORT_SEED,
+    RULE_MIN_HELD,
+    RULE_STARTS,
+    judge_policy,
+    train_until_solved,
+)
 from pendkit.agents.pretrained import policy_weights
 from pendkit.agents.runs import build_run
 from pendkit.cli import main

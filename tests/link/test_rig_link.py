@@ -10,9 +10,9 @@ import pytest
 import pendkit
 from pendkit.device.log import readings_from_log
 from pendkit.link.broker import MosquittoBroker, free_port
-from tests.link.conftest import HAVE_MOSQUITTO
 from pendkit.link.driver import RigLink, RigLinkError
 from pendkit.link.virtual_rig import VirtualRig, VirtualRigGroup
+from tests.link.conftest import HAVE_MOSQUITTO
 
 FAST_RESET = {"reset_stop_s": 0.3}
 

@@ -40,7 +40,8 @@ def test_delay_settings_build_the_delayed_twins():
     ({"learners": ["dqn"], "delay_steps": [-1]}, "delay_steps: whole steps >= 0"),
     ({"learners": ["dqn"], "rigs": ["missing.json"]}, "rigs: no parameter file"),
     ({"learners": ["dqn"], "fidelities": ["ideal"], "seeds": [0, "1"]}, "seeds: a count"),
-    ({"learners": ["dqn"], "fidelities": ["ideal"], "budget": {"max_episodes": 0}}, "max_episodes and check_every whole numbers >= 1"),
+    ({"learners": ["dqn"], "fidelities": ["ideal"], "budget": {"max_episodes": 0}},
+     "max_episodes and check_every whole numbers >= 1"),
     ({"learners": ["dqn"], "fidelities": ["ideal"], "budget": {"episodes": 9}}, "budget:"),
     ({"learners": ["dqn", "dqn"], "fidelities": ["ideal"]}, "the same trial twice"),
 ])
