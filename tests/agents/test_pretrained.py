@@ -75,3 +75,19 @@ def test_policies_list_prints_each_policys_measured_figures_and_how_they_were_me
         block = out.split(name, 1)[1]
         assert f"measured on its twin: random starts {figures['solved']}, hanging {figures['rest']}" in block
     assert f"measured by: {command}" in out
+
+
+@pytest.mark.parametrize("name, start, seed", [("td3-realistic", "random", 10_000), ("td3-realistic", "rest", 10_500),
+                                               ("td3-realistic", "random", 10_007), ("dqn-ideal", "random", 10_003)])
+def test_a_shipped_policy_holds_starts_it_was_never_judged_on(name, start, seed):
+    import pendkit
+    from pendkit.agents.pretrained import policy_env_options, policy_weights
+    from pendkit.agents.runs import evaluate_agent, make_env
+
+    spec, state = policy_weights(name)
+    env = make_env(spec)
+    _, agent, inputs = build_run(spec, env)
+    agent.load_state_dict(state)
+    outcome = evaluate_agent(env, agent, inputs, 1, seed, start)
+    assert outcome.solved == [True], outcome
+    assert pendkit.make(**policy_env_options(name)).unwrapped.feature_source == env.unwrapped.feature_source
