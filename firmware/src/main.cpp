@@ -117,6 +117,9 @@ void keep_connected() {
   if (mqtt.connect(client_id.c_str(), settings.user.c_str(), settings.mqtt_password.c_str(),
                    topic_status.c_str(), 1, true, "{\"online\":false}")) {
     network.setNoDelay(true);  // no Nagle: 13-32 ms p99 latency otherwise
+    // Clear a command left retained on our topic before subscribing: it would move the arm at every boot
+    // (the classroom ACL lets a rig write its own command topic for this).
+    mqtt.publish(topic_act.c_str(), reinterpret_cast<const uint8_t*>(""), 0, true);
     mqtt.subscribe(topic_act.c_str());
     mqtt.subscribe(topic_ctl.c_str());
     publish_status();

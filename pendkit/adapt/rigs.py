@@ -73,11 +73,15 @@ def configured_prior(min_counts: int, max_counts: int) -> RigParams:
     return dataclasses.replace(RigParams(), servo_min_counts=min_counts, servo_max_counts=max_counts)
 
 
-def mqtt_rig(rig_id: str, broker: str | None) -> Rig:
+def mqtt_rig(rig_id: str, broker: str | None, login=None) -> Rig:
     """A rig over MQTT; its time is what it reports having received (a rig that does not report it is
-    measured from the host's first command to its last instead, and says so in the name)."""
+    measured from the host's first command to its last instead, and says so in the name). `login`: a
+    `BrokerLogin` (username, password, TLS CA) for a classroom broker."""
     import pendkit
     from pendkit.link.rig_backend import is_servo_counts_range
+
+    login_options = login.rig_options() if login is not None else {}
+    link_arguments = login.link_arguments() if login is not None else {}
 
     first: list[float] = []
     configured: list[RigParams] = []
@@ -85,7 +89,7 @@ def mqtt_rig(rig_id: str, broker: str | None) -> Rig:
 
     def prior() -> RigParams:
         if not configured:
-            counts = rig_status(rig_id, broker).get("servo_counts_range")
+            counts = rig_status(rig_id, broker, link_arguments=link_arguments).get("servo_counts_range")
             configured.append(configured_prior(*counts) if is_servo_counts_range(counts) else RigParams())
         return configured[0]
 
@@ -98,11 +102,12 @@ def mqtt_rig(rig_id: str, broker: str | None) -> Rig:
         if not first:
             first.append(time.monotonic())
         params = dataclasses.replace(calibrated(), **(stream or {}))  # the env sends its offset: o<counts>
-        return pendkit.make(backend="rig", rig=rig_id, broker=broker, params=params, rig_options={"settle": True},
+        return pendkit.make(backend="rig", rig=rig_id, broker=broker, params=params,
+                            rig_options={"settle": True, **login_options},
                             **env_kwargs)
 
     def seconds() -> float:
-        reported = rig_status(rig_id, broker).get("busy_s")
+        reported = rig_status(rig_id, broker, link_arguments=link_arguments).get("busy_s")
         if reported is not None:
             return float(reported)
         return time.monotonic() - first[0] if first else 0.0
@@ -112,7 +117,7 @@ def mqtt_rig(rig_id: str, broker: str | None) -> Rig:
         from pendkit.link import DEFAULT_BROKER
         from pendkit.link.driver import RigLink
 
-        link = RigLink(rig_id, broker or DEFAULT_BROKER)
+        link = RigLink(rig_id, broker or DEFAULT_BROKER, **link_arguments)
         link.connect()
         try:
             session = RigSession(link)
@@ -130,14 +135,14 @@ def mqtt_rig(rig_id: str, broker: str | None) -> Rig:
                recalibrate=recalibrate)
 
 
-def rig_status(rig_id: str, broker: str | None, wait_s: float = 2.0) -> dict:
+def rig_status(rig_id: str, broker: str | None, wait_s: float = 2.0, link_arguments: dict | None = None) -> dict:
     """The rig's status after asking it for a fresh one (command `r`); the retained one if no fresh one
     comes within `wait_s` (a v1 rig, or a device that is off)."""
     from pendkit.device.commands import frame_command
     from pendkit.link import DEFAULT_BROKER
     from pendkit.link.driver import RigLink
 
-    link = RigLink(rig_id, broker or DEFAULT_BROKER)
+    link = RigLink(rig_id, broker or DEFAULT_BROKER, **(link_arguments or {}))
     try:
         link.connect()
         link.publish(frame_command("r", 2, 1, int(time.monotonic() * 1000)))

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import click
 
+from pendkit.cli.broker_login import broker_login_options, login_from
+
 CONTROLLER_CHOICES = ("energy", "trajopt")
 
 
@@ -102,8 +104,9 @@ def export(run_dir, policy_name, controller, params_path, out_path: Path) -> Non
 @click.option("--broker", default=None, help="The broker's URL; default: this machine's.")
 @click.option("--seconds", type=click.FloatRange(0.5, 3600), default=None,
               help="Stop after this long; default: run until Ctrl-C.")
+@broker_login_options
 def deploy(run_dir, policy_name, controller, params_path, blob_path, rig_id: str, broker: str | None,
-           seconds: float | None) -> None:
+           seconds: float | None, username, password, tls_ca) -> None:
     """Upload a controller to a rig, start it, stream its telemetry; Ctrl-C stops it (so does the rig's
     watchdog if this laptop goes away)."""
     from pendkit.device.controller_blob import BlobError, pack, parse
@@ -122,7 +125,7 @@ def deploy(run_dir, policy_name, controller, params_path, blob_path, rig_id: str
             raise click.ClickException(f"{blob_path} is not a controller a rig takes: {error}") from None
     else:
         data = pack(_blob(run_dir, policy_name, controller, params_path))
-    link = RigLink(rig_id, broker or DEFAULT_BROKER)
+    link = RigLink(rig_id, broker or DEFAULT_BROKER, **login_from(username, password, tls_ca).link_arguments())
     link.connect()
     try:
         session = RigSession(link)

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import click
 
+from pendkit.cli.broker_login import broker_login_options, login_from
 from pendkit.link import DEFAULT_BROKER
 from pendkit.sim.fidelity import FIDELITY_PRESETS
 
@@ -67,8 +68,9 @@ def _preset_names() -> list[str]:
 @click.option("--seconds", type=click.FloatRange(1), default=600.0, show_default=True,
               help="Wall-clock training time with --backend rig.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
+@broker_login_options
 def train(algo, fidelity, seed, episodes, max_steps, out_dir, checkpoint_every, resume, randomize, preset, backend,
-          rig_id, broker, seconds, quiet) -> None:
+          rig_id, broker, seconds, quiet, username, password, tls_ca) -> None:
     """Train a learner (DQN, R-DQN, TD3, R-TD3 and their variants) on the twin (or a rig); checkpoints,
     returns and config in --out."""
     _torch_or_exit()
@@ -77,7 +79,7 @@ def train(algo, fidelity, seed, episodes, max_steps, out_dir, checkpoint_every, 
 
     spec = RunSpec(algo, "realistic" if backend == "rig" else fidelity, seed, max_steps, preset, randomize)
     if backend == "rig":
-        _train_on_rig(spec, out_dir, rig_id, broker, seconds)
+        _train_on_rig(spec, out_dir, rig_id, broker, seconds, login_from(username, password, tls_ca))
         return
     env, agent, inputs = build_run(spec)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -92,13 +94,14 @@ def train(algo, fidelity, seed, episodes, max_steps, out_dir, checkpoint_every, 
                f"outputs in {out_dir}")
 
 
-def _train_on_rig(spec, out_dir, rig_id, broker, seconds) -> None:
+def _train_on_rig(spec, out_dir, rig_id, broker, seconds, login) -> None:
     import csv
 
     from pendkit.agents.async_trainer import AsyncTrainer
     from pendkit.agents.runs import build_run, make_env, save_weights
 
-    env, agent, inputs = build_run(spec, make_env(spec, backend="rig", rig=rig_id, broker=broker))
+    env, agent, inputs = build_run(spec, make_env(spec, backend="rig", rig=rig_id, broker=broker,
+                                                  rig_options=login.rig_options() or None))
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "config.json").write_text(json.dumps({**spec.to_dict(), "backend": "rig", "rig": rig_id}))
     trainer = AsyncTrainer(agent, [env], [inputs], seed=spec.seed)
@@ -132,8 +135,10 @@ def _train_on_rig(spec, out_dir, rig_id, broker, seconds) -> None:
                    "starts, or only hanging still (a rig starts as it is).")
 @click.option("--seed", type=int, default=None,
               help="Seed of the first episode's start (default: the rule's reporting starts, never trained on).")
+@broker_login_options
 def evaluate(run_dir: Path | None, policy_name: str | None, episodes: int, backend: str, rig_id: str,
-             broker: str | None, preset: str | None, params_path: Path | None, start: str, seed: int) -> None:
+             broker: str | None, preset: str | None, params_path: Path | None, start: str, seed: int,
+             username, password, tls_ca) -> None:
     """Greedy episodes of a trained run or a shipped policy, on the twin or a rig. Prints the kit's rule and,
     from the first 10 episodes of --start rule, whether the policy is solved by it (`policy_solved=K/10`);
     the last line is `solved=K/N median_upright_s=X` over every episode (an episode is solved when within
@@ -156,7 +161,9 @@ def evaluate(run_dir: Path | None, policy_name: str | None, episodes: int, backe
             weights = run_dir / "final.pt" if (run_dir / "final.pt").exists() else run_dir / "checkpoint.pt"
             spec, state = load_weights(weights)
         spec = dataclasses.replace(spec, preset=preset or spec.preset, randomize="")
-        options = {"backend": "rig", "rig": rig_id, "broker": broker} if backend == "rig" else {}
+        login = login_from(username, password, tls_ca)
+        options = ({"backend": "rig", "rig": rig_id, "broker": broker, "rig_options": login.rig_options() or None}
+                   if backend == "rig" else {})
         if params_path is not None:
             from pendkit.rig import RigParams
 
@@ -292,8 +299,9 @@ def policies_build(names: tuple[str, ...]) -> None:
               help="Identify this many times from the same recordings (laptop time only, about a minute each) "
                    "and keep the twin that matches them best.")
 @click.option("--seed", type=int, default=0, show_default=True)
+@broker_login_options
 def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, twin_episodes, evaluation_episodes,
-          policy_name, device_trials, loop_episodes, restarts, seed) -> None:
+          policy_name, device_trials, loop_episodes, restarts, seed, username, password, tls_ca) -> None:
     """Fit the kit to one rig in a few of its episodes: excite it, identify its twin from the encoder, design
     the device's swing-up for it, train on that twin, fine-tune on the rig; report every route."""
     _torch_or_exit()
@@ -309,7 +317,7 @@ def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, t
                 raise click.UsageError("--backend sim needs --params RIG.json (the hidden rig)")
             rig = twin_rig(RigParams.load(params_path), impairment)
         else:
-            rig = mqtt_rig(rig_id, broker)
+            rig = mqtt_rig(rig_id, broker, login_from(username, password, tls_ca))
         config = AdaptConfig(episodes=episodes, excitation_episodes=min(6, episodes), twin_episodes=twin_episodes,
                              evaluation_episodes=evaluation_episodes, policy=policy_name,
                              device_trials=device_trials, identification_restarts=restarts, seed=seed,

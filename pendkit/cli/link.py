@@ -34,16 +34,22 @@ def broker(host: str, port: int) -> None:
               show_default=True)
 @click.option("--port", type=click.IntRange(1, 65535), default=1883, show_default=True)
 @click.option("--bind", default="0.0.0.0", show_default=True, help="Address Mosquitto listens on.")
-def broker_config(rig_ids: tuple[str, ...], out_dir: Path, port: int, bind: str) -> None:
-    """Write a classroom Mosquitto configuration: per-rig users, an ACL, no anonymous clients."""
+@click.option("--tls", "tls_port", type=click.IntRange(1, 65535), default=None, is_flag=False, flag_value=8883,
+              help="Also a TLS listener on this port (--tls alone: 8883), with a CA made here (ca.crt for hosts "
+                   "and rigs; keep ca.key private).")
+def broker_config(rig_ids: tuple[str, ...], out_dir: Path, port: int, bind: str, tls_port: int | None) -> None:
+    """Write a classroom Mosquitto configuration: per-rig users, an ACL, client ids tied to usernames, no
+    anonymous clients. Run it again with more rigs to add them: existing users keep their passwords."""
     from pendkit.errors import ConfigError
     from pendkit.link.broker import write_classroom_config
 
     try:
-        paths = write_classroom_config(list(rig_ids), out_dir, port, bind)
+        paths = write_classroom_config(list(rig_ids), out_dir, port, bind, tls_port=tls_port)
     except ConfigError as error:
         raise click.BadParameter(str(error), param_hint="--rigs") from None
     click.echo(f"wrote {paths['conf']}, {paths['acl']}, {paths['passwords']}")
+    if tls_port is not None:
+        click.echo(f"TLS on port {tls_port}: give hosts and rigs {paths['ca']}; keep {paths['ca_key']} private")
     click.echo(f"passwords for rigs, hosts and the instructor: {paths['credentials']} (keep it private)")
     click.echo(f"start it with: mosquitto -c {paths['conf']}")
 

@@ -104,6 +104,9 @@ class VirtualRig:
             LOG.warning("virtual rig %s: broker refused the connection: %s", self.rig, reason_code)
             return
         send_without_delay(client)  # as the firmware does: observations leave at once
+        # As the firmware does: clear a command left retained on its topic (it would move the arm at every
+        # boot), and never act on a retained one (`_on_message`).
+        client.publish(self.act_topic, b"", qos=0, retain=True)
         client.subscribe(self.act_topic, qos=0)
         if self.device.scheduler.protocol == 2:  # the authors' firmware takes no controllers
             client.subscribe(controller_topic(self.rig), qos=0)
@@ -111,6 +114,8 @@ class VirtualRig:
         self.publish_status()
 
     def _on_message(self, client, userdata, message) -> None:
+        if message.retain:  # left on the broker earlier, not sent to this rig now: never a command
+            return
         now = time.monotonic()
         if _body(message.payload) != b"r":  # a request for this status is no use of the rig
             self.commands_received += 1

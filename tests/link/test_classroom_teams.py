@@ -1,0 +1,160 @@
+"""Two teams on a real Mosquitto with the generated classroom config: each attack on the other team's rig
+fails, while each team's own deploy, eval and adaptation link work with its credentials."""
+
+import os
+import shutil
+import subprocess
+import time
+
+import paho.mqtt.client as mqtt
+import pytest
+from click.testing import CliRunner
+
+from pendkit.cli import main
+from pendkit.cli.broker_login import BrokerLogin
+from pendkit.link.broker import MosquittoBroker, write_classroom_config
+from pendkit.link.driver import RigLink
+from pendkit.link.virtual_rig import VirtualRig, VirtualRigGroup
+from tests.link.conftest import HAVE_MOSQUITTO
+
+pytestmark = pytest.mark.skipif(not HAVE_MOSQUITTO, reason="mosquitto is not installed (apt-get install mosquitto)")
+
+
+def wait_for(predicate, timeout_s=3.0):
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(0.02)
+    return False
+
+
+@pytest.fixture
+def room(tmp_path):
+    with MosquittoBroker(tmp_path / "room", rigs=["r01", "r02"]) as broker:
+        credentials = broker.credentials()
+        rigs = [VirtualRig(rig, broker.url, username=rig, password=credentials[rig]) for rig in ("r01", "r02")]
+        with VirtualRigGroup(rigs):
+            yield broker, credentials, {rig.rig: rig for rig in rigs}
+
+
+def raw_client(broker, username, password, client_id):
+    client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, client_id=client_id)
+    client.username_pw_set(username, password)
+    client.connect("127.0.0.1", broker.port)
+    client.loop_start()
+    return client
+
+
+def test_a_team_cannot_knock_another_teams_rig_off_the_broker(room):
+    broker, credentials, rigs = room
+    statuses = []
+    watcher = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, client_id="w")
+    watcher.username_pw_set("instructor", credentials["instructor"])
+    watcher.on_message = lambda client, userdata, message: statuses.append(message.payload)
+    watcher.connect("127.0.0.1", broker.port)
+    watcher.subscribe("pendulum-r/status/r02")
+    watcher.loop_start()
+    assert wait_for(lambda: statuses)
+    its_own_id = rigs["r02"].client._client_id.decode()  # as a sniffer or the docs would tell an attacker
+    for stolen_id in (its_own_id, "pendkit-r02", "r02"):  # and the firmware's id, and the rig's username
+        attacker = raw_client(broker, "host-r01", credentials["host-r01"], stolen_id)
+        time.sleep(0.5)
+        attacker.loop_stop()
+        attacker.disconnect()
+    time.sleep(0.3)
+    watcher.loop_stop()
+    watcher.disconnect()
+    assert not [s for s in statuses if b'"online": false' in s], "r02 was knocked off: its last will was sent"
+    assert rigs["r02"].client.is_connected()
+
+
+def test_a_retained_command_never_moves_a_rig_at_its_next_boot(room, tmp_path):
+    broker, credentials, rigs = room
+    host = raw_client(broker, "host-r02", credentials["host-r02"], "x")
+    host.publish("pendulum-r/act/r02", "g", retain=True).wait_for_publish()  # "right fast", left on the broker
+    host.loop_stop()
+    host.disconnect()
+    rebooted = VirtualRig("r02", broker.url, username="r02", password=credentials["r02"])
+    with VirtualRigGroup([rebooted]):
+        start = rebooted.device.mcu.servo_counts
+        time.sleep(0.6)
+        assert rebooted.device.mcu.servo_counts == start and rebooted.commands_received == 0
+
+
+def test_each_team_deploys_and_evaluates_its_own_rig_and_not_the_other(room, tmp_path):
+    broker, credentials, rigs = room
+    own = ["--rig", "r02", "--broker", broker.url, "--username", "host-r02"]
+    env = {"PENDKIT_MQTT_PASSWORD": credentials["host-r02"]}  # the password from the environment
+    deployed = CliRunner().invoke(main, ["deploy", *own, "--controller", "energy", "--seconds", "1"], env=env)
+    assert deployed.exit_code == 0, deployed.output
+    assert "uploaded" in deployed.output and credentials["host-r02"] not in deployed.output
+    assert rigs["r02"].device.mcu.onboard.blobs_accepted == 1
+    other = CliRunner().invoke(main, ["deploy", "--rig", "r01", "--broker", broker.url, "--username", "host-r02",
+                                      "--controller", "energy", "--seconds", "1"], env=env)
+    assert other.exit_code != 0 and rigs["r01"].device.mcu.onboard.blobs_accepted == 0
+    run = tmp_path / "run"
+    trained = CliRunner().invoke(main, ["train", "--episodes", "1", "--max-steps", "20", "--out", str(run), "--quiet"])
+    assert trained.exit_code == 0, trained.output
+    evaluated = CliRunner().invoke(main, ["eval", str(run), "--backend", "rig", *own, "--episodes", "1"], env=env)
+    assert evaluated.exit_code == 0, evaluated.output
+    assert evaluated.output.splitlines()[-1] == "solved=0/1 median_upright_s=-"
+
+
+def test_adaptation_reads_the_rig_with_the_teams_login(room):
+    from pendkit.adapt.rigs import mqtt_rig
+
+    broker, credentials, rigs = room
+    rig = mqtt_rig("r02", broker.url, BrokerLogin("host-r02", credentials["host-r02"]))
+    assert rig.prior().servo_min_counts == rigs["r02"].device.mcu.params.servo_min_counts
+
+
+def test_the_instructor_may_command_any_rig(room):
+    broker, credentials, rigs = room
+    instructor = RigLink("r01", broker.url, username="instructor", password=credentials["instructor"])
+    instructor.connect()
+    before = rigs["r01"].device.mcu.servo_counts
+    instructor.publish("g")
+    assert wait_for(lambda: rigs["r01"].device.mcu.servo_counts > before)
+    instructor.close()
+
+
+def test_broker_config_adds_rigs_without_new_passwords_and_refuses_reserved_names(tmp_path):
+    from pendkit.errors import ConfigError
+    from pendkit.link.broker import read_credentials
+
+    write_classroom_config(["r01"], tmp_path)
+    first = read_credentials(tmp_path / "credentials.csv")
+    write_classroom_config(["r01", "r02"], tmp_path)
+    second = read_credentials(tmp_path / "credentials.csv")
+    assert {user: second[user] for user in first} == first and {"r02", "host-r02"} <= set(second)
+    with pytest.raises(ConfigError, match="keeps for itself"):
+        write_classroom_config(["instructor"], tmp_path / "other")
+    acl = (tmp_path / "acl").read_text()
+    assert "topic write pendulum-r/ctl/r02" in acl and "topic read pendulum-r/ctl/r02" in acl
+    assert "use_username_as_clientid true" in (tmp_path / "mosquitto.conf").read_text()
+
+
+@pytest.mark.skipif(shutil.which("openssl") is None, reason="needs openssl")
+def test_the_generated_tls_listener_takes_a_team_with_the_classroom_ca(tmp_path):
+    from pendkit.link.broker import free_port, read_credentials, wait_for_port
+    from pendkit.link.driver import RigLinkError
+
+    port, tls_port = free_port(), free_port()
+    paths = write_classroom_config(["r01"], tmp_path, port, "127.0.0.1", tls_port=tls_port)
+    if os.geteuid() == 0:  # as MosquittoBroker does for tests: mosquitto cannot enter pytest's private folders
+        with paths["conf"].open("a") as conf:
+            conf.write("user root\n")
+    binary = shutil.which("mosquitto") or "/usr/sbin/mosquitto"
+    process = subprocess.Popen([binary, "-c", str(paths["conf"])], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        assert wait_for_port("127.0.0.1", tls_port)
+        password = read_credentials(paths["credentials"])["host-r01"]
+        link = RigLink("r01", f"mqtts://127.0.0.1:{tls_port}", "host-r01", password, str(paths["ca"]))
+        link.connect(timeout_s=5)
+        link.close()
+        with pytest.raises(RigLinkError):  # without the classroom CA the broker is not trusted
+            RigLink("r01", f"mqtts://127.0.0.1:{tls_port}", "host-r01", password).connect(timeout_s=2)
+    finally:
+        process.kill()
+        process.wait()
