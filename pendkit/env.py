@@ -127,7 +127,7 @@ class SwingUpEnv(gym.Env):
                                                   and max_episode_steps >= 1):
             raise ConfigError(f"max_episode_steps must be a positive whole number or None, got {max_episode_steps!r}")
         if params is not None and not isinstance(params, RigParams):
-            raise ConfigError(f"params must be a pendkit.RigParams (e.g. RigParams.preset('mks-x5')), "
+            raise ConfigError(f"params must be a pendkit.RigParams (e.g. RigParams.preset('mks-x5-hbl550')), "
                               f"got {type(params).__name__} {params!r}")
         self.params = params if params is not None else RigParams()
         if filter_coefficient is not None and (isinstance(filter_coefficient, bool)

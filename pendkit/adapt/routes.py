@@ -11,6 +11,7 @@ from pathlib import Path
 
 from pendkit.adapt.identify import Identification
 from pendkit.agents.runs import Evaluation, RunSpec, build_run, evaluate_agent, held_fraction, save_weights
+from pendkit.control.names import CONTROLLER_NAMES
 from pendkit.sim.fidelity import FIDELITY_PRESETS
 from pendkit.sim.latency import LatencyModel, NetworkImpairment
 
@@ -97,7 +98,7 @@ def fine_tune_on_rig(rig, run: AgentRun, episodes: int, config, weights_path: Pa
     say(f"(d) {len(stats.episodes[0])} episodes on the rig, {stats.learner_updates} learner updates")
 
 
-CLASSICAL = ("energy", "trajopt")  # energy swing-up + LQR; the minimum-time plan tracked by LQR
+CLASSICAL = CONTROLLER_NAMES
 
 
 def classical_on_env(design_env, env, controller: str, episodes: int, seed: int = 10_000,

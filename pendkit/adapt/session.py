@@ -27,6 +27,7 @@ from pendkit.adapt.identify import PRIOR_LATENCY_MS, Identification, identify_be
 from pendkit.adapt.plots import plot_identification
 from pendkit.adapt.routes import classical_on_device, classical_on_rig, fine_tune_on_rig, train_on_twin
 from pendkit.adapt.trials import Design, identified_design, trial_steps, try_on_device
+from pendkit.control.names import SWING_UP_CONTROLLERS
 from pendkit.env_name import EPISODE_STEPS
 from pendkit.errors import ConfigError
 from pendkit.rig import RigParams
@@ -207,7 +208,7 @@ def save_device_design(chosen: Design, out: Path, report: dict) -> None:
 
 
 DEVICE_BLOB = "device-controller.pkcb"
-SWING_UPS = {"energy": "energy", "trajopt": "minimum-time"}  # the controllers' names in prose
+SWING_UPS = SWING_UP_CONTROLLERS  # the controllers' names in prose
 ROUTES = {"the device design chosen by the trials": ("classical_on_device", "tried"),
           "energy swing-up + LQR on the rig's device": ("classical_on_device", "energy"),
           "minimum-time swing-up on the rig's device": ("classical_on_device", "trajopt"),

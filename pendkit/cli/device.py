@@ -8,8 +8,9 @@ from pathlib import Path
 import click
 
 from pendkit.cli.broker_login import broker_login_options, login_from
+from pendkit.control.names import CONTROLLER_NAMES
 
-CONTROLLER_CHOICES = ("energy", "trajopt")
+CONTROLLER_CHOICES = CONTROLLER_NAMES
 
 
 def _rig_params(params_path: Path | None):

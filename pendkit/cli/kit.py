@@ -8,6 +8,7 @@ from pathlib import Path
 
 import click
 
+from pendkit.control.names import CONTROLLER_NAMES
 from pendkit.sim.fidelity import FIDELITY_PRESETS
 
 FIDELITIES = tuple(FIDELITY_PRESETS)
@@ -23,7 +24,7 @@ FIDELITIES = tuple(FIDELITY_PRESETS)
               default=Path("pendkit-output"), show_default=True, help="Where to write the plot and animation.")
 @click.option("--no-animation", is_flag=True, help="Skip the GIF.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
-@click.option("--controller", type=click.Choice(("energy", "trajopt")), default="energy", show_default=True,
+@click.option("--controller", type=click.Choice(CONTROLLER_NAMES), default="energy", show_default=True,
               help="Energy pumping, or the minimum-time plan tracked by time-varying LQR.")
 def demo(fidelity: str, seed: int, start: str, out_dir: Path, no_animation: bool, quiet: bool,
          controller: str) -> None:

@@ -15,6 +15,7 @@ import numpy as np
 
 from pendkit.control.lqr import LqrBalancer, LqrWeights
 from pendkit.control.model import FurutaModel
+from pendkit.control.names import CONTROLLER_NAMES
 from pendkit.control.swingup import SwingUpConfig
 from pendkit.control.tracking import TRACKING_WEIGHTS, time_varying_lqr
 from pendkit.control.trajopt import StepModel, SwingUpLimits, fastest_bang_bang, initial_state
@@ -22,7 +23,7 @@ from pendkit.device.swingup_blob import SwingUpBlob
 from pendkit.errors import ConfigError
 from pendkit.rig import RigParams
 
-CONTROLLERS = ("energy", "trajopt")
+CONTROLLERS = CONTROLLER_NAMES
 # The pendulum filter's process noise: what the gravity-only prediction leaves out (the arm's push on the
 # pivot reaches about 30 rad/s^2 while pumping); the measurement noise is the encoder's quantisation.
 UNMODELLED_ACCELERATION_RAD_S2 = 30.0
