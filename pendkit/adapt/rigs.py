@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import json
+import math
 import time
 
 import gymnasium as gym
@@ -108,7 +109,8 @@ def mqtt_rig(rig_id: str, broker: str | None, login=None) -> Rig:
 
     def seconds() -> float:
         reported = rig_status(rig_id, broker, link_arguments=link_arguments).get("busy_s")
-        if reported is not None:
+        if isinstance(reported, (int, float)) and not isinstance(reported, bool) and math.isfinite(reported) \
+                and reported >= 0:
             return float(reported)
         return time.monotonic() - first[0] if first else 0.0
 
@@ -149,7 +151,8 @@ def rig_status(rig_id: str, broker: str | None, wait_s: float = 2.0, link_argume
         deadline = time.monotonic() + wait_s
         while time.monotonic() < deadline and not link.status_is_live:
             time.sleep(0.02)
-        return json.loads(link.status) if link.status else {}
+        status = json.loads(link.status) if link.status else {}
+        return status if isinstance(status, dict) else {}  # a forged or broken status says nothing
     except (ValueError, OSError):
         return {}
     finally:

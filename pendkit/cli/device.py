@@ -111,7 +111,7 @@ def deploy(run_dir, policy_name, controller, params_path, blob_path, rig_id: str
     """Upload a controller to a rig, start it, stream its telemetry; Ctrl-C stops it (so does the rig's
     watchdog if this laptop goes away)."""
     from pendkit.device.controller_blob import BlobError, pack, parse
-    from pendkit.device.deploy_rig import RigSession, run_on_rig, upload_to_rig
+    from pendkit.device.deploy_rig import RigSession, run_on_rig, servo_range_problem, upload_to_rig
     from pendkit.link import DEFAULT_BROKER
     from pendkit.link.driver import RigLink, check_rig_id
 
@@ -124,12 +124,17 @@ def deploy(run_dir, policy_name, controller, params_path, blob_path, rig_id: str
             parse(data)
         except BlobError as error:
             raise click.ClickException(f"{blob_path} is not a controller a rig takes: {error}") from None
+        designed_for = None  # a blob file does not say which rig it was designed for
     else:
         data = pack(_blob(run_dir, policy_name, controller, params_path))
+        designed_for = _rig_params(params_path)
     link = RigLink(rig_id, broker or DEFAULT_BROKER, **login_from(username, password, tls_ca).link_arguments())
     link.connect()
     try:
         session = RigSession(link)
+        problem = servo_range_problem(session.status(), designed_for) if designed_for is not None else None
+        if problem is not None:
+            raise click.ClickException(f"not uploaded to {rig_id}: {problem}")
         chunks = upload_to_rig(session, data)
         click.echo(f"uploaded {len(data)} bytes to {rig_id} in {chunks} chunks; starting it (Ctrl-C stops)")
         outcome = run_on_rig(session, seconds, report=click.echo)

@@ -39,8 +39,36 @@ KINDS = {"network": 1, "state-feedback": 2, "swing-up": 3, "policy": 4}
 __all__ = ["MAX_BLOB_BYTES", "BlobError", "DenseLayer", "NetworkBlob", "StateFeedbackBlob", "pack", "parse"]
 
 
+def _non_finite(value, where: str = "") -> str | None:
+    """The first number in a blob's fields that is NaN or infinite (a diverged training), by where it is."""
+    import dataclasses
+
+    import numpy as np
+
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        for field in dataclasses.fields(value):
+            found = _non_finite(getattr(value, field.name), f"{where}.{field.name}".lstrip("."))
+            if found:
+                return found
+        return None
+    if isinstance(value, (list, tuple, dict)):
+        items = value.items() if isinstance(value, dict) else enumerate(value)
+        for k, item in items:
+            found = _non_finite(item, f"{where}[{k!r}]")
+            if found:
+                return found
+        return None
+    if isinstance(value, (float, np.ndarray, np.floating)) and not np.all(np.isfinite(np.asarray(value, float))):
+        return where or "a value"
+    return None
+
+
 def pack(blob) -> bytes:
-    """The blob's bytes (a NetworkBlob, StateFeedbackBlob or SwingUpBlob)."""
+    """The blob's bytes (a NetworkBlob, StateFeedbackBlob or SwingUpBlob); BlobError for one holding NaN or
+    infinity (a device refuses it: better said here, before an upload)."""
+    bad = _non_finite(blob)
+    if bad:
+        raise BlobError(f"the controller's {bad} holds NaN or infinity (diverged training?): nothing was written")
     if blob.kind == "swing-up":
         parts = [swingup_blob.pack_payload(blob)]
     elif blob.kind == "policy":

@@ -43,21 +43,50 @@ class RigSession:
         return {}
 
 
+CONTROLLER_STATUS_FIELDS = {"accepted": int, "refused": int, "received": int, "total": int, "bytes": int,
+                            "running": bool, "last_refusal": str}
+
+
 def controller_status(session: RigSession) -> dict:
     status = session.status()
+    if not isinstance(status, dict):
+        status = {}
     if not status:  # the authors' firmware ignores `r`: its retained status still says what it is
         try:
             status = json.loads(session.link.status or "{}")
         except ValueError:
             status = {}
-        if status.get("protocol") != 1:
+        if not isinstance(status, dict) or status.get("protocol") != 1:
             status = {}
     if not status:
         raise DeployError(f"rig {session.link.rig} did not answer: is it on, and on this broker?")
     if "controller" not in status:
         raise DeployError(f"rig {session.link.rig} runs firmware without on-device controllers (protocol "
-                          f"{status.get('protocol', '?')}): flash the kit's firmware (docs/on-device.md)")
-    return status["controller"]
+                          f"{str(status.get('protocol', '?'))[:20]}): flash the kit's firmware (docs/on-device.md)")
+    controller = status["controller"]
+    wrong = ([name for name, kind in CONTROLLER_STATUS_FIELDS.items()
+              if not isinstance(controller.get(name), kind) or (kind is int and isinstance(controller[name], bool))]
+             if isinstance(controller, dict) else ["controller"])
+    if wrong:
+        raise DeployError(f"rig {session.link.rig}'s status is malformed ({', '.join(wrong)} not as the firmware "
+                          "writes them): a forged status, or not the kit's firmware; on an open broker anyone may "
+                          "publish on a rig's topics (use the classroom broker's ACLs, docs/protocol.md)")
+    return controller
+
+
+def servo_range_problem(status: dict, params) -> str | None:
+    """Why a controller designed for `params` must not drive the rig whose status this is (None: it may)."""
+    device_range = status.get("servo_counts_range") if isinstance(status, dict) else None
+    if device_range is None:
+        return None  # the authors' firmware does not say: nothing to compare
+    if not (isinstance(device_range, list) and len(device_range) == 2
+            and all(isinstance(c, int) and not isinstance(c, bool) for c in device_range)):
+        return f"its status says servo_counts_range {str(device_range)[:40]}, not [min, max] counts (malformed)"
+    if device_range != [params.servo_min_counts, params.servo_max_counts]:
+        return (f"its firmware drives servo counts {device_range[0]}..{device_range[1]}, the controller was designed "
+                f"for {params.servo_min_counts}..{params.servo_max_counts} ({params.servo_name}): design it for "
+                "this rig with --params RIG.json")
+    return None
 
 
 def upload_to_rig(session: RigSession, blob: bytes, rounds: int = 10, chunker=blob_chunks) -> int:
