@@ -46,3 +46,18 @@ def random_batches(fn, rng):
 
 
 prelab_answers("07", {"epsilon_halfway": 0.525, "horizon_steps": 100.0})
+
+
+verdict = task("07.policy_verdict", function="policy_verdict", title="Judging a policy by the kit's rule")
+
+
+@verdict.test(points=1, hidden=True, hint="The rule needs 5 starts of each kind; any order of held episodes.")
+def any_order_and_both_kinds_of_start(fn, rng):
+    starts = ["rest", "random"] * 5
+    for _ in range(20):
+        held = list(rng.random(10) < 0.85)
+        got = fn(held, starts)
+        expect(got["held"] == sum(held) and bool(got["solved"]) == (sum(held) >= 9),
+               f"{sum(held)} of 10 held: got held {got['held']}, solved {got['solved']}")
+    only_rest = fn([True] * 10, ["rest"] * 10)
+    expect(not only_rest["solved"], "10 episodes all hanging still is not the rule: it takes 5 random starts too")

@@ -37,6 +37,18 @@ def balance_error_deg(angles, dt, rms=True):
     return float(np.degrees(np.sqrt(np.mean(tail**2)) if rms else np.mean(tail)))
 
 
+def policy_verdict(held, starts, strict=False, lucky=False, share=False):
+    held, starts = [bool(h) for h in held], list(starts)
+    complete = len(held) == 10 and starts.count("rest") == 5 and starts.count("random") == 5
+    if lucky:
+        solved = held[0]
+    elif share:
+        solved = sum(held) >= 0.9 * len(held)
+    else:
+        solved = complete and (sum(held) > 9 if strict else sum(held) >= 9)
+    return {"held": sum(held), "episodes": len(held), "solved": solved}
+
+
 def should_stop(arm, rate, age):
     if not abs(arm) <= 1.6:
         return "arm"
@@ -102,6 +114,7 @@ CORRECT = {
     "07.epsilon": lambda step, start, end, decay: end + (start - end) * max(0.0, 1 - step / decay),
     "07.td_target": lambda r, done, online, target, gamma, double: td_target(r, done, online, target, gamma, double),
     "07.huber": lambda e, delta: np.where(np.abs(e) <= delta, 0.5 * e**2, delta * (np.abs(e) - 0.5 * delta)),
+    "07.policy_verdict": lambda held, starts: policy_verdict(held, starts),
     "08.delayed_view": lambda obs, k: np.asarray(obs)[np.maximum(0, np.arange(len(obs)) - k)],
     "08.gru_step": lambda x, h, w_ih, w_hh, b_ih, b_hh: gru_step(x, h, w_ih, w_hh, b_ih, b_hh),
     "09.time_to_upright_s": lambda angles, dt: final_upright_start(angles, dt),
@@ -368,6 +381,9 @@ MISTAKES = [
     ("07.td_target", lambda r, done, on, tq, g, double: td_target(r, done, on, tq, g, double, False), "no future"),
     ("07.huber", lambda e, delta: 0.5 * np.asarray(e) ** 2, "grows linearly"),
     ("07.huber", lambda e, delta: np.where(np.abs(e) <= delta, 0.5 * e**2, np.abs(e)), "subtract 0.5 delta"),
+    ("07.policy_verdict", lambda held, starts: policy_verdict(held, starts, strict=True), "9 passes"),
+    ("07.policy_verdict", lambda held, starts: policy_verdict(held, starts, lucky=True), "one lucky episode"),
+    ("07.policy_verdict", lambda held, starts: policy_verdict(held, starts, share=True), "the rule takes 10"),
     ("08.delayed_view", lambda obs, k: np.roll(obs, k, axis=0), "np.roll"),
     ("08.delayed_view", lambda obs, k: np.asarray(obs), "nothing is delayed"),
     ("08.gru_step", lambda x, h, a, b, c, d: gru_step(x, h, a, b, c, d, swap_update=True), "swapped"),

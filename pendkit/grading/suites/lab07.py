@@ -72,3 +72,36 @@ def quadratic_then_linear(fn, rng):
 prelab_task("07", ("epsilon_halfway", "horizon_steps",))
 
 written("07.reflection", "Reflection", points=3)
+
+
+verdict = task("07.policy_verdict", function="policy_verdict", title="Judging a policy by the kit's rule")
+RULE_STARTS = ["rest", "random"] * 5
+
+
+def _verdict(fn, held, starts, call: str) -> dict:
+    got = fn(list(held), list(starts))
+    if not isinstance(got, dict) or not {"held", "episodes", "solved"} <= set(got):
+        raise Failed(f"{call} should return a dict with held, episodes and solved, got {type(got).__name__}")
+    return got
+
+
+@verdict.test(points=1, hint="Count what held; solved needs at least 9 of 10 (>= 9, so 9 of 10 passes).")
+def counts_and_the_threshold(fn, rng):
+    for k in (10, 9, 8):
+        held = [True] * k + [False] * (10 - k)
+        got = _verdict(fn, held, RULE_STARTS, f"policy_verdict({k} of 10 held)")
+        expect(got["held"] == k and got["episodes"] == 10,
+               f"{k} of 10 held: held should be {k} and episodes 10, got {got['held']} and {got['episodes']}")
+        expect(bool(got["solved"]) == (k >= 9), f"{k} of 10 held should {'' if k >= 9 else 'not '}be solved"
+               + (": at least 9, so 9 passes (>= 9, not > 9)" if k == 9 else ""))
+
+
+@verdict.test(points=1, hint="One lucky episode is not a policy, and fewer than the rule's 10 episodes (5 of "
+                             "each start) never make one solved.")
+def one_lucky_episode_is_not_a_policy(fn, rng):
+    lucky = [True] + [False] * 9
+    got = _verdict(fn, lucky, RULE_STARTS, "policy_verdict(only the first episode held)")
+    expect(not got["solved"], "only the first episode (hanging still) held: one lucky episode is not a policy")
+    short = _verdict(fn, [True] * 5, RULE_STARTS[:5], "policy_verdict(5 episodes, all held)")
+    expect(not short["solved"], "5 episodes, all held, should not be solved: the rule takes 10 episodes, "
+                                "5 hanging still and 5 random starts (a share of 100% of too few says little)")
