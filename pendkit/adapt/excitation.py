@@ -30,7 +30,7 @@ EPISODES = ((2, 0.9), (6, 0.3), (3, 0.9), (5, 0.45), (2, 0.8), (8, 0.4), (3, 0.7
 # from 1 to 3.6 degrees matched within 8%); after these steps the stiffness and damping set how the pendulum
 # twitches (the same spread then costs 10-95% more). Too small to swing the pendulum freely: no free swing.
 # `pendkit adapt` leaves them out by default: with them (the servo refined over them) its device plans solved
-# no more hidden rigs, though the loop was read closer (docs/rl.md).
+# no more hidden rigs, though the loop was read closer (docs/results/transfer.md).
 LOOP_EPISODES = ((1, 0.06), (2, 0.1), (1, 0.12))
 LOOP_DRIVE_STEPS, LOOP_FREE_STEPS = 40, 20
 SETTLE_STEPS = 8  # after the last jump back to the centre, before the swing counts as free

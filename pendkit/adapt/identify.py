@@ -51,7 +51,7 @@ FITTED = tuple(SERVO_BOUNDS)
 PRIOR_LATENCY_MS = 10.0
 # 1200 evaluations leave differential evolution short of the minimum on a clean link (3600 reach a cost 20-100x
 # lower there), but on a rig's WiFi the minimum itself moves with the network's jitter and losses: 3600 doubled
-# the wall time and solved no more rigs (docs/rl.md), so the search stays at 1200.
+# the wall time and solved no more rigs (docs/results/transfer.md), so the search stays at 1200.
 
 
 @dataclass(frozen=True)
@@ -234,7 +234,7 @@ def identify_best(recordings: list[Recording], prior: RigParams | None = None, m
                   seeds: Sequence[int] = (0,)) -> Identification:
     """`identify` once per seed, the fit with the lowest matching cost kept (its evaluations and seconds are
     those of all the runs): differential evolution sometimes settles in a worse fit of the same recordings,
-    and the device's design on that twin then misses the rig (docs/rl.md)."""
+    and the device's design on that twin then misses the rig (docs/results/transfer.md)."""
     if not seeds:
         raise ConfigError("identify_best needs at least one seed")
     runs = [identify(recordings, prior, max_evaluations, seed=seed) for seed in seeds]
@@ -245,7 +245,7 @@ def identify_best(recordings: list[Recording], prior: RigParams | None = None, m
 
 # stage 3: the servo alone, refined about the closest fit over every recording (the loop episodes' small steps
 # included), the pendulum and the PWM phase or latency kept: a local search from a good start, where a global
-# search over the longer record settled short of the truth (docs/rl.md)
+# search over the longer record settled short of the truth (docs/results/transfer.md)
 REFINED = ("servo_speed_s_per_60deg", "servo_stall_torque_kg_cm", "servo_full_torque_error_deg",
            "servo_damping_ratio")
 # each field within x/÷ this of the fit it refines; the tip (which stage 2 leaves at the prior's) as far as a

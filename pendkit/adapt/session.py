@@ -64,14 +64,15 @@ class AdaptConfig:
     episodes: int = 10
     excitation_episodes: int = 6
     # short ones of small steps that show the servo's loop (pendkit.adapt.excitation), the servo then refined over
-    # them too; 3 of them read the loop closer but solved no more hidden rigs over 3 seeds (docs/rl.md)
+    # them too; 3 of them read the loop closer but solved no more hidden rigs over 3 seeds (docs/results/transfer.md)
     loop_episodes: int = 0
     device_trials: bool = False  # on recalibrated rigs the trials chose no better than the identified twin's
     twin_episodes: int = 60
     evaluation_episodes: int = 3
-    policy: str = "r-dqn-realistic"  # adapted from r-dqn-robust: 1/5 on the default rig, against 3/5 (docs/rl.md)
+    # adapted from r-dqn-robust: 1/5 on the default rig, against 3/5 (docs/results/transfer.md)
+    policy: str = "r-dqn-realistic"
     identification_evaluations: int = 1200
-    identification_restarts: int = 3  # from the same recordings; the best match is kept (docs/rl.md)
+    identification_restarts: int = 3  # from the same recordings; the best match is kept (docs/results/transfer.md)
     refinement_evaluations: int = 300  # the servo refined over the loop episodes too, when there are any
     seed: int = 0
 
@@ -146,7 +147,7 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     say(f"(d) on the rig: policy {report['policy_on_rig']['summary']}; from the laptop, energy swing-up "
         f"{classical['energy']['summary']}, minimum-time {classical['trajopt']['summary']}; on the rig's device, "
         f"energy swing-up {device['energy']['summary']}, minimum-time {device['trajopt']['summary']}")
-    say(f"deploy: {report['recommended'] or 'nothing solved this rig (docs/rl.md: what to check at acceptance)'}")
+    say(f"deploy: {report['recommended'] or 'nothing solved this rig (docs/rl.md: what a class should expect)'}")
 
     report["plots"] = [str(plot_identification(recordings, identification, out / "identification.png"))]
     (out / "report.json").write_text(json.dumps(report, indent=1, default=float))
@@ -183,7 +184,7 @@ def device_trials(rig: Rig, params: RigParams, config: AdaptConfig, left_s: floa
         report["device_trials"], report["chosen_design"] = [], chosen.summary() if chosen else None
         made = f"the identified twin's {SWING_UPS[chosen.controller]} swing-up" if chosen else None
         say(f"(e) for the rig's device: {made}, without trials (on recalibrated rigs the trials chose no better: "
-            "docs/rl.md)" if made else "(e) for the rig's device: no design could be made")
+            "docs/results/transfer.md)" if made else "(e) for the rig's device: no design could be made")
         return chosen
     if needed_s > left_s:
         say(f"(e) no device trials: they need {needed_s:.0f} s of rig time, {max(0.0, left_s):.0f} s are left")

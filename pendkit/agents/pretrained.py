@@ -10,7 +10,7 @@
 | r-dqn-robust    | r-dqn   | a new realistic rig each episode | 1500 (~55 min) |
 
 r-dqn-robust (`randomize="robust"`) keeps the checkpoint that did best on rigs drawn from its training
-ranges, not its last one: over so many rigs R-DQN peaks and unlearns (docs/rl.md).
+ranges, not its last one: over so many rigs R-DQN peaks and unlearns (docs/results/transfer.md).
 """
 
 from __future__ import annotations
@@ -47,7 +47,8 @@ class PretrainedSpec:
             raise ConfigError(f"kept_by must be 'rigs' or 'rule', got {self.kept_by!r}")
 
 
-# the larger network and buffer: over rigs that change every episode the default R-DQN plateaus (docs/rl.md)
+# the larger network and buffer: over rigs that change every episode the default R-DQN plateaus
+# (docs/results/transfer.md)
 ROBUST_AGENT = {"hidden": [128, 128], "gru_size": 64, "sequence_length": 16, "learning_rate": 5e-4,
                 "buffer_capacity": 1_000_000}
 POLICIES = {"dqn-ideal": PretrainedSpec(RunSpec("dqn", "ideal"), 120),

@@ -13,7 +13,7 @@ from pendkit.rig import SERVO_PRESETS, RigParams
 from pendkit.sim.fidelity import FIDELITY_PRESETS
 from pendkit.sim.randomize import RandomRig, held_out_rigs
 
-HELD_OUT_SEED = 2026  # the documented draw of held-out rigs (docs/rl.md)
+HELD_OUT_SEED = 2026  # the documented draw of held-out rigs (docs/adapt.md)
 VALIDATION_SEED = 77  # rigs from the training ranges that choose a checkpoint; never the held-out ones
 
 

@@ -59,7 +59,7 @@ def _preset_names() -> list[str]:
 @click.option("--resume", is_flag=True, help="Continue from the run's last checkpoint.")
 @click.option("--randomize", default="", callback=_check_randomize,
               help="Domain randomisation per episode: any of servo,latency,masses,pendulum,pulses,encoder,network "
-                   "(comma-separated), or robust for all (docs/rl.md).")
+                   "(comma-separated), or robust for all (docs/adapt.md).")
 @click.option("--preset", type=click.Choice(_preset_names()), default=None, help="The servo preset of the twin.")
 @click.option("--backend", type=click.Choice(("sim", "rig")), default="sim", show_default=True,
               help="rig: train on a rig over MQTT with the non-blocking trainer (for --seconds).")
@@ -291,7 +291,7 @@ def policies_build(names: tuple[str, ...]) -> None:
               help="The shipped policy to start from.")
 @click.option("--device-trials/--no-device-trials", default=False, show_default=True,
               help="Try the device's designs for five servo loops on the rig first (3.5 minutes of its time); "
-                   "without: the identified twin's minimum-time design, which did as well (docs/rl.md).")
+                   "without: the identified twin's minimum-time design, which did as well (docs/results/transfer.md).")
 @click.option("--loop-episodes", type=click.IntRange(0, 10), default=None,
               help="Short excitation episodes of small quick steps that show the servo's loop (4 s of rig time each); "
                    "the servo is then refined over them (default: AdaptConfig's).")

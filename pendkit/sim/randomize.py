@@ -4,7 +4,7 @@ network) every episode.
 The paper's authors found that a policy trained on one servo did not transfer to another. Training over a
 spread of rigs makes a policy that works for any of them, and a policy with a memory (R-DQN's GRU) can
 infer the rig it is on from what it has seen (rapid motor adaptation: a history-conditioned policy trained
-over many dynamics). What varies, and why (`TRAINING_RANGES`; docs/rl.md has the table):
+over many dynamics). What varies, and why (`TRAINING_RANGES`; docs/adapt.md has the table):
 
 - servo: speed and stall torque between the kit's presets (MKS X5 0.12 s/60 deg to the D645MW at 4.8 V,
   0.28; 6 to 25.5 kg cm), its loop's stiffness and damping between the presets' (1-5 deg, 0.2-0.7);
