@@ -124,6 +124,11 @@ def first_contrast(fn, rng):
     expect(fn(delays, plain, [0.2] * 5, 0.5) is None,
            "when the recurrent agent also fails, there is no contrast: return None")
     expect(fn(delays, [1.0] * 5, recurrent, 0.5) is None, "when plain DQN never breaks, return None")
+    # the boundaries: exactly at the threshold, plain has not broken and the other agent holds
+    at_threshold = fn([0, 60, 120], [1.0, 0.5, 0.0], [1.0, 0.5, 0.5], 0.5)
+    expect(at_threshold == 120, f"plain at exactly the threshold (0.5 at 60 ms) has not broken yet, and the other "
+                                f"agent at exactly the threshold holds: expected 120, got {shown(at_threshold)} "
+                                "(plain < threshold, not <=; other >= threshold, not >)")
 
 
 prelab_task("08", ("gru_input_weights", "delay_steps"))

@@ -40,6 +40,12 @@ def the_final_upright_run(fn, rng):
     elif got is not None and abs(got - 5) < 1e-9:
         message += ": that is a step index; multiply by the step time"
     expect(got is not None and abs(got - 0.30) < 1e-9, message)
+    mirrored, dt = run_of([-a for a in swing])  # the same swing-up from the other side
+    got = _optional_number(fn(mirrored, dt), "time_to_upright_s(the same swing from the other side)")
+    message = f"the same swing-up from the other side (negative angles) is upright from 0.30 s too, got {shown(got)}"
+    if got is not None and abs(got) < 1e-9:
+        message += ": angles from upright are signed (the pendulum comes up from either side); compare |angle|"
+    expect(got is not None and abs(got - 0.30) < 1e-9, message)
 
 
 @upright.test(points=1, hint="Not upright at the end means no time to upright: return None.")
@@ -116,12 +122,19 @@ def a_mean_of_squares(fn, rng):
     expect(abs(longer - 0.01) < 1e-9, f"the same gap over 80 steps should still cost 0.01, got {shown(longer)}")
 
 
-@matching.test(points=1, hint="Gaps either way count the same: a mean of signed differences lets them cancel.")
+@matching.test(points=1, hint="Gaps either way count the same, and a small negative gap is small: square each "
+                              "difference, wrapped into [-pi, pi).")
 def gaps_either_way_add_up(fn, rng):
     recorded = np.zeros(10)
     simulated = np.array([0.2, -0.2] * 5)
     got = _cost(fn, simulated, recorded)
-    expect(abs(got - 0.04) < 1e-9, f"gaps of +0.2 and -0.2 rad in turn should cost 0.04, got {shown(got)}")
+    message = f"gaps of +0.2 and -0.2 rad in turn should cost 0.04, got {shown(got)}"
+    if abs(got) < 1e-9:
+        message += ": the signed differences cancelled; square each difference before the mean"
+    elif got > 1.0:
+        message += (": a gap of -0.2 rad came out near 2 pi (6.08 rad); wrap each difference into [-pi, pi), "
+                    "not [0, 2 pi)")
+    expect(abs(got - 0.04) < 1e-9, message)
 
 
 @matching.test(points=2, hint="The encoder reads from the bottom in [0, 2 pi): 0.05 and 6.23 rad are 0.1 rad "
