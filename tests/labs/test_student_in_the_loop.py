@@ -143,8 +143,8 @@ def upload_chunks(blob, start=0, chunk_bytes=1024):
 '''
 
 
-def estimate_error(text: str) -> float:
-    return float(re.search(r"rate error during the swing-up ([\d.]+) rad/s RMS", text).group(1))
+def estimate_error(text: str, whose: str = "your model") -> float:
+    return float(re.search(whose + r" ([\d.]+) rad/s", text).group(1))
 
 
 def test_lab10_the_students_model_drives_the_devices_estimate_and_a_reversed_push_shows():
@@ -153,6 +153,9 @@ def test_lab10_the_students_model_drives_the_devices_estimate_and_a_reversed_pus
                            {"pendulum_acceleration": PUSH_WITH_THE_WRONG_SIGN})
     assert "solved=2/2" in right, right
     assert estimate_error(wrong) > 1.3 * estimate_error(right), (right, wrong)
+    # the kit's own model is printed beside the student's, and a wrong one is told so
+    assert estimate_error(right, "the kit's model") == pytest.approx(estimate_error(right), abs=0.02), right
+    assert "clearly worse than the kit's" in wrong and "clearly worse" not in right, (right, wrong)
 
 
 def test_lab10_the_students_chunks_reach_the_rig_and_big_endian_ones_do_not():
@@ -198,5 +201,6 @@ def test_lab07_a_target_without_the_future_is_named_under_its_curve_and_greedy_r
     wrong = printed_by_lab("07_dqn.ipynb", "def myopic_target(", {"td_target": MYOPIC_TARGET})
     assert "is the myopic one" not in right, right
     assert "your curve is the myopic one, episode for episode" in wrong, wrong
-    greedy = printed_by_lab("07_dqn.ipynb", "def greedy_return(")
-    assert re.search(r"held upright at the end in \d+ of \d+", greedy), greedy
+    judged = printed_by_lab("07_dqn.ipynb", "run = judge_policy(")
+    assert re.search(r"your verdict: held \d+ of 10: (not )?solved \(the kit says (not )?solved\)", judged), judged
+    assert re.search(r"the first episode alone \(hanging still\) (held|did not hold)", judged), judged

@@ -58,8 +58,10 @@ def hanging_still(fn, rng):
     got = a_number(fn(0.0, 0.0, 0.0, W0, DAMPING, COUPLING), "pendulum_acceleration(0, 0, 0, ...)")
     expect(abs(got) < 1e-12, f"hanging still, the arm at rest: 0 rad/s^2, got {got}")
     upright = a_number(fn(math.pi - 0.01, 0.0, 0.0, W0, DAMPING, COUPLING), "pendulum_acceleration(pi - 0.01, ...)")
-    expect(upright < 0, f"0.01 rad short of upright (angle pi - 0.01) gravity pulls it back down (negative), "
-                        f"got {upright}")
+    message = f"0.01 rad short of upright (angle pi - 0.01) gravity pulls it back down (negative), got {upright}"
+    if upright > 0:
+        message += ": gravity has the wrong sign (-w0^2 sin(angle), with the angle from hanging)"
+    expect(upright < 0, message)
 
 
 def as_chunk_list(got, call: str) -> list[bytes]:
