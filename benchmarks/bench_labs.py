@@ -2,13 +2,15 @@
 and of grading one submission with `pendkit grade`'s runner.
 
     python benchmarks/bench_labs.py [--labs 05 09] [--runs solutions labs grade]
-    python benchmarks/bench_labs.py --interactive [--labs 04 05 10]
+    python benchmarks/bench_labs.py --interactive [--busy] [--labs 04 05 10]
 
 `--interactive` runs each solution notebook with the budgets a class runs (PENDKIT_MODE=interactive) and
 prints one line a lab: `lab=NN interactive_compute_s=X stated_min=Y outcome=ok|short` and the cells that
 computed over 10 s without a progress bar (there should be none), the outcome being the
 result the lab's text promises (OUTCOMES: read from what its cells print; "ran" where the lab promises no
-number), so the time a class waits on the machine and the text's claims are measured, not estimated.
+number), so the time a class waits on the machine and the text's claims are measured, not estimated. `--busy` runs
+a second process that keeps one core busy beside the notebook (a laptop with a browser and a video call:
+the stated times must hold there too).
 """
 
 from __future__ import annotations
@@ -90,28 +92,48 @@ def run_interactive(path: Path) -> tuple[float, str, list[str], list[str]]:
     return seconds, printed, silent, [f"cell{k}:{took_s[k]:.0f}s" for k in slowest]
 
 
-def interactive(labs: list[str] | None) -> None:
-    for path in sorted((ROOT / "solutions").glob("*.ipynb")):
-        lab = path.name[:2]
-        if labs is not None and lab not in labs:
-            continue
-        stated = re.search(r"about (\d+) minutes", nbformat.read(path, as_version=4).cells[0].source)
-        seconds, printed, silent, slowest = run_interactive(path)
-        reached = OUTCOMES.get(lab, lambda text: True)(printed)
-        print(f"lab={lab} interactive_compute_s={seconds:.0f} stated_min={stated.group(1) if stated else '-'} "
-              f"outcome={'ok' if reached else 'short'} cells_over_{BAR_SECONDS:.0f}s_without_bar="
-              f"{','.join(silent) or 'none'} slowest={','.join(slowest)}", flush=True)
+class BusyCore:
+    """A process that keeps one core busy until closed (a context manager)."""
+
+    def __enter__(self):
+        import subprocess
+        import sys
+
+        self.process = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.process.kill()
+        self.process.wait()
+
+
+def interactive(labs: list[str] | None, busy: bool = False) -> None:
+    import contextlib
+
+    with BusyCore() if busy else contextlib.nullcontext():
+        for path in sorted((ROOT / "solutions").glob("*.ipynb")):
+            lab = path.name[:2]
+            if labs is not None and lab not in labs:
+                continue
+            stated = re.search(r"about (\d+) minutes", nbformat.read(path, as_version=4).cells[0].source)
+            seconds, printed, silent, slowest = run_interactive(path)
+            reached = OUTCOMES.get(lab, lambda text: True)(printed)
+            print(f"lab={lab} interactive_compute_s={seconds:.0f} busy={busy} "
+                  f"stated_min={stated.group(1) if stated else '-'} outcome={'ok' if reached else 'short'} "
+                  f"cells_over_{BAR_SECONDS:.0f}s_without_bar={','.join(silent) or 'none'} "
+                  f"slowest={','.join(slowest)}", flush=True)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--labs", nargs="+", default=None, help="lab numbers (default: all)")
     parser.add_argument("--interactive", action="store_true", help="the class's budgets, one line a lab")
+    parser.add_argument("--busy", action="store_true", help="with --interactive: a second process keeps a core busy")
     parser.add_argument("--runs", nargs="+", choices=RUNS, default=list(RUNS),
                         help="which to time: the solutions, the student templates (labs/), grading a solution")
     args = parser.parse_args()
     if args.interactive:
-        interactive(args.labs)
+        interactive(args.labs, args.busy)
         return
 
     def chosen(path: Path) -> bool:
