@@ -63,8 +63,7 @@ def broker_config(rig_ids: tuple[str, ...], out_dir: Path, port: int, bind: str,
 @click.option("--impairment", type=click.Choice(list(IMPAIRMENTS)), default="none",
               show_default=True, help="Extra latency and loss, as a rig's WiFi would add.")
 @click.option("--username", default=None, help="MQTT user (default: the rig id when --password is given).")
-@click.option("--password", envvar="PENDKIT_MQTT_PASSWORD", default=None, show_envvar=True,
-              help="MQTT password of the rig's user (safer in the environment variable).")
+@click.option("--password", default=None, help="MQTT password of the rig's user.")
 @click.option("--encoder-fault", type=click.Choice(("stuck", "garbage")), default=None,
               help="Simulate a seized or broken encoder (safety demos).")
 @click.option("--protocol", type=click.Choice(("v1", "v2")), default="v2", show_default=True,
