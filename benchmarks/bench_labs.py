@@ -47,7 +47,7 @@ def _all_solved(text: str) -> bool:
 
 
 def _delay_aware_holds(text: str) -> bool:
-    return all(re.search(rf"^{re.escape(name)} +held after \d+ episodes", text, re.M)
+    return all(re.search(rf"^{re.escape(name)} +a policy that holds \(the rule\) after \d+ episodes", text, re.M)
                for name in ("dqn+actions", "r-dqn"))
 
 
