@@ -11,6 +11,7 @@ from collections.abc import Callable
 from pendkit.device.commands import frame_command
 from pendkit.device.on_twin import DeployError
 from pendkit.device.onboard import blob_chunks
+from pendkit.link.rig_backend import is_servo_counts_range
 
 HEARTBEAT_S = 0.05  # a third of the watchdog (150 ms by default): one or two lost heartbeats do not stop it
 CHUNK_PAUSE_S = 0.002  # a rig's MQTT buffer takes one chunk at a time
@@ -79,8 +80,7 @@ def servo_range_problem(status: dict, params) -> str | None:
     device_range = status.get("servo_counts_range") if isinstance(status, dict) else None
     if device_range is None:
         return None  # the authors' firmware does not say: nothing to compare
-    if not (isinstance(device_range, list) and len(device_range) == 2
-            and all(isinstance(c, int) and not isinstance(c, bool) for c in device_range)):
+    if not is_servo_counts_range(device_range):
         return f"its status says servo_counts_range {str(device_range)[:40]}, not [min, max] counts (malformed)"
     if device_range != [params.servo_min_counts, params.servo_max_counts]:
         return (f"its firmware drives servo counts {device_range[0]}..{device_range[1]}, the controller was designed "

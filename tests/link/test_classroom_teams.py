@@ -16,17 +16,9 @@ from pendkit.link.broker import MosquittoBroker, write_classroom_config
 from pendkit.link.driver import RigLink
 from pendkit.link.virtual_rig import VirtualRig, VirtualRigGroup
 from tests.link.conftest import HAVE_MOSQUITTO
+from tests.link.test_rig_link import wait_for
 
 pytestmark = pytest.mark.skipif(not HAVE_MOSQUITTO, reason="mosquitto is not installed (apt-get install mosquitto)")
-
-
-def wait_for(predicate, timeout_s=3.0):
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.02)
-    return False
 
 
 @pytest.fixture
