@@ -92,6 +92,9 @@ class SwingUpEnv(gym.Env):
     log_dir (realistic twin or rig: every message of each episode to `log_dir/episode-NNNN.jsonl`);
     features ("measured": the readings as they arrive; "estimated": a model-based observer's estimate of the
     present state from the readings and the actions sent, `pendkit.control.estimated_state`);
+    observer_params (with features="estimated": the rig the observer is designed for, and so fixed through
+    `set_rig`; default `params`, followed through `set_rig`. A policy meant for rigs it does not know is
+    trained and judged with the nominal rig's observer);
     with backend="rig": rig ("r01"), broker (URL, default mqtt://127.0.0.1:1883), rig_options (username,
     password, tls_ca, observation_timeout_s, reset_stop_s, settle, connect_timeout_s, network_latency_ms),
     protocol ("v2", or "v1" for a rig
@@ -109,7 +112,7 @@ class SwingUpEnv(gym.Env):
                  max_episode_steps: int | None = EPISODE_STEPS, render_mode: str | None = None,
                  log_dir: str | None = None, rig: str = "r01", broker: str | None = None,
                  rig_options: dict[str, Any] | None = None, features: str = "measured",
-                 protocol: str = "v2") -> None:
+                 protocol: str = "v2", observer_params: RigParams | None = None) -> None:
         if action_mode not in ACTION_MODES:
             raise ConfigError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
         if start not in STARTS:
@@ -130,6 +133,9 @@ class SwingUpEnv(gym.Env):
             raise ConfigError(f"params must be a pendkit.RigParams (e.g. RigParams.preset('mks-x5-hbl550')), "
                               f"got {type(params).__name__} {params!r}")
         self.params = params if params is not None else RigParams()
+        if observer_params is not None and (features != "estimated" or not isinstance(observer_params, RigParams)):
+            raise ConfigError("observer_params is a pendkit.RigParams for features='estimated', got "
+                              f"{type(observer_params).__name__} with features={features!r}")
         if filter_coefficient is not None and (isinstance(filter_coefficient, bool)
                                                or not isinstance(filter_coefficient, (int, float, np.number))):
             raise ConfigError(f"filter_coefficient must be a number in [0, 1), got {filter_coefficient!r}")
@@ -169,6 +175,9 @@ class SwingUpEnv(gym.Env):
         self._shown: RigState | None = None  # what the observation is made of: measured, or estimated
         self._estimator = None
         self.feature_source = features  # "measured" or "estimated": what a learner built for this env expects
+        self._observer_design = None  # (params, timing) the observer keeps through set_rig, when pinned
+        if observer_params is not None:
+            self._observer_design = (observer_params, self.backend.timing)
         if features == "estimated":
             self._estimator = self._new_estimator()
         self._filtered_unit = 0.0
@@ -182,10 +191,23 @@ class SwingUpEnv(gym.Env):
         self._discrete_commands = tuple(discrete_command(k, self.params) for k in range(len(self._increments)))
 
     def _new_estimator(self):
-        """The observer's feed, designed for this step and the backend's own delays."""
+        """The observer's feed, designed for this step and the backend's own delays (or the pinned design)."""
         from pendkit.control.estimated_state import EstimatedStateFeed
 
-        return EstimatedStateFeed(self.params, self.dt, self.backend.timing)
+        params, timing = self._observer_design or (self.params, self.backend.timing)
+        return EstimatedStateFeed(params, self.dt, timing)
+
+    @property
+    def observer_pinned(self) -> bool:
+        """True when the observer keeps its design through `set_rig` (`observer_params` or `pin_observer`)."""
+        return self._observer_design is not None
+
+    def pin_observer(self, params: RigParams | None = None) -> None:
+        """Keep the observer designed for `params` (default: the present rig) and the present backend's
+        timing through every later `set_rig`: training over rigs the observer does not know."""
+        self._observer_design = (params or self.params, self.backend.timing)
+        if self._estimator is not None:
+            self._estimator = self._new_estimator()
 
     def set_rig(self, params: RigParams, fidelity: str | Fidelity | None = None) -> None:
         """Swap the twin for one with other parameters (domain randomisation), from the next `reset()` on.

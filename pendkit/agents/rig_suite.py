@@ -32,12 +32,16 @@ def validation_rigs(count: int = 8, seed: int = VALIDATION_SEED) -> dict[str, Ra
 
 
 def rig_env(rig: RandomRig, spec: RunSpec | None = None, **env_options):
-    """The realistic twin of `rig`, made for `spec`'s learner (or a plain continuous env without one)."""
+    """The realistic twin of `rig`, made for `spec`'s learner (or a plain continuous env without one). A
+    learner reading the observer's estimate gets an observer designed for the nominal rig: the laptop does
+    not know the rig's parameters."""
     import pendkit
     from pendkit.agents.learners import learner
 
     fidelity = rig.fidelity(FIDELITY_PRESETS["realistic"])
     kwargs = learner(spec.learner).env_kwargs() if spec is not None else {}
+    if kwargs.get("features") == "estimated":
+        env_options.setdefault("observer_params", RigParams())
     return pendkit.make(fidelity=fidelity, params=rig.params, **kwargs, **env_options)
 
 

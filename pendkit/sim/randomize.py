@@ -163,7 +163,9 @@ def held_out_rigs(count: int, seed: int = 2026, base: RigParams | None = None,
 
 class DomainRandomization(gym.Wrapper):
     """Before every reset, a new rig: `what` is a subset of RANDOMIZABLE (or "robust"). The network and
-    the encoder's calibration need a fidelity with the MCU pipeline (it is what they act on)."""
+    the encoder's calibration need a fidelity with the MCU pipeline (it is what they act on). An env with
+    `features="estimated"` keeps its observer designed for the base rig (as on a rig the laptop does not
+    know), unless it was pinned to another."""
 
     def __init__(self, env: gym.Env, what: tuple[str, ...] | str, seed: int = 0,
                  ranges: RigRanges = TRAINING_RANGES) -> None:
@@ -175,6 +177,8 @@ class DomainRandomization(gym.Wrapper):
         if needs_mcu and not self.base_fidelity.mcu_pipeline:
             raise ConfigError(f"randomising {', '.join(sorted(needs_mcu))} needs a fidelity with the MCU pipeline "
                               "(e.g. 'realistic')")
+        if base.feature_source == "estimated" and not base.observer_pinned:
+            base.pin_observer()
         self.ranges = ranges
         self.rng = np.random.default_rng(seed)
         self.rig: RandomRig | None = None

@@ -91,6 +91,23 @@ def test_each_episode_runs_on_a_new_rig_and_the_physics_follows():
     assert len(seen) == 4
 
 
+def test_an_estimating_env_keeps_its_observer_for_the_base_rig_through_every_drawn_one():
+    """Trained over rigs, the observer must not know the rig it is on (on a real rig the laptop does not)."""
+    env = DomainRandomization(pendkit.make(fidelity="realistic", action_mode="continuous", features="estimated"),
+                              "robust", seed=3)
+    for episode in range(3):
+        env.reset(seed=episode)
+        env.step(np.array([0.5], dtype=np.float32))
+        base = env.unwrapped
+        assert base.params != RigParams() and base._estimator.params == RigParams()
+    # unpinned, the observer follows the twin (an env made for one known rig)
+    direct = pendkit.make(fidelity="realistic", action_mode="continuous", features="estimated")
+    direct.unwrapped.set_rig(RigParams.preset("mks-x5-hbl550"))
+    assert direct.unwrapped._estimator.params == RigParams.preset("mks-x5-hbl550")
+    with pytest.raises(ConfigError, match="observer_params"):
+        pendkit.make(observer_params=RigParams())  # measured features have no observer
+
+
 def test_bad_requests_are_refused_with_the_choices():
     with pytest.raises(ConfigError, match="servo, latency, masses, pendulum"):
         parse_randomize("servo,wind")
