@@ -28,8 +28,8 @@ import numpy as np
 import pendkit
 from pendkit.agents.runs import SOLVED_TAIL_STEPS, Evaluation, held_fraction
 from pendkit.device.controller_blob import pack
-from pendkit.device.on_twin import onboard_episode, upload_to_twin
-from pendkit.device.swingup_design import design_swing_up
+from pendkit.deploy.on_twin import onboard_episode, upload_to_twin
+from pendkit.deploy.swingup_design import design_swing_up
 from pendkit.episode import time_to_upright_s
 from pendkit.features import holds_upright
 from pendkit.sim.fidelity import FIDELITY_PRESETS
@@ -53,7 +53,7 @@ def shipped_agent(env):
 def blob_for(controller: str, params, env=None) -> bytes:
     """The controller as the device takes it."""
     if controller == "r-dqn":
-        from pendkit.device.export import policy_blob
+        from pendkit.deploy.export import policy_blob
 
         agent, _ = shipped_agent(env)
         return pack(policy_blob(agent, params))
@@ -118,7 +118,7 @@ def rig_row(where: str, controller: str, network: str, starts: int, speed: float
 
 
 def device_on_virtual_rig(controller: str, network: str, starts: int, speed: float) -> Evaluation:
-    from pendkit.device.deploy_rig import RigSession, device_episode, upload_to_rig
+    from pendkit.deploy.on_rig import RigSession, device_episode, upload_to_rig
     from pendkit.link.driver import RigLink
     from pendkit.link.virtual_rig import LocalRig
 

@@ -53,7 +53,7 @@ def twin_rig(params, impairment="classroom-wifi", residual_offset_counts: int = 
         residual[0] -= shift_counts  # the device's zero moved by the shift: a hanging pendulum reads that less
 
     def run_on_device(blob: bytes, episodes: int, episode_steps: int = EPISODE_STEPS) -> list[list[float]]:
-        from pendkit.device.on_twin import onboard_episode, upload_to_twin
+        from pendkit.deploy.on_twin import onboard_episode, upload_to_twin
 
         env = make_env(action_mode="continuous")
         upload_to_twin(env, blob)
@@ -115,7 +115,7 @@ def mqtt_rig(rig_id: str, broker: str | None, login=None) -> Rig:
         return time.monotonic() - first[0] if first else 0.0
 
     def run_on_device(blob: bytes, episodes: int, episode_steps: int = EPISODE_STEPS) -> list[list[float]]:
-        from pendkit.device.deploy_rig import RigSession, device_episode, upload_to_rig
+        from pendkit.deploy.on_rig import RigSession, device_episode, upload_to_rig
         from pendkit.link import DEFAULT_BROKER
         from pendkit.link.driver import RigLink
 

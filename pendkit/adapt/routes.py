@@ -122,7 +122,7 @@ def classical_on_env(design_env, env, controller: str, episodes: int, seed: int 
 
 
 def classical_on_device(rig, identification: Identification, episodes: int, tried=None, made=None) -> dict:
-    """The same two designs for the rig's own device (`pendkit.device.swingup_design`, on the identified
+    """The same two designs for the rig's own device (`pendkit.deploy.swingup_design`, on the identified
     parameters), and the design the device trials chose (`tried`, a `pendkit.adapt.trials.Design`) if any,
     uploaded and run there from rest: the network carries heartbeats and telemetry only. `made`: one of the
     two already made (an untried `Design` on the identified parameters), not designed again."""
@@ -130,7 +130,7 @@ def classical_on_device(rig, identification: Identification, episodes: int, trie
         return {name: {"summary": "not evaluated"} for name in CLASSICAL}
     from pendkit.agents.runs import SOLVED_TAIL_STEPS
     from pendkit.device.controller_blob import pack
-    from pendkit.device.swingup_design import design_swing_up
+    from pendkit.deploy.swingup_design import design_swing_up
     from pendkit.episode import time_to_upright_s
     from pendkit.features import holds_upright
 

@@ -22,7 +22,7 @@ def _rig_params(params_path: Path | None):
 def _learned_blob(run_dir: Path | None, policy_name: str | None):
     """A trained R-DQN as a policy the device runs, from RUN_DIR or a shipped policy."""
     from pendkit.agents.runs import build_run, load_weights
-    from pendkit.device.export import policy_blob
+    from pendkit.deploy.export import policy_blob
 
     if policy_name is not None:
         from pendkit.agents.pretrained import policy_weights
@@ -48,7 +48,7 @@ def _blob(run_dir: Path | None, policy_name: str | None, controller: str | None,
         raise click.UsageError("give one of RUN_DIR, --policy NAME or --controller energy|trajopt")
     if controller is None:
         return _learned_blob(run_dir, policy_name)
-    from pendkit.device.swingup_design import design_swing_up
+    from pendkit.deploy.swingup_design import design_swing_up
 
     blob = design_swing_up(_rig_params(params_path), controller)
     if controller == "trajopt" and not blob.plan_steps:
@@ -111,7 +111,7 @@ def deploy(run_dir, policy_name, controller, params_path, blob_path, rig_id: str
     """Upload a controller to a rig, start it, stream its telemetry; Ctrl-C stops it (so does the rig's
     watchdog if this laptop goes away)."""
     from pendkit.device.controller_blob import BlobError, pack, parse
-    from pendkit.device.deploy_rig import RigSession, run_on_rig, servo_range_problem, upload_to_rig
+    from pendkit.deploy.on_rig import RigSession, run_on_rig, servo_range_problem, upload_to_rig
     from pendkit.link import DEFAULT_BROKER
     from pendkit.link.driver import RigLink, check_rig_id
 

@@ -1,5 +1,5 @@
 """The classical swing-up controllers by name: one registry the CLI, the device's designs, adaptation and
-the demos read (a new controller is a row here, then its design in `pendkit.device.swingup_design` and its
+the demos read (a new controller is a row here, then its design in `pendkit.deploy.swingup_design` and its
 host-side class in `pendkit.demo.CONTROLLERS`)."""
 
 from __future__ import annotations

@@ -7,5 +7,7 @@
   and sequence numbers, the status;
 - `twin`: that device on the MuJoCo physics (the realistic twin and the virtual rig).
 
+What runs it from the laptop (export, uploads to a twin or a rig, the device's designs) is `pendkit.deploy`.
+
 The firmware's C++ core (firmware/lib/pendcore) follows the same rules; tests/vectors holds both to them.
 """

@@ -27,7 +27,7 @@ def random_rigs_and_states(fn, rng):
 @chunks.test(points=1, hidden=True, hint="Blobs of any size, any chunk size; the last chunk may be short.")
 def any_blob_any_size(fn, rng):
     from pendkit.device.controller_blob import pack
-    from pendkit.device.swingup_design import design_swing_up
+    from pendkit.deploy.swingup_design import design_swing_up
 
     blob = pack(design_swing_up(None, str(rng.choice(["energy", "trajopt"]))))
     size = int(rng.integers(7, 700))

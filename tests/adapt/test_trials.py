@@ -31,7 +31,7 @@ def _run_by_design(scripts):
     its blob's bytes: each call takes the next of its fractions of the last 100 steps held (unscripted
     designs fall); anything short of 1.0 falls at the end, so a whole episode is solved only at 1.0."""
     from pendkit.device.controller_blob import pack
-    from pendkit.device.swingup_design import design_swing_up
+    from pendkit.deploy.swingup_design import design_swing_up
 
     blobs = {pack(design_swing_up(loop_variant(RigParams(), e, z), c)): (label, c)
              for label, e, z in LOOP_VARIANTS for c in ("energy", "trajopt")}
@@ -68,7 +68,7 @@ def test_a_tie_goes_to_the_design_made_on_the_identified_twin():
 
 
 def test_a_design_the_device_refuses_is_left_out_and_none_is_chosen_when_all_are():
-    from pendkit.device.on_twin import DeployError
+    from pendkit.deploy.on_twin import DeployError
 
     def refuses(blob, episodes, steps):
         raise DeployError("the rig refused the controller: too big")

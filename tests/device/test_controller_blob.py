@@ -1,6 +1,6 @@
 """Controller blobs for the device: a blob round-trips, a damaged, cut or oversized one is refused whole,
 and the device's float32 runtime gives torch's outputs on 10 000 recorded inputs of the shipped R-DQN
-(tests/vectors/r-dqn-realistic.*, rebuilt by `python -m pendkit.device.export vectors tests/vectors`)."""
+(tests/vectors/r-dqn-realistic.*, rebuilt by `python -m pendkit.deploy.export vectors tests/vectors`)."""
 
 import struct
 import zlib
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from pendkit.device.controller_blob import HEADER, MAX_BLOB_BYTES, BlobError, DenseLayer, NetworkBlob, pack, parse
-from pendkit.device.export import read_vectors, state_feedback_blob
+from pendkit.deploy.export import read_vectors, state_feedback_blob
 from pendkit.device.policy_runtime import runtime_for
 
 VECTORS = Path(__file__).resolve().parents[1] / "vectors"
@@ -85,7 +85,7 @@ def test_the_device_runtime_gives_torchs_outputs_on_the_recorded_inputs():
 def test_the_vectors_are_the_shipped_policys():
     from pendkit.agents.pretrained import policy_weights
     from pendkit.agents.runs import build_run
-    from pendkit.device.export import network_blob
+    from pendkit.deploy.export import network_blob
 
     spec, state = policy_weights("r-dqn-realistic")
     env, agent, _ = build_run(spec)

@@ -13,11 +13,11 @@ from click.testing import CliRunner
 import pendkit
 from pendkit.cli import main
 from pendkit.device.controller_blob import BlobError, pack, parse
-from pendkit.device.export import read_vectors
-from pendkit.device.on_twin import DeployError, onboard_episode, upload_to_twin
+from pendkit.deploy.export import read_vectors
+from pendkit.deploy.on_twin import DeployError, onboard_episode, upload_to_twin
 from pendkit.device.onboard import OnboardController, blob_chunks
 from pendkit.device.scheduler import DeviceScheduler
-from pendkit.device.swingup_design import design_swing_up
+from pendkit.deploy.swingup_design import design_swing_up
 from pendkit.device.swingup_runtime import MODES, SwingUpRuntime
 from pendkit.features import holds_upright
 from pendkit.rig import RigParams
@@ -199,7 +199,7 @@ def test_python_device_policy_reproduces_the_shared_vectors():
 def test_a_policy_on_the_device_holds_where_the_laptop_loses_it_on_poor_wifi():
     from pendkit.agents.pretrained import policy_weights
     from pendkit.agents.runs import build_run, evaluate_agent, held_fraction
-    from pendkit.device.export import policy_blob
+    from pendkit.deploy.export import policy_blob
 
     spec, state = policy_weights("r-dqn-realistic")
     fidelity = dataclasses.replace(FIDELITY_PRESETS["realistic"], network=IMPAIRMENTS["poor-wifi"])

@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 
 from pendkit.device.controller_blob import DenseLayer, NetworkBlob, pack
-from pendkit.device.export import VECTOR_HEADER, VECTORS_MAGIC
+from pendkit.deploy.export import VECTOR_HEADER, VECTORS_MAGIC
 from pendkit.device.onboard import CHUNK_HEADER, CHUNK_MAGIC, OnboardController, blob_chunks
-from pendkit.device.swingup_design import design_swing_up
+from pendkit.deploy.swingup_design import design_swing_up
 from pendkit.device.swingup_runtime import MODES
 
 HERE = Path(__file__).parent
@@ -48,7 +48,7 @@ class _Recording:
 
 def record_swing_up(controller: str, ticks: int = TICKS, seed: int = 0) -> tuple[bytes, np.ndarray]:
     import pendkit
-    from pendkit.device.on_twin import onboard_episode, upload_to_twin
+    from pendkit.deploy.on_twin import onboard_episode, upload_to_twin
     from pendkit.sim.fidelity import FIDELITY_PRESETS
     from pendkit.sim.latency import IMPAIRMENTS
 
@@ -71,8 +71,8 @@ def record_policy(decisions: int = 1000, seed: int = 0) -> tuple[bytes, list[dic
     import pendkit
     from pendkit.agents.pretrained import policy_weights
     from pendkit.agents.runs import build_run
-    from pendkit.device.export import policy_blob
-    from pendkit.device.on_twin import onboard_episode, upload_to_twin
+    from pendkit.deploy.export import policy_blob
+    from pendkit.deploy.on_twin import onboard_episode, upload_to_twin
     from pendkit.sim.fidelity import FIDELITY_PRESETS
     from pendkit.sim.latency import IMPAIRMENTS
 

@@ -81,7 +81,7 @@ def device_takes(chunk_list: list[bytes]) -> dict:
 
 def sample_blob() -> bytes:
     from pendkit.device.controller_blob import pack
-    from pendkit.device.swingup_design import design_swing_up
+    from pendkit.deploy.swingup_design import design_swing_up
 
     return pack(design_swing_up(None, "trajopt"))
 

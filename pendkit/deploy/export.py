@@ -1,7 +1,7 @@
 """Controllers as blobs for a rig to run: a trained R-DQN's network, an LQR's gain; and the shared test
 vectors that hold the device runtimes (Python here, C++ in the firmware) to torch's outputs.
 
-    python -m pendkit.device.export vectors tests/vectors   # rebuild the vectors from the shipped policy
+    python -m pendkit.deploy.export vectors tests/vectors   # rebuild the vectors from the shipped policy
 """
 
 from __future__ import annotations
@@ -108,5 +108,5 @@ def read_vectors(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 if __name__ == "__main__":
     if len(sys.argv) != 3 or sys.argv[1] != "vectors":
-        raise SystemExit("usage: python -m pendkit.device.export vectors FOLDER")
+        raise SystemExit("usage: python -m pendkit.deploy.export vectors FOLDER")
     print(f"wrote {write_vectors(Path(sys.argv[2]))}")

@@ -9,7 +9,7 @@ import time
 from collections.abc import Callable
 
 from pendkit.device.commands import frame_command
-from pendkit.device.on_twin import DeployError
+from pendkit.deploy.on_twin import DeployError
 from pendkit.device.onboard import blob_chunks
 from pendkit.link.rig_backend import is_servo_counts_range
 
