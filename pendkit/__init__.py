@@ -14,7 +14,7 @@ import gymnasium
 
 from pendkit.env_name import ENV_ID, EPISODE_STEPS
 from pendkit.errors import ActionError, ConfigError, PendkitError
-from pendkit.sim.render import choose_gl_backend
+from pendkit.gl_backend import choose_gl_backend
 
 choose_gl_backend()  # must run before mujoco is first imported: it reads MUJOCO_GL at import time
 

@@ -163,9 +163,3 @@ def logged_count(log) -> int:
         return 0
     log.flush()
     return len(read_log(log.path))
-
-
-def angle_error_rad2(simulated: np.ndarray, recorded: np.ndarray) -> float:
-    """Mean of 2 - 2 cos(difference): the squared angle error for small differences, free of the 2 pi wrap
-    and smooth at half a turn (lab 09's students write the wrapped square instead)."""
-    return float(np.mean(2.0 - 2.0 * np.cos(np.asarray(simulated) - np.asarray(recorded))))

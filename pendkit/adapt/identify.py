@@ -30,7 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pendkit.adapt.excitation import Recording, angle_error_rad2
+from pendkit.adapt.excitation import Recording
+from pendkit.adapt.replay import angle_error_rad2
 from pendkit.errors import ConfigError
 from pendkit.rig import RigParams
 from pendkit.sim.fidelity import FIDELITY_PRESETS

@@ -108,10 +108,14 @@ def one_way_latency_ms(loops: list[float], acting_period_ms: float, streaming_pe
     return max(0.0, (float(np.median(loops)) - acting_period_ms / 2 - streaming_period_ms / 2) / 2)
 
 
+def angle_error_rad2(simulated: np.ndarray, recorded: np.ndarray) -> float:
+    """Mean of 2 - 2 cos(difference): the squared angle error for small differences, free of the 2 pi wrap
+    and smooth at half a turn (lab 09's students write the wrapped square instead)."""
+    return float(np.mean(2.0 - 2.0 * np.cos(np.asarray(simulated) - np.asarray(recorded))))
+
+
 def replay_cost(params: RigParams, pwm_phase_ms: float, recordings) -> float:
     """The mean over `recordings` (each with its `device` trace) of the replayed twin's squared angle error."""
-    from pendkit.adapt.excitation import angle_error_rad2
-
     return float(np.mean([angle_error_rad2(replay(params, pwm_phase_ms, r.device, r.start_servo_target_rad),
                                            r.device.pendulum_rad) for r in recordings]))
 

@@ -129,8 +129,8 @@ def classical_on_device(rig, identification: Identification, episodes: int, trie
     if episodes == 0 or rig.run_on_device is None:
         return {name: {"summary": "not evaluated"} for name in CLASSICAL}
     from pendkit.agents.runs import SOLVED_TAIL_STEPS
-    from pendkit.device.controller_blob import pack
     from pendkit.deploy.swingup_design import design_swing_up
+    from pendkit.device.controller_blob import pack
     from pendkit.episode import time_to_upright_s
     from pendkit.features import holds_upright
 

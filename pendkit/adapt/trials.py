@@ -101,8 +101,8 @@ def make_designs(params: RigParams, say: Callable[[str], None] = print) -> list[
 
 def with_blob(design: Design, say: Callable[[str], None] = print) -> Design:
     """`design` with its blob made; without one (and said) when python-control cannot make it."""
-    from pendkit.device.controller_blob import pack
     from pendkit.deploy.swingup_design import design_swing_up
+    from pendkit.device.controller_blob import pack
     from pendkit.errors import PendkitError
 
     try:

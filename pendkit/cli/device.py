@@ -110,8 +110,8 @@ def deploy(run_dir, policy_name, controller, params_path, blob_path, rig_id: str
            seconds: float | None, username, password, tls_ca) -> None:
     """Upload a controller to a rig, start it, stream its telemetry; Ctrl-C stops it (so does the rig's
     watchdog if this laptop goes away)."""
-    from pendkit.device.controller_blob import BlobError, pack, parse
     from pendkit.deploy.on_rig import RigSession, run_on_rig, servo_range_problem, upload_to_rig
+    from pendkit.device.controller_blob import BlobError, pack, parse
     from pendkit.link import DEFAULT_BROKER
     from pendkit.link.driver import RigLink, check_rig_id
 

@@ -8,8 +8,8 @@ import math
 import time
 from collections.abc import Callable
 
-from pendkit.device.commands import frame_command
 from pendkit.deploy.on_twin import DeployError
+from pendkit.device.commands import frame_command
 from pendkit.device.onboard import blob_chunks
 from pendkit.link.rig_backend import is_servo_counts_range
 

@@ -7,25 +7,16 @@ falls back to the drawing, which needs only the arm and pendulum angles.
 from __future__ import annotations
 
 import math
-import os
-import sys
 import warnings
 
 import numpy as np
 
+from pendkit.gl_backend import choose_gl_backend
 from pendkit.rig import RigParams
 
 FRAME_WIDTH = 480
 FRAME_HEIGHT = 360
 _GL_FAILED = False
-
-
-def choose_gl_backend() -> str | None:
-    """Pick a headless GL backend on Linux without a display (EGL), unless the user chose one."""
-    if "MUJOCO_GL" not in os.environ and sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
-        os.environ["MUJOCO_GL"] = "egl"
-        os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
-    return os.environ.get("MUJOCO_GL")
 
 
 def mujoco_renderer(model, width: int = FRAME_WIDTH, height: int = FRAME_HEIGHT):

@@ -3,7 +3,8 @@ parameters load in later labs (run by hand only), and bad files are refused."""
 
 import pytest
 
-from pendkit.control.sysid import identify_servo_steps, match_servo_speed
+from pendkit.control.sysid import identify_servo_steps
+from pendkit.sim.servo_fit import match_servo_speed
 from pendkit.errors import ConfigError
 from pendkit.labs.identified_rig import lab_rig
 from pendkit.rig import RigParams

@@ -80,8 +80,8 @@ def device_takes(chunk_list: list[bytes]) -> dict:
 
 
 def sample_blob() -> bytes:
-    from pendkit.device.controller_blob import pack
     from pendkit.deploy.swingup_design import design_swing_up
+    from pendkit.device.controller_blob import pack
 
     return pack(design_swing_up(None, "trajopt"))
 
