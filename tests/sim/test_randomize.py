@@ -128,3 +128,10 @@ def test_train_command_randomises_and_eval_runs_on_another_preset(tmp_path):
     assert result.exit_code == 0 and "solved=0/2 median_upright_s=-" in result.output, result.output
     result = CliRunner().invoke(main, ["train", "--randomize", "wind", "--out", str(out)])
     assert result.exit_code != 0 and "servo, latency, masses" in result.output and "robust" in result.output
+
+
+def test_a_preset_added_to_the_kit_leaves_the_drawn_rigs_as_they_were(monkeypatch):
+    before = [rig.params for rig in held_out_rigs(8, seed=5)]
+    extra = {**SERVO_PRESETS["hitec-d645mw"], "discrete_slow_step_counts": 3}
+    monkeypatch.setitem(SERVO_PRESETS, "aaa-new-servo", extra)  # sorts first: it would shift a preset draw
+    assert [rig.params for rig in held_out_rigs(8, seed=5)] == before
