@@ -45,3 +45,16 @@ def pytest_collection_modifyitems(config, items):
 def pytest_runtest_setup(item):
     # nbval starts a notebook's kernel while setting up its first cell: set strictness before that.
     os.environ["PENDKIT_GRADER_STRICT"] = "1" if "solutions" in Path(str(item.fspath)).parts else "0"
+
+
+def pytest_terminal_summary(terminalreporter):
+    """Say what was skipped and why, once per reason (tests/system_needs.py names what each part needs)."""
+    reasons: dict[str, int] = {}
+    for report in terminalreporter.stats.get("skipped", []):
+        if isinstance(report.longrepr, tuple):
+            reason = report.longrepr[2].removeprefix("Skipped: ")
+            reasons[reason] = reasons.get(reason, 0) + 1
+    if reasons:
+        terminalreporter.section("skipped, and why")
+        for reason, count in sorted(reasons.items(), key=lambda item: -item[1]):
+            terminalreporter.write_line(f"{count:4d} {reason}")

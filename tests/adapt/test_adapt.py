@@ -111,8 +111,8 @@ def test_free_swings_read_a_shorter_pendulums_higher_frequency():
 def test_an_adaptation_session_writes_rig_policy_and_report_within_its_rig_time(tmp_path, loop_episodes):
     pytest.importorskip("torch")
     from pendkit.adapt.session import AdaptConfig, adapt
-    from pendkit.device.controller_blob import pack
     from pendkit.deploy.swingup_design import design_swing_up
+    from pendkit.device.controller_blob import pack
 
     rig = twin_rig(HIDDEN, "none")
     looped = {} if loop_episodes is None else {"loop_episodes": loop_episodes, "refinement_evaluations": 12}
@@ -176,8 +176,8 @@ def test_device_trials_are_left_out_when_they_do_not_fit_the_rig_time_left():
 
 def test_without_trials_the_device_gets_the_identified_twins_minimum_time_design_and_no_rig_time_goes():
     from pendkit.adapt.session import AdaptConfig, device_trials, trials_markdown
-    from pendkit.device.controller_blob import pack
     from pendkit.deploy.swingup_design import design_swing_up
+    from pendkit.device.controller_blob import pack
 
     rig = twin_rig(HIDDEN, "none")
     said, report = [], {}
@@ -231,8 +231,8 @@ def test_a_rig_over_mqtt_reports_the_commands_it_received():
 
 def test_a_rig_over_mqtt_runs_a_short_device_trial_of_the_length_asked():
     from pendkit.adapt.rigs import mqtt_rig
-    from pendkit.device.controller_blob import pack
     from pendkit.deploy.swingup_design import design_swing_up
+    from pendkit.device.controller_blob import pack
     from pendkit.link.virtual_rig import LocalRig
 
     local = LocalRig()
@@ -248,8 +248,8 @@ def test_a_rig_over_mqtt_runs_a_short_device_trial_of_the_length_asked():
 def test_adapt_moves_the_encoders_zero_to_where_the_pendulum_hung_still():
     from pendkit.adapt.identify import Identification
     from pendkit.adapt.session import recalibrated
-    from pendkit.device.controller_blob import pack
     from pendkit.deploy.swingup_design import design_swing_up
+    from pendkit.device.controller_blob import pack
 
     rig = twin_rig(RigParams(), "classroom-wifi", residual_offset_counts=-5)  # the calibration missed 5 counts
     env = rig.make_env(**Excitation.env_kwargs())
@@ -269,8 +269,8 @@ def test_adapt_moves_the_encoders_zero_to_where_the_pendulum_hung_still():
 
 def test_a_rig_over_mqtt_is_recalibrated_for_its_envs_and_its_device_runs():
     from pendkit.adapt.rigs import mqtt_rig
-    from pendkit.device.controller_blob import pack
     from pendkit.deploy.swingup_design import design_swing_up
+    from pendkit.device.controller_blob import pack
     from pendkit.link.virtual_rig import LocalRig
 
     local = LocalRig(mount_offset_counts=4)  # the encoder's zero sits 4 counts from where the kit assumes

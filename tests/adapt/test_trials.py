@@ -30,8 +30,8 @@ def _run_by_design(scripts):
     """A stand-in device whose episodes hold as scripted for each (label, controller) design, recognised by
     its blob's bytes: each call takes the next of its fractions of the last 100 steps held (unscripted
     designs fall); anything short of 1.0 falls at the end, so a whole episode is solved only at 1.0."""
-    from pendkit.device.controller_blob import pack
     from pendkit.deploy.swingup_design import design_swing_up
+    from pendkit.device.controller_blob import pack
 
     blobs = {pack(design_swing_up(loop_variant(RigParams(), e, z), c)): (label, c)
              for label, e, z in LOOP_VARIANTS for c in ("energy", "trajopt")}

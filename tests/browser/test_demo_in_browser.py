@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from pendkit.link.broker import free_port, wait_for_port
+from tests.system_needs import skip_unless
 
 ROOT = Path(__file__).resolve().parents[2]
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -22,8 +23,7 @@ CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-
 
 @pytest.fixture(scope="module")
 def jupyterlab():
-    if CHROMIUM is None:
-        pytest.skip("Debian's chromium is not installed (.ci/run installs it)")
+    skip_unless("chromium")
     pytest.importorskip("playwright")
     port, token = free_port(), "pendkit-browser-test"
     environment = {**os.environ, "PENDKIT_MODE": "interactive", "MPLBACKEND": "Agg"}

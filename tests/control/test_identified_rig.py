@@ -4,11 +4,11 @@ parameters load in later labs (run by hand only), and bad files are refused."""
 import pytest
 
 from pendkit.control.sysid import identify_servo_steps
-from pendkit.sim.servo_fit import match_servo_speed
 from pendkit.errors import ConfigError
 from pendkit.labs.identified_rig import lab_rig
 from pendkit.rig import RigParams
 from pendkit.sim.lab_readings import servo_step_readings
+from pendkit.sim.servo_fit import match_servo_speed
 
 
 @pytest.mark.parametrize("s_per_60deg", [0.14, 0.26, 0.4])

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pendkit.device.controller_blob import HEADER, MAX_BLOB_BYTES, BlobError, DenseLayer, NetworkBlob, pack, parse
 from pendkit.deploy.export import read_vectors, state_feedback_blob
+from pendkit.device.controller_blob import HEADER, MAX_BLOB_BYTES, BlobError, DenseLayer, NetworkBlob, pack, parse
 from pendkit.device.policy_runtime import runtime_for
 
 VECTORS = Path(__file__).resolve().parents[1] / "vectors"

@@ -10,8 +10,8 @@ import pytest
 from click.testing import CliRunner
 
 from pendkit.cli import main
-from pendkit.device.controller_blob import BlobError, pack
 from pendkit.deploy.swingup_design import design_swing_up
+from pendkit.device.controller_blob import BlobError, pack
 from pendkit.link.broker import EmbeddedBroker, free_port
 from pendkit.link.virtual_rig import LocalRig
 from pendkit.rig import RigParams

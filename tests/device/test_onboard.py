@@ -12,12 +12,12 @@ from click.testing import CliRunner
 
 import pendkit
 from pendkit.cli import main
-from pendkit.device.controller_blob import BlobError, pack, parse
 from pendkit.deploy.export import read_vectors
 from pendkit.deploy.on_twin import DeployError, onboard_episode, upload_to_twin
+from pendkit.deploy.swingup_design import design_swing_up
+from pendkit.device.controller_blob import BlobError, pack, parse
 from pendkit.device.onboard import OnboardController, blob_chunks
 from pendkit.device.scheduler import DeviceScheduler
-from pendkit.deploy.swingup_design import design_swing_up
 from pendkit.device.swingup_runtime import MODES, SwingUpRuntime
 from pendkit.features import holds_upright
 from pendkit.rig import RigParams

@@ -12,13 +12,14 @@ import pytest
 
 from pendkit.grading.report import grade_folder
 from pendkit.grading.sandbox import Limits, isolation_problem
+from tests.system_needs import needs
 
 ROOT = Path(__file__).resolve().parents[2]
 TEMPLATE = ROOT / "labs" / "01_encoder.ipynb"
 SOLUTION = ROOT / "solutions" / "01_encoder.ipynb"
 MARKER = "pendkit-attack-marker-7f3a"
 ISOLATED = isolation_problem() is None
-needs_sandbox = pytest.mark.skipif(not ISOLATED, reason=f"no sandbox here: {isolation_problem()}")
+needs_sandbox = needs("bubblewrap")
 
 
 def with_cell(source: str, base: Path = TEMPLATE, at_end: bool = False):

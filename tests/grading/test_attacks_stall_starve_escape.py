@@ -13,13 +13,14 @@ import pytest
 
 from pendkit.grading.report import GradingInterrupted, grade_folder
 from pendkit.grading.sandbox import isolation_problem
+from tests.system_needs import needs
 
 ROOT = Path(__file__).resolve().parents[2]
 TEMPLATE = ROOT / "labs" / "00_tour.ipynb"
 SOLUTION = ROOT / "solutions" / "00_tour.ipynb"
 SECRET = "pendkit-secret-3b9e"  # in hidden tests, other students' files, the grader's environment
 ISOLATED = isolation_problem() is None
-needs_sandbox = pytest.mark.skipif(not ISOLATED, reason=f"no sandbox here: {isolation_problem()}")
+needs_sandbox = needs("bubblewrap")
 
 
 def solution_with(source: str, at_end: bool = True):

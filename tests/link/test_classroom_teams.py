@@ -15,10 +15,10 @@ from pendkit.cli.broker_login import BrokerLogin
 from pendkit.link.broker import MosquittoBroker, write_classroom_config
 from pendkit.link.driver import RigLink
 from pendkit.link.virtual_rig import VirtualRig, VirtualRigGroup
-from tests.link.conftest import HAVE_MOSQUITTO
 from tests.link.test_rig_link import wait_for
+from tests.system_needs import needs
 
-pytestmark = pytest.mark.skipif(not HAVE_MOSQUITTO, reason="mosquitto is not installed (apt-get install mosquitto)")
+pytestmark = needs("mosquitto")
 
 
 @pytest.fixture
@@ -127,7 +127,7 @@ def test_broker_config_adds_rigs_without_new_passwords_and_refuses_reserved_name
     assert "use_username_as_clientid true" in (tmp_path / "mosquitto.conf").read_text()
 
 
-@pytest.mark.skipif(shutil.which("openssl") is None, reason="needs openssl")
+@needs("openssl")
 def test_the_generated_tls_listener_takes_a_team_with_the_classroom_ca(tmp_path):
     from pendkit.link.broker import free_port, read_credentials, wait_for_port
     from pendkit.link.driver import RigLinkError

@@ -12,7 +12,7 @@ from pendkit.device.log import readings_from_log
 from pendkit.link.broker import MosquittoBroker, free_port
 from pendkit.link.driver import RigLink, RigLinkError
 from pendkit.link.virtual_rig import VirtualRig, VirtualRigGroup
-from tests.link.conftest import HAVE_MOSQUITTO
+from tests.system_needs import needs
 
 FAST_RESET = {"reset_stop_s": 0.3}
 
@@ -133,8 +133,7 @@ def test_malformed_traffic_is_counted_and_changes_nothing(broker_url):
         link.close()
 
 
-@pytest.mark.skipif(not HAVE_MOSQUITTO, reason="mosquitto is not installed (apt-get install mosquitto; .ci/run "
-                                                 "installs it)")
+@needs("mosquitto")
 def test_broker_killed_mid_episode_then_back(tmp_path):
     port = free_port()
     broker = MosquittoBroker(tmp_path / "m", port=port).start()

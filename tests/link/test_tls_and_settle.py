@@ -11,6 +11,7 @@ import pendkit
 from pendkit.link.broker import free_port, wait_for_port
 from pendkit.link.driver import RigLink, RigLinkError
 from pendkit.link.virtual_rig import LocalRig
+from tests.system_needs import needs
 
 
 def make_certificates(folder):
@@ -27,8 +28,7 @@ def make_certificates(folder):
         os.chmod(folder / name, 0o644)
 
 
-@pytest.mark.skipif(shutil.which("openssl") is None or shutil.which("mosquitto") is None
-                    and not os.path.exists("/usr/sbin/mosquitto"), reason="needs openssl and mosquitto")
+@needs("openssl", "mosquitto")
 def test_tls_link_connects_with_the_ca_and_not_without(tmp_path):
     make_certificates(tmp_path)
     port = free_port()

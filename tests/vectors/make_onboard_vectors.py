@@ -19,10 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-from pendkit.device.controller_blob import DenseLayer, NetworkBlob, pack
 from pendkit.deploy.export import VECTOR_HEADER, VECTORS_MAGIC
-from pendkit.device.onboard import CHUNK_HEADER, CHUNK_MAGIC, OnboardController, blob_chunks
 from pendkit.deploy.swingup_design import design_swing_up
+from pendkit.device.controller_blob import DenseLayer, NetworkBlob, pack
+from pendkit.device.onboard import CHUNK_HEADER, CHUNK_MAGIC, OnboardController, blob_chunks
 from pendkit.device.swingup_runtime import MODES
 
 HERE = Path(__file__).parent

@@ -1,0 +1,54 @@
+"""What parts of the suite need from the system beyond pip, and the command that installs each (Debian or
+Ubuntu; `.ci/run` installs them all). Without one its tests skip, naming the command; the run's summary
+lists what was skipped and why. `PENDKIT_TESTS_WITHOUT=mosquitto,bubblewrap` runs the suite as a machine
+without them would (a newcomer's first run)."""
+
+from __future__ import annotations
+
+import os
+import shutil
+
+import pytest
+
+from pendkit.grading.sandbox import isolation_problem
+
+INSTALL = {
+    "mosquitto": "sudo apt-get install mosquitto",
+    "openssl": "sudo apt-get install openssl",
+    "chromium": "sudo apt-get install chromium && pip install playwright",
+    "bubblewrap": "sudo apt-get install bubblewrap",
+}
+
+
+def _have_mosquitto() -> bool:
+    return shutil.which("mosquitto") is not None or shutil.os.path.exists("/usr/sbin/mosquitto")
+
+
+HAVE = {
+    "mosquitto": _have_mosquitto(),
+    "openssl": shutil.which("openssl") is not None,
+    "chromium": (shutil.which("chromium") or shutil.which("chromium-browser")) is not None,
+}
+
+
+def why_missing(need: str) -> str | None:
+    """None when `need` is here; else the reason a test skips, with the command that installs it."""
+    if need in os.environ.get("PENDKIT_TESTS_WITHOUT", "").split(","):
+        return f"needs {need}: {INSTALL[need]}"
+    if need == "bubblewrap":
+        problem = isolation_problem()
+        return None if problem is None else f"needs the grader's sandbox: {problem} ({INSTALL[need]})"
+    return None if HAVE[need] else f"needs {need}: {INSTALL[need]}"
+
+
+def needs(*wanted: str) -> pytest.MarkDecorator:
+    """`@needs("mosquitto")`: skip, saying how to install it, where it is missing."""
+    reasons = [r for r in map(why_missing, wanted) if r]
+    return pytest.mark.skipif(bool(reasons), reason="; ".join(reasons) or "all here")
+
+
+def skip_unless(*wanted: str) -> None:
+    """The same inside a fixture or a test."""
+    reasons = [r for r in map(why_missing, wanted) if r]
+    if reasons:
+        pytest.skip("; ".join(reasons))
