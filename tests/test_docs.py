@@ -123,3 +123,9 @@ def test_every_command_in_the_docs_is_exercised_or_marked(workspace, monkeypatch
         ran.append(command)
     assert {"pendkit bom", "pendkit wiring", "pendkit labs build"} <= set(ran)
     assert any(c.startswith("pendkit grade") for c in ran)
+
+
+def test_the_readmes_command_list_is_the_clis():
+    row = next(line for line in (ROOT / "README.md").read_text().splitlines() if line.startswith("| the command |"))
+    listed = set(re.findall(r"`(?:pendkit )?([a-z][a-z-]*)(?: [a-z/]+)?`", row.split("|")[3]))
+    assert listed == set(main.commands), f"README lists {sorted(listed)}; the CLI has {sorted(main.commands)}"
