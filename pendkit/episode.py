@@ -10,7 +10,12 @@ from pathlib import Path
 import numpy as np
 
 from pendkit.backend_contract import RigState
-from pendkit.features import UPRIGHT_RAD, angle_from_upright_rad, pendulum_energy
+from pendkit.features import (  # time_to_upright_s: read here by the labs
+    UPRIGHT_RAD,
+    angle_from_upright_rad,
+    pendulum_energy,
+    time_to_upright_s,  # noqa: F401
+)
 
 Policy = Callable[[np.ndarray, RigState], object]
 # Colour-blind-safe (Okabe-Ito) colours for every figure the kit draws.
@@ -54,7 +59,7 @@ def run_episode(env, policy: Policy, *, seed: int | None = None, steps: int | No
         policy.reset(info["state"])  # stateful controllers (filters, modes) start afresh
     trace = EpisodeTrace()
     trace.add(info["state"], 0.0, 0.0, 0.0)
-    limit = steps or _episode_limit(env)
+    limit = steps or episode_limit(env)
     bar = progress_bar(limit, "episode") if progress else None
     for step in range(1, limit + 1):
         action = policy(observation, info["state"])
@@ -69,8 +74,9 @@ def run_episode(env, policy: Policy, *, seed: int | None = None, steps: int | No
     return trace
 
 
-def _episode_limit(env) -> int:
-    """The env's own limit, else the registered TimeLimit's, else the kit's default."""
+def episode_limit(env) -> int:
+    """Steps in one of `env`'s episodes: the env's own limit, else the registered TimeLimit's, else the
+    kit's default."""
     from pendkit.env import EPISODE_STEPS
 
     own = env.unwrapped.max_episode_steps
@@ -101,17 +107,6 @@ def energy_pumping_policy(env) -> Policy:
         return 2 if pumping > 0 else 4
 
     return policy
-
-
-def time_to_upright_s(angles_from_upright_rad, dt_s: float) -> float | None:
-    """Start of the final run of |theta| < UPRIGHT_RAD that lasts to the end; None if the end is not upright."""
-    angles = np.abs(np.asarray(angles_from_upright_rad))
-    outside = np.nonzero(angles >= UPRIGHT_RAD)[0]
-    if len(outside) == 0:
-        return 0.0
-    if outside[-1] == len(angles) - 1:
-        return None
-    return float((outside[-1] + 1) * dt_s)
 
 
 def plot_episode(trace: EpisodeTrace, path: str | Path | None = None, title: str = "Episode",

@@ -27,6 +27,17 @@ def holds_upright(angles_from_upright_rad, tail_steps: int) -> bool:
     return len(angles) >= tail_steps and bool(angles[-tail_steps:].max() < UPRIGHT_RAD)
 
 
+def time_to_upright_s(angles_from_upright_rad, dt_s: float) -> float | None:
+    """Start of the final run of |theta| < UPRIGHT_RAD that lasts to the end; None if the end is not upright."""
+    angles = np.abs(np.asarray(angles_from_upright_rad))
+    outside = np.nonzero(angles >= UPRIGHT_RAD)[0]
+    if len(outside) == 0:
+        return 0.0
+    if outside[-1] == len(angles) - 1:
+        return None
+    return float((outside[-1] + 1) * dt_s)
+
+
 def pendulum_energy(angle_from_bottom_rad, velocity_rad_s, natural_frequency_rad_s: float):
     """Normalised pendulum energy 0.5 (omega / w0)^2 - cos(alpha), alpha from the bottom: -1 hanging still,
     +1 upright still. Floats or arrays."""

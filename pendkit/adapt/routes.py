@@ -131,8 +131,7 @@ def classical_on_device(rig, identification: Identification, episodes: int, trie
     from pendkit.agents.runs import SOLVED_TAIL_STEPS
     from pendkit.deploy.swingup_design import design_swing_up
     from pendkit.device.controller_blob import pack
-    from pendkit.episode import time_to_upright_s
-    from pendkit.features import holds_upright
+    from pendkit.features import holds_upright, time_to_upright_s
 
     step_s = identification.params.control_step_ms / 1000
     def blob(name: str) -> bytes:

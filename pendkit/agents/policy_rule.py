@@ -20,8 +20,7 @@ from pendkit.agents.base import Agent
 from pendkit.agents.inputs import StepInputs
 from pendkit.agents.runs import SOLVED_TAIL_STEPS, Evaluation, greedy_episode, held_fraction, solved
 from pendkit.agents.train import train_sync
-from pendkit.episode import time_to_upright_s
-from pendkit.features import UPRIGHT_RAD
+from pendkit.features import UPRIGHT_RAD, time_to_upright_s
 
 RULE_STARTS = ("rest", "random") * 5  # interleaved: a check stopped early has seen both kinds
 RULE_MIN_HELD = 9

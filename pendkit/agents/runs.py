@@ -180,7 +180,7 @@ def evaluate_agent(env, agent: Agent, inputs: StepInputs, episodes: int, seed: i
                    start: str | None | list[str] = "random") -> Evaluation:
     """`episodes` greedy episodes from seeds `seed`, `seed + 1`, ...; `start` for all of them or one per
     episode (None leaves the env's own)."""
-    from pendkit.episode import time_to_upright_s
+    from pendkit.features import time_to_upright_s
 
     starts = start if isinstance(start, list) else [start] * episodes
     outcome = Evaluation([], [], [], [])

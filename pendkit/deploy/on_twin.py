@@ -46,13 +46,13 @@ def upload_to_twin(env, blob: bytes, rounds: int = 20) -> int:
 def onboard_episode(env, seed: int | None = None, start: str = "random", steps: int | None = None) -> list[float]:
     """Reset, start the device's controller (`k1`, sent again until the device says it runs) and send only
     heartbeats; the pendulum's angle from upright at every step as the host receives it."""
-    from pendkit.episode import _episode_limit
+    from pendkit.episode import episode_limit
 
     base = env.unwrapped
     backend = base.backend
     _, info = env.reset(seed=seed, options={"start": start})
     angles = [angle_from_upright_rad(info["state"])]
-    for _ in range(steps or _episode_limit(env)):
+    for _ in range(steps or episode_limit(env)):
         message = "h" if _status(backend)["running"] else "k1"
         state = backend.step_with_message(message)
         angles.append(angle_from_upright_rad(state))
