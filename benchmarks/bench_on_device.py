@@ -27,13 +27,13 @@ import numpy as np
 
 import pendkit
 from pendkit.agents.runs import SOLVED_TAIL_STEPS, Evaluation, held_fraction
-from pendkit.device.controller_blob import pack
 from pendkit.deploy.on_twin import onboard_episode, upload_to_twin
 from pendkit.deploy.swingup_design import design_swing_up
+from pendkit.device.controller_blob import pack
 from pendkit.episode import time_to_upright_s
 from pendkit.features import holds_upright
+from pendkit.network import IMPAIRMENTS
 from pendkit.sim.fidelity import FIDELITY_PRESETS
-from pendkit.sim.latency import IMPAIRMENTS
 
 SEED = 10_000
 STEPS = 500

@@ -87,7 +87,7 @@ def ceiling(starts: int) -> None:
     from pendkit.demo import CONTROLLERS
     from pendkit.episode import time_to_upright_s
     from pendkit.features import holds_upright
-    from pendkit.sim.latency import NetworkImpairment
+    from pendkit.network import NetworkImpairment
 
     def true_state(info):  # the twin's exact joint state, in place of what the host reads
         truth = info["true_state"]

@@ -69,3 +69,9 @@ class BackendTiming:
     def loop_delay_s(self) -> float:
         """From a reading's moment to the servo acting on the command it led to: both ways together."""
         return self.command_delay_s + self.reading_delay_s
+
+    @property
+    def design_delay_s(self) -> float:
+        """The delay a controller designs for: with the firmware's readings an observer estimates the
+        present, so only the command's way remains; otherwise the whole loop."""
+        return self.command_delay_s if self.firmware_readings else self.loop_delay_s

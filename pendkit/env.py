@@ -177,7 +177,7 @@ class SwingUpEnv(gym.Env):
         self.feature_source = features  # "measured" or "estimated": what a learner built for this env expects
         self._observer_design = None  # (params, timing) the observer keeps through set_rig, when pinned
         if observer_params is not None:
-            self._observer_design = (observer_params, self.backend.timing)
+            self._observer_design = (observer_params, self.timing)
         if features == "estimated":
             self._estimator = self._new_estimator()
         self._filtered_unit = 0.0
@@ -194,8 +194,14 @@ class SwingUpEnv(gym.Env):
         """The observer's feed, designed for this step and the backend's own delays (or the pinned design)."""
         from pendkit.control.estimated_state import EstimatedStateFeed
 
-        params, timing = self._observer_design or (self.params, self.backend.timing)
+        params, timing = self._observer_design or (self.params, self.timing)
         return EstimatedStateFeed(params, self.dt, timing)
+
+    @property
+    def timing(self):
+        """What the backend tells controllers about time (`BackendTiming`): the step, the command's and the
+        reading's delays, and whether the readings are the firmware's (worth an observer)."""
+        return self.backend.timing
 
     @property
     def observer_pinned(self) -> bool:
@@ -205,7 +211,7 @@ class SwingUpEnv(gym.Env):
     def pin_observer(self, params: RigParams | None = None) -> None:
         """Keep the observer designed for `params` (default: the present rig) and the present backend's
         timing through every later `set_rig`: training over rigs the observer does not know."""
-        self._observer_design = (params or self.params, self.backend.timing)
+        self._observer_design = (params or self.params, self.timing)
         if self._estimator is not None:
             self._estimator = self._new_estimator()
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import pendkit
+from pendkit.network import LatencyModel, NetworkImpairment
 from pendkit.sim.fidelity import Fidelity
-from pendkit.sim.latency import LatencyModel, NetworkImpairment
 
 
 def episode_length(env) -> int:

@@ -3,7 +3,8 @@ top of a file or inside a function, and no modules import each other in a circle
 
 A new package takes a row here; the order is what the kit is built on (the rig's facts, the device's
 model, the controllers, the twin, the link, the env, the episode, the learners, deployment, the tools
-around them, the labs and adapt, the command line)."""
+around them, the labs and adapt, the command line). The network model sits with the rig's facts: the twin
+and the link both build on it."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[1] / "pendkit"
 LAYERS = (
     ("pendkit", "errors", "env_name", "backend_contract", "gl_backend"),
-    ("rig", "encoder", "features", "wiring", "bom"),
+    ("rig", "encoder", "features", "wiring", "bom", "network"),
     ("device",),
     ("control", "firmware_constants"),
     ("sim",),

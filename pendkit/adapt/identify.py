@@ -33,9 +33,9 @@ import numpy as np
 from pendkit.adapt.excitation import Recording
 from pendkit.adapt.replay import angle_error_rad2
 from pendkit.errors import ConfigError
+from pendkit.network import LatencyModel, NetworkImpairment
 from pendkit.rig import RigParams
 from pendkit.sim.fidelity import FIDELITY_PRESETS
-from pendkit.sim.latency import LatencyModel, NetworkImpairment
 
 # name: (low, high) as a multiple of the prior's value, searched in log space; latency in ms
 # (the pendulum's two are multiples of stage 1's estimate, which they refine)

@@ -34,11 +34,11 @@ class _CountedSteps(gym.Wrapper):
 
 def twin_rig(params, impairment="classroom-wifi", residual_offset_counts: int = 0) -> Rig:
     """A hidden rig: the realistic twin of `params` behind the given network (a name of
-    `pendkit.sim.latency.IMPAIRMENTS` or a NetworkImpairment), read through an encoder calibrated
+    `pendkit.network.IMPAIRMENTS` or a NetworkImpairment), read through an encoder calibrated
     `residual_offset_counts` off."""
     import pendkit
+    from pendkit.network import IMPAIRMENTS
     from pendkit.sim.fidelity import FIDELITY_PRESETS
-    from pendkit.sim.latency import IMPAIRMENTS
 
     network = IMPAIRMENTS[impairment] if isinstance(impairment, str) else impairment
     steps, device_seeds, residual = [0], itertools.count(DEVICE_SEED), [residual_offset_counts]

@@ -12,8 +12,8 @@ from pathlib import Path
 from pendkit.adapt.identify import Identification
 from pendkit.agents.runs import Evaluation, RunSpec, build_run, evaluate_agent, held_fraction, save_weights
 from pendkit.control.names import CONTROLLER_NAMES
+from pendkit.network import LatencyModel, NetworkImpairment
 from pendkit.sim.fidelity import FIDELITY_PRESETS
-from pendkit.sim.latency import LatencyModel, NetworkImpairment
 
 
 def identified_twin(identification: Identification, **env_kwargs):

@@ -139,7 +139,7 @@ def env_delay_s(env) -> float:
     while hasattr(layer, "env"):
         delay += getattr(layer, "delay_steps", 0) * env.unwrapped.dt
         layer = layer.env
-    return delay + env.unwrapped.backend.timing.loop_delay_s
+    return delay + env.unwrapped.timing.loop_delay_s
 
 
 def inputs_for(name: str, env, seed: int = 0) -> StepInputs:

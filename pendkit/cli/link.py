@@ -9,8 +9,8 @@ from pathlib import Path
 import click
 
 from pendkit.link import DEFAULT_BROKER
+from pendkit.network import IMPAIRMENTS
 from pendkit.rig import SERVO_PRESETS
-from pendkit.sim.latency import IMPAIRMENTS
 
 
 @click.command()

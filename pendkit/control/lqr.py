@@ -108,17 +108,15 @@ class LqrBalancer:
         """A balancer designed for this env's step, filter and delays; with an observer where the env's
         sensing is realistic."""
         base = env.unwrapped
-        timing = base.backend.timing
-        actuation_s, reading_s = timing.command_delay_s, timing.reading_delay_s
+        timing = base.timing
         internal = base.filter_coefficient == 0  # no filter in the env: smooth our own targets
         design_filter = base.params.filter_coefficient if internal else base.filter_coefficient
         observer = None
         if timing.firmware_readings:
-            observer = DelayedAngleObserver(FurutaModel.from_rig(base.params), base.dt, actuation_s, reading_s)
-            delay = actuation_s  # the observer's estimate is of "now": only the command's way remains
-        else:
-            delay = actuation_s + reading_s
-        return cls(base.params, weights, period_s=base.dt, filter_coefficient=design_filter, delay_s=delay,
+            observer = DelayedAngleObserver(FurutaModel.from_rig(base.params), base.dt, timing.command_delay_s,
+                                            timing.reading_delay_s)
+        return cls(base.params, weights, period_s=base.dt, filter_coefficient=design_filter,
+                   delay_s=timing.design_delay_s,
                    observer=observer, internal_filter=internal)
 
     def reset(self, state: RigState, keep_estimate: bool = False) -> None:

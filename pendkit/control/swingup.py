@@ -137,7 +137,7 @@ class SwingUpController:
     def for_env(cls, env, config: SwingUpConfig | None = None, parts: SwingUpParts | None = None,
                 **lqr_kwargs) -> SwingUpController:
         balancer = LqrBalancer.for_env(env, **lqr_kwargs)
-        return cls(balancer, config, env.unwrapped.params, loop_delay_s=env.unwrapped.backend.timing.loop_delay_s,
+        return cls(balancer, config, env.unwrapped.params, loop_delay_s=env.unwrapped.timing.loop_delay_s,
                    parts=parts)
 
     def reset(self, state: RigState) -> None:

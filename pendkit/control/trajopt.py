@@ -74,10 +74,7 @@ class StepModel:
     @classmethod
     def for_env(cls, env) -> StepModel:
         base = env.unwrapped
-        timing = base.backend.timing
-        # With readings from the firmware an observer estimates "now"; otherwise the reading's age adds up.
-        delay = timing.command_delay_s if timing.firmware_readings else timing.loop_delay_s
-        return cls(FurutaModel.from_rig(base.params), base.dt, min(delay, 0.9 * base.dt))
+        return cls(FurutaModel.from_rig(base.params), base.dt, min(base.timing.design_delay_s, 0.9 * base.dt))
 
     def step(self, x: np.ndarray, target_rad) -> np.ndarray:
         """The state after one step with `target_rad` sent now; x of shape (5,) or (5, n). Float32 states stay

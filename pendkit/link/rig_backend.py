@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pendkit.backend_contract import STOP, BackendTiming, RigState, ServoCommand
+from pendkit.backend_contract import STOP, RigState, ServoCommand
 from pendkit.device.commands import command_body, frame_command
 from pendkit.device.log import EpisodeLog
 from pendkit.device.observation import observation_to_state
@@ -23,8 +23,8 @@ from pendkit.device.protocol import ReadingLimits
 from pendkit.device.scheduler import PROTOCOLS
 from pendkit.errors import ConfigError
 from pendkit.link.driver import DEFAULT_BROKER, RigLink, RigLinkError
+from pendkit.network import CLASSROOM_WIFI, mcu_timing, median_latency_ms
 from pendkit.rig import RigParams
-from pendkit.sim.latency import CLASSROOM_WIFI, median_latency_ms
 
 SETTLED_REV_S = 0.05
 SETTLE_HOLD_S = 1.0
@@ -66,10 +66,7 @@ class RigBackend:
         if not 0 <= network_latency_ms <= 1000:
             raise ConfigError(f"network_latency_ms must be in [0, 1000], got {network_latency_ms!r}")
         self.nominal_step_s = self.params.control_step_ms / 1000.0
-        p = self.params
-        command_s = (network_latency_ms + p.acting_period_ms / 2 + p.pwm_period_ms / 2) / 1000
-        self.timing = BackendTiming(self.nominal_step_s, min(command_s, 0.9 * self.nominal_step_s),
-                                    network_latency_ms / 1000, firmware_readings=True)
+        self.timing = mcu_timing(self.params, self.nominal_step_s, network_latency_ms, network_latency_ms)
         self.link = RigLink(rig, broker or DEFAULT_BROKER, username, password, tls_ca,
                             limits=ReadingLimits.for_rig(self.params))
         self.link.connect(connect_timeout_s)

@@ -34,8 +34,8 @@ from pendkit.link.driver import (
     send_without_delay,
     topics,
 )
+from pendkit.network import IMPAIRMENTS, NetworkImpairment, NetworkPath
 from pendkit.rig import RigParams
-from pendkit.sim.latency import IMPAIRMENTS, NetworkImpairment
 from pendkit.sim.model import PENDULUM_JOINT, build_model
 
 LOG = logging.getLogger("pendkit.virtual_rig")
@@ -67,12 +67,10 @@ class VirtualRig:
                                  mount_offset_counts, protocol)
         self.device.encoder_fault = encoder_fault
         mujoco.mj_forward(model, data)
-        self._rng = np.random.default_rng(seed)
+        self._network = NetworkPath(impairment, np.random.default_rng(seed))
         self._inbox: queue.SimpleQueue = queue.SimpleQueue()
         self._outbox: list[tuple[float, int, str]] = []
         self._sent = 0
-        self._last_arrival_ms = 0.0
-        self._last_delivery_s = 0.0
         self.lost_observations = self.lost_commands = self.published = 0
         # Rig time as the rig sees it: messages that reached it on its command topic, and when the first
         # and the last arrived (host bookkeeping never enters this count).
@@ -156,11 +154,10 @@ class VirtualRig:
                 received, payload = self._inbox.get_nowait()
             except queue.Empty:
                 break
-            if self._rng.random() * 100 < self.impairment.command_loss_pct:
+            arrival = self._network.command_arrival_ms(self._sim_ms(received))
+            if arrival is None:
                 self.lost_commands += 1
                 continue
-            arrival = max(self._sim_ms(received) + self.impairment.latency.sample_ms(self._rng), self._last_arrival_ms)
-            self._last_arrival_ms = arrival
             self.device.deliver(arrival, payload)
         ticks = math.floor(self._sim_ms(now_s) / self.params.physics_step_ms) - self.device.tick
         if ticks > 0:
@@ -175,13 +172,12 @@ class VirtualRig:
             self.published += 1
 
     def _emit(self, now_ms: float, observation: McuObservation) -> None:
-        if self._rng.random() * 100 < self.impairment.observation_loss_pct:
+        delivery_ms = self._network.observation_delivery_ms(now_ms)
+        if delivery_ms is None:
             self.lost_observations += 1
             return
         line = self.device.scheduler.observation_line(observation)
-        delay_ms = self.impairment.observation_latency_model.sample_ms(self._rng)
-        due = max(self._t0 + (now_ms + delay_ms) / 1000.0 / self.speed, self._last_delivery_s)
-        self._last_delivery_s = due  # TCP keeps order
+        due = self._t0 + delivery_ms / 1000.0 / self.speed
         self._sent += 1
         heapq.heappush(self._outbox, (due, self._sent, line))
 

@@ -17,9 +17,9 @@ from pendkit.device.observation import McuObservation, observation_to_state
 from pendkit.device.protocol import format_observation_v1
 from pendkit.device.twin import TwinDevice
 from pendkit.errors import ConfigError
+from pendkit.network import NetworkPath, mcu_timing, median_latency_ms
 from pendkit.rig import RigParams
 from pendkit.sim.fidelity import Fidelity, resolve_fidelity
-from pendkit.sim.latency import median_latency_ms
 from pendkit.sim.model import ARM_JOINT, PENDULUM_JOINT, build_model
 
 Start = Literal["random", "rest", "upright"]
@@ -59,6 +59,7 @@ class SimBackend:
         self.physics_step_s = self.params.physics_step_ms / 1000.0
         self._rate_per_increment = (self.params.servo_rad_per_count * 1000.0 / self.params.acting_period_ms)
         self._rng = np.random.default_rng(0)
+        self._network = NetworkPath(self.fidelity.network, self._rng) if self.fidelity.mcu_pipeline else None
         self._device = (TwinDevice(self.params, self.model, self.data, self._pend_q,
                                    self.fidelity.encoder_mount_offset_counts,
                                    residual_offset_counts=self.fidelity.encoder_residual_offset_counts)
@@ -86,9 +87,8 @@ class SimBackend:
             extra_s = fidelity.post_observation_substeps_max / 2 * self.physics_step_s
             return BackendTiming(self.nominal_step_s, 0.0, extra_s)
         network = fidelity.network
-        command_ms = median_latency_ms(network.latency) + p.acting_period_ms / 2 + p.pwm_period_ms / 2
-        return BackendTiming(self.nominal_step_s, min(command_ms / 1000, 0.9 * self.nominal_step_s),
-                             median_latency_ms(network.observation_latency_model) / 1000, firmware_readings=True)
+        return mcu_timing(p, self.nominal_step_s, median_latency_ms(network.latency),
+                          median_latency_ms(network.observation_latency_model))
 
     # --- reset ---
     def reset(self, rng: np.random.Generator, start: Start = "random",
@@ -139,7 +139,7 @@ class SimBackend:
             self._episodes += 1
             self._log = EpisodeLog(self.log_dir / f"episode-{self._episodes:04d}.jsonl")
         self._in_flight: deque[tuple[float, McuObservation]] = deque()
-        self._last_delivery_ms = self._last_command_arrival_ms = 0.0
+        self._network.restart(rng)
         self._newest: tuple[float, McuObservation] | None = None
         # Warm up so that an observation has arrived and the estimator has history.
         while self._newest is None or self._device.tick < self.substeps:
@@ -193,11 +193,9 @@ class SimBackend:
         text, or an upload chunk (`pendkit.device.onboard`). Realistic fidelity only."""
         if self._device is None:
             raise ConfigError("only a fidelity with the MCU pipeline (e.g. 'realistic') has a device to send to")
-        now_ms, network = self._device.now_ms, self.fidelity.network
-        lost = network.command_loss_pct > 0 and self._rng.random() * 100 < network.command_loss_pct
-        if not lost:
-            arrival = max(now_ms + network.latency.sample_ms(self._rng), self._last_command_arrival_ms)
-            self._last_command_arrival_ms = arrival  # TCP keeps order: no overtaking
+        now_ms = self._device.now_ms
+        arrival = self._network.command_arrival_ms(now_ms)
+        if arrival is not None:
             self._device.deliver(arrival, payload)
         if self._log is not None and isinstance(payload, str):
             self._log.write(now_ms / 1000, "tx", TWIN_ACT_TOPIC, payload)
@@ -228,12 +226,9 @@ class SimBackend:
                 self._log.write(self._newest[0] / 1000, "rx", TWIN_OBS_TOPIC, format_observation_v1(self._newest[1]))
 
     def _in_flight_append(self, now_ms: float, observation: McuObservation) -> None:
-        network = self.fidelity.network
-        if network.observation_loss_pct > 0 and self._rng.random() * 100 < network.observation_loss_pct:
-            return
-        delivery = max(now_ms + network.observation_latency_model.sample_ms(self._rng), self._last_delivery_ms)
-        self._last_delivery_ms = delivery  # TCP keeps order: no overtaking
-        self._in_flight.append((delivery, observation))
+        delivery = self._network.observation_delivery_ms(now_ms)
+        if delivery is not None:
+            self._in_flight.append((delivery, observation))
 
     def _observe_mcu(self, time_since_action_s: float) -> RigState:
         delivered_ms, observation = self._newest

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pendkit.errors import ConfigError
-from pendkit.sim.latency import CLASSROOM_WIFI, PERFECT_NETWORK, LatencyModel, NetworkImpairment
+from pendkit.network import CLASSROOM_WIFI, PERFECT_NETWORK, LatencyModel, NetworkImpairment
 
 
 def _is_int(value) -> bool:

@@ -30,9 +30,9 @@ import gymnasium as gym
 import numpy as np
 
 from pendkit.errors import ConfigError
+from pendkit.network import LatencyModel, NetworkImpairment
 from pendkit.rig import RigParams
 from pendkit.sim.fidelity import Fidelity, resolve_fidelity
-from pendkit.sim.latency import LatencyModel, NetworkImpairment
 
 RANDOMIZABLE = ("servo", "latency", "masses", "pendulum", "pulses", "encoder", "network")
 # "robust": everything at once (the r-dqn-robust policy's training); "network" is latency and loss.

@@ -10,8 +10,8 @@ from pendkit.adapt.excitation import EXCITATION_STREAM, Excitation, Recording, r
 from pendkit.adapt.identify import Identification, identify, matching_cost, measured_latency_ms, refine_servo
 from pendkit.adapt.replay import replay_cost
 from pendkit.adapt.rigs import twin_rig
+from pendkit.network import IMPAIRMENTS, LatencyModel, NetworkImpairment, median_latency_ms
 from pendkit.rig import RigParams
-from pendkit.sim.latency import IMPAIRMENTS, LatencyModel, NetworkImpairment, median_latency_ms
 
 HIDDEN = dataclasses.replace(RigParams.preset("mks-x5-hbl550"), dowel_length_m=0.34,
                              dowel_mass_kg=RigParams().dowel_mass_kg * 0.34 / 0.4)

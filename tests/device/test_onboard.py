@@ -20,9 +20,9 @@ from pendkit.device.onboard import OnboardController, blob_chunks
 from pendkit.device.scheduler import DeviceScheduler
 from pendkit.device.swingup_runtime import MODES, SwingUpRuntime
 from pendkit.features import holds_upright
+from pendkit.network import IMPAIRMENTS
 from pendkit.rig import RigParams
 from pendkit.sim.fidelity import FIDELITY_PRESETS
-from pendkit.sim.latency import IMPAIRMENTS
 from tests.vectors.make_onboard_vectors import upload_scenarios
 
 VECTORS = Path(__file__).resolve().parents[1] / "vectors"

@@ -7,9 +7,9 @@ from click.testing import CliRunner
 
 import pendkit
 from pendkit.errors import ConfigError
+from pendkit.network import PERFECT_NETWORK
 from pendkit.rig import SERVO_PRESETS, RigParams
 from pendkit.sim.fidelity import FIDELITY_PRESETS
-from pendkit.sim.latency import PERFECT_NETWORK
 from pendkit.sim.randomize import (
     MASS_FIELDS,
     SERVO_FIELDS,

@@ -49,8 +49,8 @@ class _Recording:
 def record_swing_up(controller: str, ticks: int = TICKS, seed: int = 0) -> tuple[bytes, np.ndarray]:
     import pendkit
     from pendkit.deploy.on_twin import onboard_episode, upload_to_twin
+    from pendkit.network import IMPAIRMENTS
     from pendkit.sim.fidelity import FIDELITY_PRESETS
-    from pendkit.sim.latency import IMPAIRMENTS
 
     fidelity = dataclasses.replace(FIDELITY_PRESETS["realistic"], network=IMPAIRMENTS["poor-wifi"])
     env = pendkit.make(fidelity=fidelity, action_mode="continuous")
@@ -73,8 +73,8 @@ def record_policy(decisions: int = 1000, seed: int = 0) -> tuple[bytes, list[dic
     from pendkit.agents.runs import build_run
     from pendkit.deploy.export import policy_blob
     from pendkit.deploy.on_twin import onboard_episode, upload_to_twin
+    from pendkit.network import IMPAIRMENTS
     from pendkit.sim.fidelity import FIDELITY_PRESETS
-    from pendkit.sim.latency import IMPAIRMENTS
 
     spec, state = policy_weights("r-dqn-realistic")
     fidelity = dataclasses.replace(FIDELITY_PRESETS["realistic"], network=IMPAIRMENTS["poor-wifi"])

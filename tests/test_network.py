@@ -1,9 +1,10 @@
 import numpy as np
 import pytest
 
+import pendkit
 from pendkit.errors import ConfigError
+from pendkit.network import CLASSROOM_WIFI, IMPAIRMENTS, LatencyModel, NetworkImpairment
 from pendkit.sim.fidelity import FIDELITY_PRESETS, Fidelity
-from pendkit.sim.latency import CLASSROOM_WIFI, IMPAIRMENTS, LatencyModel, NetworkImpairment
 
 
 def test_default_classroom_latency_percentiles():
@@ -89,4 +90,33 @@ def test_the_twin_and_the_virtual_rig_take_the_same_network_settings():
     clean.reset(seed=0)
     clean_ages = [clean.step(0)[4]["state"].observation_age_s for _ in range(200)]
     assert np.mean(ages) > np.mean(clean_ages)  # 3% of readings lost: the newest is older on average
-    assert env.unwrapped.backend.timing.reading_delay_s > clean.unwrapped.backend.timing.reading_delay_s
+    assert env.unwrapped.timing.reading_delay_s > clean.unwrapped.timing.reading_delay_s
+
+
+def test_one_path_loses_and_delays_in_order_from_one_stream():
+    from pendkit.network import NetworkPath
+
+    lossy = NetworkImpairment(LatencyModel(floor_ms=2.0, median_ms=6.0, spread=0.8), 20.0, 20.0)
+    path = NetworkPath(lossy, np.random.default_rng(4))
+    arrivals = [path.command_arrival_ms(float(t)) for t in range(0, 2000, 10)]
+    kept = [a for a in arrivals if a is not None]
+    assert 0.1 < 1 - len(kept) / len(arrivals) < 0.3  # about 20% lost
+    assert kept == sorted(kept)  # never overtaking
+    assert all(a >= t + 2.0 for a, t in zip(arrivals, range(0, 2000, 10)) if a is not None)
+    # without losses no draw is spent on them: the latencies are the stream's own draws, in order
+    clean = NetworkPath(NetworkImpairment(LatencyModel(median_ms=5.0, spread=0.5)), np.random.default_rng(9))
+    reference = np.random.default_rng(9)
+    expected = [1000.0 * k + LatencyModel(median_ms=5.0, spread=0.5).sample_ms(reference) for k in range(5)]
+    assert [clean.observation_delivery_ms(1000.0 * k) for k in range(5)] == pytest.approx(expected)
+
+
+def test_the_twin_and_a_rig_build_their_timing_the_same_way():
+    from pendkit.network import mcu_timing, median_latency_ms
+
+    env = pendkit.make(fidelity="realistic")
+    network = env.unwrapped.backend.fidelity.network
+    assert env.unwrapped.timing == mcu_timing(env.unwrapped.params, env.unwrapped.backend.nominal_step_s,
+                                              median_latency_ms(network.latency),
+                                              median_latency_ms(network.observation_latency_model))
+    assert env.unwrapped.timing.design_delay_s == env.unwrapped.timing.command_delay_s  # an observer runs
+    assert pendkit.make().unwrapped.timing.design_delay_s == pendkit.make().unwrapped.timing.loop_delay_s

@@ -1,5 +1,7 @@
-"""The network between the MCU and the host: latency (a parametric default or samples measured on a rig)
-and lost messages, as one `NetworkImpairment` shared by the realistic twin and the virtual rig."""
+"""The network between the MCU and the host, one model for every backend: latency (a parametric default or
+samples measured on a rig) and lost messages (`NetworkImpairment`); the messages' way through it, losses
+and in-order delivery from one random stream (`NetworkPath`, used by the realistic twin and the virtual rig
+alike); and the delays a backend tells its controllers (`mcu_timing`)."""
 
 from __future__ import annotations
 
@@ -11,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pendkit.backend_contract import BackendTiming
 from pendkit.errors import ConfigError
 
 # Beyond this a message is lost, not late: the rig's watchdog stops the servo after 0.5 s without commands.
@@ -115,3 +118,46 @@ def median_latency_ms(latency: LatencyModel) -> float:
     if latency.samples_ms:
         return float(np.median(latency.samples_ms))
     return latency.floor_ms + latency.median_ms
+
+
+class NetworkPath:
+    """Messages both ways through `impairment`, in the device's clock (ms): each one lost (QoS 0) or
+    delivered after its latency, never before one sent earlier the same way (TCP keeps order). One random
+    stream for both ways, drawn only for what can vary, so a seed gives the twin and the virtual rig the
+    same draws."""
+
+    def __init__(self, impairment: NetworkImpairment, rng: np.random.Generator) -> None:
+        self.impairment, self.rng = impairment, rng
+        self._last_command_ms = self._last_observation_ms = 0.0
+
+    def restart(self, rng: np.random.Generator | None = None) -> None:
+        """A new episode: order starts afresh (and the stream, when given)."""
+        self.rng = rng if rng is not None else self.rng
+        self._last_command_ms = self._last_observation_ms = 0.0
+
+    def _lost(self, loss_pct: float) -> bool:
+        return loss_pct > 0 and self.rng.random() * 100 < loss_pct
+
+    def command_arrival_ms(self, sent_ms: float) -> float | None:
+        """When a command sent at `sent_ms` reaches the device; None when it is lost."""
+        if self._lost(self.impairment.command_loss_pct):
+            return None
+        self._last_command_ms = max(sent_ms + self.impairment.latency.sample_ms(self.rng), self._last_command_ms)
+        return self._last_command_ms
+
+    def observation_delivery_ms(self, sent_ms: float) -> float | None:
+        """When a reading published at `sent_ms` reaches the host; None when it is lost."""
+        if self._lost(self.impairment.observation_loss_pct):
+            return None
+        delay_ms = self.impairment.observation_latency_model.sample_ms(self.rng)
+        self._last_observation_ms = max(sent_ms + delay_ms, self._last_observation_ms)
+        return self._last_observation_ms
+
+
+def mcu_timing(params, step_s: float, command_latency_ms: float, reading_latency_ms: float) -> BackendTiming:
+    """The timing of a backend whose readings come from the device's firmware (the realistic twin, a rig):
+    a command waits its one-way latency, then half an acting tick and half a PWM frame on average (kept
+    below the step); a reading its own latency. `params`: the rig's `RigParams`."""
+    command_ms = command_latency_ms + params.acting_period_ms / 2 + params.pwm_period_ms / 2
+    return BackendTiming(step_s, min(command_ms / 1000, 0.9 * step_s), reading_latency_ms / 1000,
+                         firmware_readings=True)
