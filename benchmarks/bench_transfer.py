@@ -85,8 +85,8 @@ def ceiling(starts: int) -> None:
     from pendkit.agents.rig_suite import preset_rigs, random_rigs, rig_env
     from pendkit.agents.runs import SOLVED_TAIL_STEPS, Evaluation
     from pendkit.demo import CONTROLLERS
-    from pendkit.episode import time_to_upright_s
-    from pendkit.features import holds_upright
+    from pendkit.episode import UNTIL_DONE, run_episode
+    from pendkit.features import holds_upright, time_to_upright_s
     from pendkit.network import NetworkImpairment
 
     def true_state(info):  # the twin's exact joint state, in place of what the host reads
@@ -97,13 +97,16 @@ def ceiling(starts: int) -> None:
             arm_velocity_rad_s=truth["arm_velocity_rad_s"], observation_age_s=0.0)
 
     def episode(env, policy, seed: int, start: str) -> Evaluation:
-        _, info = env.reset(seed=seed, options={"start": start})
-        policy.reset(true_state(info))
-        angles, done = [], False
-        while not done:
-            _, _, terminated, truncated, info = env.step(policy(None, true_state(info)))
+        seen = {"info": env.reset(seed=seed, options={"start": start})[1]}
+        policy.reset(true_state(seen["info"]))
+        angles = []
+
+        def observe(action, observation, reward, terminated, truncated, info) -> None:
+            seen["info"] = info
             angles.append(info["angle_from_upright_rad"])
-            done = terminated or truncated
+
+        run_episode(env, lambda observation, state: policy(None, true_state(seen["info"])), steps=UNTIL_DONE,
+                    started=(None, seen["info"]), on_step=observe)
         return Evaluation([holds_upright(angles, SOLVED_TAIL_STEPS)], [time_to_upright_s(angles, env.unwrapped.dt)],
                           [0.0], [None])
 

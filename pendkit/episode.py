@@ -18,6 +18,8 @@ from pendkit.features import (  # time_to_upright_s: read here by the labs
 )
 
 Policy = Callable[[np.ndarray, RigState], object]
+NO_STATE = RigState(*([math.nan] * len(RigState._fields)))
+UNTIL_DONE = 2**62  # `run_episode(steps=UNTIL_DONE)`: until the env says the episode is over
 # Colour-blind-safe (Okabe-Ito) colours for every figure the kit draws.
 PALETTE = {"pendulum": "#0072B2", "arm": "#E69F00", "action": "#009E73", "reward": "#CC79A7",
            "limit": "#999999"}
@@ -34,8 +36,14 @@ class EpisodeTrace:
     action: list[float] = field(default_factory=list)
     reward: list[float] = field(default_factory=list)
 
-    def add(self, state: RigState, time_s: float, action: float, reward: float) -> None:
+    stopped_by: str | None = None  # what ended the episode early (`run_episode`'s should_stop), if anything
+    stopped_at_s: float | None = None
+
+    def add(self, state: RigState | None, time_s: float, action: float, reward: float) -> None:
+        """One step; `state` None for an env that is not the kit's (its angles are then NaN)."""
         self.time_s.append(time_s)
+        if state is None:
+            state = NO_STATE
         self.pendulum_from_upright_rad.append(angle_from_upright_rad(state))
         self.pendulum_velocity_rad_s.append(state.pendulum_velocity_rad_s)
         self.arm_angle_rad.append(state.arm_angle_rad)
@@ -47,30 +55,49 @@ class EpisodeTrace:
         return float(np.sum(self.reward))
 
     def as_arrays(self) -> dict[str, np.ndarray]:
-        return {name: np.asarray(values) for name, values in self.__dict__.items()}
+        return {name: np.asarray(values) for name, values in self.__dict__.items() if isinstance(values, list)}
 
 
 def run_episode(env, policy: Policy, *, seed: int | None = None, steps: int | None = None,
-                progress: bool = False, options: dict | None = None) -> EpisodeTrace:
-    """Run `policy(observation, state) -> action` on `env` for one episode (or `steps` steps)."""
-    base = env.unwrapped
-    observation, info = env.reset(seed=seed, options=options)
+                progress: bool = False, options: dict | None = None, started: tuple | None = None,
+                should_stop: Callable[[RigState], object] | None = None,
+                on_step: Callable[[object, object, float, bool, bool, dict], None] | None = None) -> EpisodeTrace:
+    """Run `policy(observation, state) -> action` on `env` for one episode (or `steps` steps): the kit's one
+    episode loop (the demo, evaluation, training, lab 09's guarded run). Hooks:
+
+    - `started=(observation, info)`: the caller has reset the env already (e.g. after centring the arm);
+    - `should_stop(state)`: asked before each step, a reason (any non-empty text) ends the episode there,
+      kept in `trace.stopped_by` with the time in `trace.stopped_at_s` (a watchdog; the caller holds);
+    - `on_step(action, observation, reward, terminated, truncated, info)`: after each step (learning).
+
+    `steps=UNTIL_DONE` runs until the env ends the episode, however long its limit.
+    """
+    dt = getattr(env.unwrapped, "dt", 1.0)  # another Gymnasium env: steps for seconds
+    observation, info = started if started is not None else env.reset(seed=seed, options=options)
     if hasattr(policy, "reset"):
-        policy.reset(info["state"])  # stateful controllers (filters, modes) start afresh
+        policy.reset(info.get("state"))  # stateful controllers (filters, modes) start afresh
     trace = EpisodeTrace()
-    trace.add(info["state"], 0.0, 0.0, 0.0)
+    trace.add(info.get("state"), 0.0, 0.0, 0.0)
     limit = steps or episode_limit(env)
     bar = progress_bar(limit, "episode") if progress else None
-    for step in range(1, limit + 1):
-        action = policy(observation, info["state"])
-        observation, reward, terminated, truncated, info = env.step(action)
-        trace.add(info["state"], step * base.dt, float(np.asarray(action, dtype=float).reshape(-1)[0]), reward)
+    try:
+        for step in range(1, limit + 1):
+            reason = should_stop(info.get("state")) if should_stop is not None else None
+            if reason:
+                trace.stopped_by, trace.stopped_at_s = str(reason), (step - 1) * dt
+                break
+            action = policy(observation, info.get("state"))
+            observation, reward, terminated, truncated, info = env.step(action)
+            trace.add(info.get("state"), step * dt, float(np.asarray(action, dtype=float).reshape(-1)[0]), reward)
+            if on_step is not None:
+                on_step(action, observation, reward, terminated, truncated, info)
+            if bar is not None:
+                bar.update(1)
+            if terminated or truncated:
+                break
+    finally:
         if bar is not None:
-            bar.update(1)
-        if terminated or truncated:
-            break
-    if bar is not None:
-        bar.close()
+            bar.close()
     return trace
 
 

@@ -15,26 +15,33 @@ __all__ = ["agent_episode", "train_sync"]
 
 def agent_episode(env, agent: Agent, inputs: StepInputs, buffer=None, seed: int | None = None, episode_key: int = 0,
                   explore: bool = True, options: dict | None = None) -> tuple[float, list[dict]]:
-    """One episode of `agent` on `env`; with a `buffer`, every step is stored and the agent learns as it goes.
-    Returns the return and the per-step infos."""
-    observation, info = env.reset(seed=seed, options=options)
-    x = inputs.reset(observation)
+    """One episode of `agent` on `env` (the kit's episode loop, `pendkit.episode.run_episode`); with a
+    `buffer`, every step is stored and the agent learns as it goes. Returns the return and the per-step infos."""
+    from pendkit.episode import UNTIL_DONE, run_episode
+
+    started = env.reset(seed=seed, options=options)
+    now = {"x": inputs.reset(started[0]), "step": 0}
     agent.reset()
     update_every, learning = agent.config.update_every, buffer is not None
-    total, step, done, infos = 0.0, 0, False, []
-    while not done:
+    infos: list[dict] = []
+
+    def act(observation, state):
         if learning:
-            agent.track_input(x)
-        action = agent.act(x, explore=explore)
-        observation, reward, terminated, truncated, info = env.step(action)
+            agent.track_input(now["x"])
+        return agent.act(now["x"], explore=explore)
+
+    def learn(action, observation, reward, terminated, truncated, info) -> None:
+        x, step = now["x"], now["step"]
         x_next = inputs.step(observation, action)
         if learning:
             buffer.add(x, action, reward, x_next, terminated, episode=episode_key, step=step, **agent.step_extras())
             if len(buffer) >= agent.config.learning_starts and step % update_every == 0:
                 agent.update(buffer.sample(agent.config.batch_size))
-        x, total, step, done = x_next, total + reward, step + 1, terminated or truncated
+        now["x"], now["step"] = x_next, step + 1
         infos.append(info)
-    return total, infos
+
+    trace = run_episode(env, act, steps=UNTIL_DONE, started=started, on_step=learn)
+    return trace.episode_return, infos
 
 
 def train_sync(env, agent: Agent, episodes: int, inputs: StepInputs | None = None, buffer=None, seed: int = 0,

@@ -58,29 +58,33 @@ def record_vectors(name: str = "r-dqn-realistic", steps: int = 10_000, seed: int
 
     from pendkit.agents.pretrained import policy_weights
     from pendkit.agents.runs import build_run
+    from pendkit.episode import run_episode
 
     spec, state = policy_weights(name)
     env, agent, inputs = build_run(spec)
     agent.load_policy(state)
     starts, xs, outputs = [], [], []
     episode = 0
+    now = {}
+
+    def recorded(observation, state):
+        starts.append(now["first"])
+        xs.append(np.asarray(now["x"], dtype=np.float32))
+        with torch.no_grad():
+            z = agent.normalizer.normalize(torch.as_tensor(xs[-1]).reshape(1, -1))
+            agent.hidden = agent.q.trunk.step(z, agent.hidden)
+            q = agent.q.q(z, agent.hidden)[0].numpy()
+        outputs.append(q.astype(np.float32))
+        return int(np.argmax(q))
+
+    def seen(action, observation, reward, terminated, truncated, info) -> None:
+        now["x"], now["first"] = inputs.step(observation, action), False
+
     while len(xs) < steps:
-        observation, _ = env.reset(seed=seed + episode, options={"start": "random" if episode % 2 else "rest"})
+        started = env.reset(seed=seed + episode, options={"start": "random" if episode % 2 else "rest"})
         agent.reset()
-        x = inputs.reset(observation)
-        for k in range(min(500, steps - len(xs))):
-            starts.append(k == 0)
-            xs.append(np.asarray(x, dtype=np.float32))
-            with torch.no_grad():
-                z = agent.normalizer.normalize(torch.as_tensor(xs[-1]).reshape(1, -1))
-                agent.hidden = agent.q.trunk.step(z, agent.hidden)
-                q = agent.q.q(z, agent.hidden)[0].numpy()
-            outputs.append(q.astype(np.float32))
-            action = int(np.argmax(q))
-            observation, _, terminated, truncated, _ = env.step(action)
-            x = inputs.step(observation, action)
-            if terminated or truncated:
-                break
+        now.update(x=inputs.reset(started[0]), first=True)
+        run_episode(env, recorded, steps=min(500, steps - len(xs)), started=started, on_step=seen)
         episode += 1
     env.close()
     return network_blob(agent), np.array(starts), np.stack(xs), np.stack(outputs)

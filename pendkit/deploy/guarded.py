@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pendkit.backend_contract import RigState
-from pendkit.episode import EpisodeTrace, Policy, progress_bar
+from pendkit.episode import EpisodeTrace, Policy, run_episode
 
 CENTRED_RAD, CENTRING_S = 0.1, 1.5
 Watchdog = Callable[[float, float, float], object]  # (arm rad, pendulum rate rad/s, observation age s) -> reason
@@ -37,42 +37,25 @@ def hold_action(env, state: RigState):
 def run_guarded(env, policy: Policy, should_stop: Watchdog, *, steps: int, seed: int | None = None,
                 options: dict | None = None, progress: bool = False) -> GuardedRun:
     """`run_episode` with a watchdog: `should_stop(arm_angle_rad, pendulum_velocity_rad_s,
-    observation_age_s)` returns a reason (any non-empty text) to stop, or None to go on. `progress`: a bar
-    over the steps (a rig runs in real time: 500 steps are 30 s)."""
-    bar = progress_bar(steps, "steps") if progress else None
-    try:
-        return _run_guarded(env, policy, should_stop, steps, seed, options, bar)
-    finally:
-        if bar is not None:
-            bar.close()
-
-
-def _run_guarded(env, policy: Policy, should_stop: Watchdog, steps: int, seed: int | None, options: dict | None,
-                 bar) -> GuardedRun:
-    observation, info = env.reset(seed=seed, options=options)
-    if env.unwrapped.action_mode == "continuous" and abs(info["state"].arm_angle_rad) > CENTRED_RAD:
+    observation_age_s)` returns a reason (any non-empty text) to stop, or None to go on; on a stop the servo
+    is told to hold. `progress`: a bar over the steps (a rig runs in real time: 500 steps are 30 s)."""
+    started = env.reset(seed=seed, options=options)
+    if env.unwrapped.action_mode == "continuous" and abs(started[1]["state"].arm_angle_rad) > CENTRED_RAD:
         for _ in range(int(CENTRING_S / env.unwrapped.dt)):
-            _, _, _, _, info = env.step(np.zeros(1, dtype=np.float32))
-        observation, info = env.reset(seed=seed, options=options)
-    if hasattr(policy, "reset"):
-        policy.reset(info["state"])
-    trace = EpisodeTrace()
-    trace.add(info["state"], 0.0, 0.0, 0.0)
-    dt = env.unwrapped.dt
-    for step in range(1, steps + 1):
-        state = info["state"]
-        reason = should_stop(state.arm_angle_rad, state.pendulum_velocity_rad_s, state.observation_age_s)
-        if reason:
-            try:
-                env.step(hold_action(env, state))
-            except Exception as error:  # noqa: BLE001 - the link may be what failed; the servo keeps its target
-                reason = f"{reason} (the hold command failed too: {type(error).__name__})"
-            return GuardedRun(trace, str(reason), (step - 1) * dt)
-        action = policy(observation, state)
-        observation, reward, terminated, truncated, info = env.step(action)
-        trace.add(info["state"], step * dt, float(np.asarray(action, dtype=float).reshape(-1)[0]), reward)
-        if bar is not None:
-            bar.update(1)
-        if terminated or truncated:
-            break
-    return GuardedRun(trace, None, None)
+            env.step(np.zeros(1, dtype=np.float32))
+        started = env.reset(seed=seed, options=options)
+    checked: list[RigState] = []
+
+    def watchdog(state: RigState):
+        checked.append(state)
+        return should_stop(state.arm_angle_rad, state.pendulum_velocity_rad_s, state.observation_age_s)
+
+    trace = run_episode(env, policy, steps=steps, progress=progress, started=started, should_stop=watchdog)
+    if trace.stopped_by is None:
+        return GuardedRun(trace, None, None)
+    reason = trace.stopped_by
+    try:
+        env.step(hold_action(env, checked[-1]))
+    except Exception as error:  # noqa: BLE001 - the link may be what failed; the servo keeps its target
+        reason = f"{reason} (the hold command failed too: {type(error).__name__})"
+    return GuardedRun(trace, reason, trace.stopped_at_s)

@@ -56,7 +56,7 @@ class VirtualRig:
             impairment = IMPAIRMENTS[impairment]
         if encoder_fault not in ENCODER_FAULTS:
             raise ConfigError(f"encoder_fault must be one of {ENCODER_FAULTS}, got {encoder_fault!r}")
-        self.rig, self.params, self.impairment = rig, params or RigParams(), impairment
+        self.rig, self.params = rig, params or RigParams()
         if mount_offset_counts is None:  # a rig calibrated as its RigParams say
             mount_offset_counts = self.params.encoder_offset_counts
         self.address = BrokerAddress.parse(broker)
@@ -120,6 +120,15 @@ class VirtualRig:
             self.first_command_s = now if self.first_command_s is None else self.first_command_s
             self.last_command_s = now
         self._inbox.put((now, message.payload))  # parsed by the device when it arrives there
+
+    @property
+    def impairment(self) -> NetworkImpairment:
+        """The network's impairment; set it to change the WiFi mid-run (lab 09 drops it)."""
+        return self._network.impairment
+
+    @impairment.setter
+    def impairment(self, value: NetworkImpairment) -> None:
+        self._network.impairment = value
 
     @property
     def busy_s(self) -> float:
