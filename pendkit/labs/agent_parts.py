@@ -73,7 +73,9 @@ def call_td_target(fn: Callable, rewards: torch.Tensor, dones: torch.Tensor, nex
     try:
         out = np.asarray(fn(*arrays, gamma, double), dtype=np.float64)
     except Exception as error:
-        raise StudentCodeError(f"your td_target raised {error!r} on a batch of {len(rewards)}") from error
+        axes = (": next_q has one row per transition and one column per action; take the max or argmax over "
+                "axis=1" if "shape" in str(error) or "broadcast" in str(error) else "")
+        raise StudentCodeError(f"your td_target raised {error!r} on a batch of {len(rewards)}{axes}") from error
     if out.shape != (len(rewards),):
         raise StudentCodeError(f"your td_target returned shape {out.shape}; expected ({len(rewards)},), one "
                                "target per transition")
@@ -181,3 +183,19 @@ def run_or_note(fn: Callable, *args, **kwargs):
         else:
             print(f"not run: {error}")
         return None
+
+
+def curve_against_myopic(returns, myopic, window: int = 10) -> str | None:
+    """What lab 07 says of a learning curve beside the one with no future in its target: None when it is
+    neither that curve nor below it."""
+    returns, myopic = np.asarray(returns, dtype=float), np.asarray(myopic, dtype=float)
+    if returns.shape == myopic.shape and np.allclose(returns, myopic):
+        return ("your curve is the myopic one, episode for episode: does your target add the future "
+                "(gamma times the next state's value)?")
+    window = min(window, len(returns), len(myopic))
+    yours, none = float(np.mean(returns[-window:])), float(np.mean(myopic[-window:]))
+    if yours < none - 0.1 * abs(none):
+        return (f"your curve ends below the one with no future at all ({yours:.0f} against {none:.0f} over the last "
+                f"{window} episodes): your target teaches the agent to avoid the top. Look for the future's sign "
+                "(reward plus gamma times it), done flags the wrong way round, or a max over the wrong axis.")
+    return None

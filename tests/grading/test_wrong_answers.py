@@ -402,6 +402,13 @@ MISTAKES = [
     ("07.td_target", lambda r, done, online, target, gamma, double: td_target(r, 1 - np.asarray(done), online,
                                                                                target, gamma, double),
      "kept it only where it ended"),
+    ("07.td_target", lambda r, done, online, target, gamma, double: td_target(r, done, target, online, gamma, double)
+     if double else td_target(r, done, online, target, gamma, double), "roles are swapped"),
+    ("07.td_target", lambda r, done, online, target, gamma, double: np.asarray(r) + gamma * (1 - np.asarray(done))
+     * np.asarray(target).max(axis=0), "over axis=1, the actions"),
+    ("07.epsilon", lambda step, start, end, decay: start + (end - start) * min(1.0, (step + 1) / decay), "off by one"),
+    ("07.huber", lambda e, delta: np.where(np.abs(e) <= delta, np.asarray(e) ** 2, delta * (np.abs(e) - 0.5 * delta)),
+     "half the square"),
     ("09.time_to_upright_s", lambda a, dt: first_upright_entry(a, dt), "only the final run counts"),
     ("09.matching_cost", lambda sim, rec: float(np.mean((np.asarray(sim) - rec + np.pi) % (2 * np.pi) - np.pi) ** 2),
      "cancelled"),

@@ -9,7 +9,12 @@ torch = pytest.importorskip("torch")
 
 from pendkit.agents.dqn import DqnAgent, DqnConfig  # noqa: E402
 from pendkit.agents.replay import ReplayBuffer  # noqa: E402
-from pendkit.labs.agent_parts import StudentCodeError, StudentParts, student_dqn  # noqa: E402
+from pendkit.labs.agent_parts import (  # noqa: E402
+    StudentCodeError,
+    StudentParts,
+    curve_against_myopic,
+    student_dqn,
+)
 
 
 def epsilon(step, start, end, decay_steps):
@@ -79,6 +84,17 @@ def test_broken_parts_say_what_is_wrong():
         student_dqn(4, 3, parts=StudentParts(epsilon=lambda s, a, b, n: 2.0)).act(np.zeros(4))
     with pytest.raises(StudentCodeError, match="raised"):
         student_dqn(4, 3, parts=StudentParts(loss=lambda e, delta: undefined_name)).update(batch)  # noqa: F821
+    with pytest.raises(StudentCodeError, match="over axis=1"):  # the max over the batch, not the actions
+        student_dqn(4, 3, parts=StudentParts(td_target=lambda r, d, o, t, g, dbl: r + g * t.max(axis=0))).update(batch)
+
+
+def test_a_curve_below_the_myopic_one_is_named_and_a_learning_one_is_not():
+    myopic = np.full(40, -2000.0)
+    sign_slip = np.linspace(-2000, -4500, 40)  # what a target with the future's sign reversed did in the lab
+    assert "below the one with no future" in curve_against_myopic(sign_slip, myopic)
+    assert "the myopic one, episode for episode" in curve_against_myopic(myopic, myopic)
+    assert curve_against_myopic(np.linspace(-2000, -600, 40), myopic) is None
+    assert curve_against_myopic(myopic - 50, myopic) is None  # noise, not a sign slip
 
 
 @pytest.mark.expensive

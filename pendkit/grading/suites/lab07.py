@@ -20,6 +20,9 @@ def linear_then_flat(fn, rng):
         message = f"epsilon({step}, 1.0, 0.05, 1000) should be {expected}, got {got:.4f}"
         if step == 5000 and got < 0.05:
             message += ": stop at the end value; do not keep decreasing"
+        elif 0 < abs(got - expected) <= 1.01 * (1.0 - 0.05) / 1000:  # one step's worth of the schedule
+            message += (": off by one step; epsilon is `start` at step 0 and reaches `end` at step "
+                        "decay_steps exactly (fraction = step / decay_steps)")
         expect(abs(got - expected) < 1e-9, message)
 
 
@@ -32,6 +35,20 @@ def _arrays(got, name, n):
     return array
 
 
+AXIS_HINT = ("next_q_online and next_q_target hold one row per transition and one column per action: take the "
+             "max (or argmax) over axis=1, the actions, for one value per transition")
+
+
+def _along_the_actions(fn, *arguments):
+    """fn(*arguments); a shape error from reducing over the batch instead of the actions is named as such."""
+    try:
+        return fn(*arguments)
+    except (IndexError, ValueError) as error:
+        if "shape" in str(error) or "broadcast" in str(error):
+            raise Failed(f"td_target raised {type(error).__name__}: {error}; {AXIS_HINT}") from None
+        raise
+
+
 @target.test(points=3, hint="Double DQN: the online network picks the next action, the target network "
                             "values it; no bootstrap after a terminal step.")
 def double_and_plain_targets(fn, rng):
@@ -42,11 +59,16 @@ def double_and_plain_targets(fn, rng):
     gamma = 0.9
     plain = rewards + gamma * (1 - dones) * target_q.max(axis=1)
     double = rewards + gamma * (1 - dones) * target_q[np.arange(3), online.argmax(axis=1)]
-    got_double = _arrays(fn(rewards, dones, online, target_q, gamma, True), "td_target(..., double=True)", 3)
-    got_plain = _arrays(fn(rewards, dones, online, target_q, gamma, False), "td_target(..., double=False)", 3)
+    got_double = _arrays(_along_the_actions(fn, rewards, dones, online, target_q, gamma, True),
+                         "td_target(..., double=True)", 3)
+    got_plain = _arrays(_along_the_actions(fn, rewards, dones, online, target_q, gamma, False),
+                        "td_target(..., double=False)", 3)
     message = f"double targets should be {double.tolist()}, got {got_double.tolist()}"
     if np.allclose(got_double, plain):
         message += ": that is the plain max; let the online network choose the action"
+    elif np.allclose(got_double, rewards + gamma * (1 - dones) * online[np.arange(3), target_q.argmax(axis=1)]):
+        message += (": the two networks' roles are swapped; the online network picks the action (argmax), "
+                    "the target network says what it is worth")
     elif np.allclose(got_double, rewards + gamma * target_q[np.arange(3), online.argmax(axis=1)]):
         message += ": a terminal step has no future: multiply by (1 - done)"
     elif np.allclose(got_double, rewards + gamma * dones * target_q[np.arange(3), online.argmax(axis=1)]):
@@ -62,7 +84,10 @@ def quadratic_then_linear(fn, rng):
     expected = np.where(np.abs(errors) <= 1.0, 0.5 * errors**2, np.abs(errors) - 0.5)
     got = _arrays(fn(errors, 1.0), "huber(errors, 1.0)", 5)
     message = f"huber({errors.tolist()}, 1.0) should be {expected.tolist()}, got {got.tolist()}"
-    if np.allclose(got, 0.5 * errors**2):
+    small = np.abs(errors) <= 1.0
+    if np.allclose(got[small], errors[small] ** 2) and not np.allclose(errors[small], 0.0):
+        message += ": the quadratic part is half the square, 0.5 e^2 (its slope then meets the linear part's at delta)"
+    elif np.allclose(got, 0.5 * errors**2):
         message += ": beyond delta the loss grows linearly (that is what makes it robust)"
     elif np.allclose(got, np.where(np.abs(errors) <= 1.0, 0.5 * errors**2, np.abs(errors))):
         message += ": subtract 0.5 delta in the linear part, so the two pieces meet"
