@@ -13,6 +13,7 @@ from pendkit.adapt.identify import Identification
 from pendkit.agents.runs import Evaluation, RunSpec, build_run, evaluate_agent, held_fraction, save_weights
 from pendkit.control.names import CONTROLLER_NAMES
 from pendkit.network import LatencyModel, NetworkImpairment
+from pendkit.rig import RigParams
 from pendkit.sim.fidelity import FIDELITY_PRESETS
 
 
@@ -43,16 +44,26 @@ def starting_weights(name: str) -> tuple[RunSpec, dict | None]:
 
 @dataclass
 class AgentRun:
+    """A learned policy on its way to the rig; `observer_params`: the rig its observer is designed for (the
+    identified one), for a learner reading the observer's estimate."""
+
     spec: RunSpec
     agent: object
     inputs: object
+    observer_params: RigParams | None = None
+
+    def env_kwargs(self) -> dict:
+        from pendkit.agents.learners import learner
+
+        kwargs = learner(self.spec.learner).env_kwargs()
+        if kwargs.get("features") == "estimated" and self.observer_params is not None:
+            kwargs["observer_params"] = self.observer_params  # what the laptop knows of the rig, not the rig
+        return kwargs
 
     def evaluate(self, rig, episodes: int) -> dict:
         if episodes == 0:
             return {"summary": "not evaluated"}
-        from pendkit.agents.learners import learner
-
-        env = rig.make_env(**learner(self.spec.learner).env_kwargs())
+        env = rig.make_env(**self.env_kwargs())
         outcome = evaluate_agent(env, self.agent, self.inputs, episodes, start=None)
         env.close()
         return _as_report(outcome)
@@ -79,7 +90,7 @@ def train_on_twin(identification: Identification, config, weights_path: Path,
     save_weights(weights_path, agent, spec, {"identified_rig": identification.values(), "twin_episodes": len(returns)})
     say(f"(c) {config.policy if state is not None else spec.learner + ' (afresh)'} trained "
         f"{len(returns)} episodes on the identified twin")
-    return AgentRun(spec, agent, inputs)
+    return AgentRun(spec, agent, inputs, identification.params)
 
 
 def fine_tune_on_rig(rig, run: AgentRun, episodes: int, config, weights_path: Path,
@@ -88,9 +99,8 @@ def fine_tune_on_rig(rig, run: AgentRun, episodes: int, config, weights_path: Pa
     if episodes <= 0:
         return
     from pendkit.agents.async_trainer import AsyncTrainer
-    from pendkit.agents.learners import learner
 
-    env = rig.make_env(**learner(run.spec.learner).env_kwargs())
+    env = rig.make_env(**run.env_kwargs())
     trainer = AsyncTrainer(run.agent, [env], [run.inputs], seed=config.seed)
     stats = trainer.run(seconds=episodes * 60.0, episodes=episodes)
     env.close()
