@@ -170,11 +170,12 @@ def test_lab10_the_students_model_drives_the_devices_estimate_and_a_reversed_pus
 
 
 def test_lab10_the_students_chunks_reach_the_rig_and_big_endian_ones_do_not():
-    right = printed_by_lab("10_on_device.ipynb", "chunker=lambda")
-    wrong = printed_by_lab("10_on_device.ipynb", "chunker=lambda", {"upload_chunks": BIG_ENDIAN_CHUNKS})
+    right = printed_by_lab("10_on_device.ipynb", "chunker=your_chunks")
+    wrong = printed_by_lab("10_on_device.ipynb", "chunker=your_chunks", {"upload_chunks": BIG_ENDIAN_CHUNKS})
     # 2 chunks, or more when the busy room's WiFi lost one and the upload resumed
     assert re.search(r"the rig took the controller: 1260 bytes in [2-9] chunks", right) and "1 accepted" in right, right
     assert "the upload failed" in wrong and "0 accepted" in wrong, wrong
+    assert "big-endian; the rig reads little-endian" in wrong, wrong  # the cause, not the blob's size
 
 
 HANGING_A = '''
