@@ -31,8 +31,10 @@ def prelab_task(lab: str, keys: tuple[str, ...]) -> Task:
     return prelab
 
 
-def prelab_answers(lab: str, expected: dict[str, float], relative: float = 0.01) -> None:
-    """Hidden tests, one point per question: the answer within `relative` of the expected value."""
+def prelab_answers(lab: str, expected: dict[str, float], relative: float = 0.01,
+                   where: str = "Work it out from the lab's background section.") -> None:
+    """Hidden tests, one point per question: the answer within `relative` of the expected value; `where`:
+    the hint, saying where the facts a question needs are."""
     prelab = task(f"{lab}.prelab", function="prelab", title="Pre-lab questions")
     for key, value in expected.items():
         def check(fn, rng, key=key, value=value):
@@ -41,7 +43,7 @@ def prelab_answers(lab: str, expected: dict[str, float], relative: float = 0.01)
                    f"prelab()[{key!r}] is not right (got {answer!r})")
 
         check.__name__ = key
-        prelab.test(points=1, hidden=True, hint="Work it out from the lab's background section.")(check)
+        prelab.test(points=1, hidden=True, hint=where)(check)
 
 
 def _answers(fn) -> dict:

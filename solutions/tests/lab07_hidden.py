@@ -45,7 +45,9 @@ def random_batches(fn, rng):
                    f"td_target on a batch of {batch} with {actions} actions (double={double}) is wrong")
 
 
-prelab_answers("07", {"epsilon_halfway": 0.525, "horizon_steps": 100.0})
+prelab_answers("07", {"epsilon_halfway": 0.525, "horizon_steps": 100.0, "double_target": 1.085},
+               where="Each question gives its numbers; the background's double-DQN paragraph says which network "
+                     "picks the next action and which values it.")
 
 
 verdict = task("07.policy_verdict", function="policy_verdict", title="Judging a policy by the kit's rule")

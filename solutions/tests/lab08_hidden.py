@@ -64,4 +64,6 @@ def random_sweeps(fn, rng):
                f"breaking_delay({delays}, {plain}, {other}, {threshold}) should be {want}, got {shown(got)}")
 
 
-prelab_answers("08", {"gru_input_weights": 1152, "delay_steps": 4})
+prelab_answers("08", {"gru_input_weights": 1152, "delay_steps": 4},
+               where="Each question gives what it needs: the GRU's three blocks of weights are in the question "
+                     "(and in Task 3).")

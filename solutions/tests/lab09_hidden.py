@@ -82,4 +82,6 @@ def random_swings(fn, rng):
                f"{n} steps of a random swing: expected {expected:.6g}, got {shown(got)}")
 
 
-prelab_answers("09", {"speed_ratio": 1.4, "stale_steps": 5.0})
+prelab_answers("09", {"speed_ratio": 1.4, "stale_steps": 5.0, "growth_before_stop": 4.4817},
+               where="Each question gives its numbers: a ratio of times, a count of steps, and e to the pole "
+                     "times the wait.")

@@ -94,7 +94,7 @@ def quadratic_then_linear(fn, rng):
     expect(np.allclose(got, expected), message)
 
 
-prelab_task("07", ("epsilon_halfway", "horizon_steps",))
+prelab_task("07", ("epsilon_halfway", "horizon_steps", "double_target"))
 
 written("07.reflection", "Reflection", points=3)
 

@@ -149,4 +149,4 @@ def the_wrap_at_the_bottom(fn, rng):
     expect(abs(got - 0.01) < 1e-9, message)
 
 
-prelab_task("09", ("speed_ratio", "stale_steps",))
+prelab_task("09", ("speed_ratio", "stale_steps", "growth_before_stop"))
