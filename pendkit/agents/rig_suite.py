@@ -31,27 +31,30 @@ def validation_rigs(count: int = 8, seed: int = VALIDATION_SEED) -> dict[str, Ra
     return {f"validation-{k:02d}": rig for k, rig in enumerate(held_out_rigs(count, seed, widening=1.0))}
 
 
-def rig_env(rig: RandomRig, spec: RunSpec | None = None, **env_options):
+def rig_env(rig: RandomRig, spec: RunSpec | None = None, observer_knows_rig: bool = False, **env_options):
     """The realistic twin of `rig`, made for `spec`'s learner (or a plain continuous env without one). A
-    learner reading the observer's estimate gets an observer designed for the nominal rig: the laptop does
-    not know the rig's parameters."""
+    learner reading the observer's estimate gets an observer designed for the nominal rig (the laptop does
+    not know the rig's parameters), or for the rig itself with `observer_knows_rig` (what identifying it
+    perfectly would give)."""
     import pendkit
     from pendkit.agents.learners import learner
 
     fidelity = rig.fidelity(FIDELITY_PRESETS["realistic"])
     kwargs = learner(spec.learner).env_kwargs() if spec is not None else {}
     if kwargs.get("features") == "estimated":
-        env_options.setdefault("observer_params", RigParams())
+        env_options.setdefault("observer_params", rig.params if observer_knows_rig else RigParams())
     return pendkit.make(fidelity=fidelity, params=rig.params, **kwargs, **env_options)
 
 
 def policy_on_rigs(spec: RunSpec, state: dict, rigs: dict[str, RandomRig], starts: int = 5,
-                   seed: int = 10_000, wrap=None) -> dict[str, Evaluation]:
+                   seed: int = 10_000, wrap=None, observer_knows_rig: bool = False) -> dict[str, Evaluation]:
     """Greedy episodes of a trained agent on each rig: one from rest, then `starts` random starts. `wrap`: a
-    wrapper the agent's env had in training (an ablation's extra observation)."""
+    wrapper the agent's env had in training (an ablation's extra observation); `observer_knows_rig`: see
+    `rig_env`."""
     outcomes = {}
     for name, rig in rigs.items():
-        env = rig_env(rig, spec) if wrap is None else wrap(rig_env(rig, spec))
+        env = rig_env(rig, spec, observer_knows_rig)
+        env = env if wrap is None else wrap(env)
         _, agent, inputs = build_run(spec, env)
         agent.load_state_dict(state)
         outcomes[name] = evaluate_agent(env, agent, inputs, 1 + starts, seed, ["rest"] + ["random"] * starts)

@@ -24,7 +24,10 @@ SOLVED_SEED = 123  # one greedy episode's default start seed (the rule's trainin
 class RunSpec:
     """Everything a run is built from. `preset`: a servo preset of RigParams (None: the default rig);
     `randomize`: domain randomisation per episode (`pendkit.sim.randomize`); `delay_steps`: whole 60 ms
-    steps of pure observation delay on top (`ObservationDelay`); `agent`: overrides of the agent's config."""
+    steps of pure observation delay on top (`ObservationDelay`); `agent`: overrides of the agent's config;
+    `observer` (a learner reading the observer's estimate, over randomised rigs): "base", the observer keeps
+    the base rig's design, as on a rig the laptop knows nothing of; "rig", it is designed for each drawn rig,
+    for a policy whose observer will be given its rig (`pendkit adapt` gives it the identified one)."""
 
     learner: str = "dqn"
     fidelity: str = "ideal"  # a preset's name (a Fidelity object also serves, in runs that are not saved)
@@ -34,9 +37,12 @@ class RunSpec:
     randomize: str = ""
     delay_steps: int = 0
     agent: dict = field(default_factory=dict)
+    observer: str = "base"
 
     def __post_init__(self) -> None:
         learner(self.learner)  # a clear error for an unknown name
+        if self.observer not in ("base", "rig"):
+            raise ConfigError(f"observer must be 'base' or 'rig', got {self.observer!r}")
         if self.delay_steps < 0:
             raise ConfigError(f"delay_steps must be >= 0, got {self.delay_steps}")
 
@@ -68,7 +74,7 @@ def make_env(spec: RunSpec, **env_options):
     if spec.randomize:
         from pendkit.sim.randomize import DomainRandomization
 
-        env = DomainRandomization(env, spec.randomize, spec.seed)
+        env = DomainRandomization(env, spec.randomize, spec.seed, observer_follows_rig=spec.observer == "rig")
     return env
 
 

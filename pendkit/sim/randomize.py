@@ -169,10 +169,10 @@ class DomainRandomization(gym.Wrapper):
     """Before every reset, a new rig: `what` is a subset of RANDOMIZABLE (or "robust"). The network and
     the encoder's calibration need a fidelity with the MCU pipeline (it is what they act on). An env with
     `features="estimated"` keeps its observer designed for the base rig (as on a rig the laptop does not
-    know), unless it was pinned to another."""
+    know), unless it was pinned to another; `observer_follows_rig=True` designs it for each drawn rig."""
 
     def __init__(self, env: gym.Env, what: tuple[str, ...] | str, seed: int = 0,
-                 ranges: RigRanges = TRAINING_RANGES) -> None:
+                 ranges: RigRanges = TRAINING_RANGES, observer_follows_rig: bool = False) -> None:
         super().__init__(env)
         self.what = parse_randomize(what if isinstance(what, str) else ",".join(what))
         base = env.unwrapped
@@ -181,7 +181,7 @@ class DomainRandomization(gym.Wrapper):
         if needs_mcu and not self.base_fidelity.mcu_pipeline:
             raise ConfigError(f"randomising {', '.join(sorted(needs_mcu))} needs a fidelity with the MCU pipeline "
                               "(e.g. 'realistic')")
-        if base.feature_source == "estimated" and not base.observer_pinned:
+        if base.feature_source == "estimated" and not base.observer_pinned and not observer_follows_rig:
             base.pin_observer()
         self.ranges = ranges
         self.rng = np.random.default_rng(seed)

@@ -100,6 +100,10 @@ def test_an_estimating_env_keeps_its_observer_for_the_base_rig_through_every_dra
         env.step(np.array([0.5], dtype=np.float32))
         base = env.unwrapped
         assert base.params != RigParams() and base._estimator.params == RigParams()
+    told = DomainRandomization(pendkit.make(fidelity="realistic", action_mode="continuous", features="estimated"),
+                               "robust", seed=3, observer_follows_rig=True)
+    told.reset(seed=0)
+    assert told.unwrapped._estimator.params == told.unwrapped.params != RigParams()  # told each drawn rig
     # unpinned, the observer follows the twin (an env made for one known rig)
     direct = pendkit.make(fidelity="realistic", action_mode="continuous", features="estimated")
     direct.unwrapped.set_rig(RigParams.preset("mks-x5-hbl550"))
