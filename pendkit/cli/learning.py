@@ -287,8 +287,8 @@ def policies_build(names: tuple[str, ...]) -> None:
               help="Training episodes on the identified twin (laptop time).")
 @click.option("--evaluate", "evaluation_episodes", type=click.IntRange(0), default=3, show_default=True,
               help="Greedy episodes on the rig afterwards, for the policy and for the classical controllers.")
-@click.option("--policy", "policy_name", default="r-dqn-realistic", show_default=True,
-              help="The shipped policy to start from.")
+@click.option("--policy", "policy_name", default="td3-robust", show_default=True,
+              help="The shipped policy to start from (its observer is designed for the identified rig).")
 @click.option("--device-trials/--no-device-trials", default=False, show_default=True,
               help="Try the device's designs for five servo loops on the rig first (3.5 minutes of its time); "
                    "without: the identified twin's minimum-time design, which did as well (docs/results/transfer.md).")
