@@ -67,7 +67,7 @@ def test_every_module_names_the_classical_controllers_from_the_one_registry():
     from pendkit.cli import device
     from pendkit.control.names import CONTROLLER_NAMES, SWING_UP_CONTROLLERS
     from pendkit.demo import CONTROLLERS as DEMO
-    from pendkit.device import swingup_design
+    from pendkit.deploy import swingup_design
 
     assert routes.CLASSICAL is trials.CONTROLLERS is swingup_design.CONTROLLERS is device.CONTROLLER_CHOICES \
         is CONTROLLER_NAMES
