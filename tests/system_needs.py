@@ -11,6 +11,7 @@ import shutil
 import pytest
 
 from pendkit.grading.sandbox import isolation_problem
+from pendkit.link.broker import mosquitto_binary
 
 INSTALL = {
     "mosquitto": "sudo apt-get install mosquitto",
@@ -20,12 +21,8 @@ INSTALL = {
 }
 
 
-def _have_mosquitto() -> bool:
-    return shutil.which("mosquitto") is not None or shutil.os.path.exists("/usr/sbin/mosquitto")
-
-
 HAVE = {
-    "mosquitto": _have_mosquitto(),
+    "mosquitto": mosquitto_binary() is not None,
     "openssl": shutil.which("openssl") is not None,
     "chromium": (shutil.which("chromium") or shutil.which("chromium-browser")) is not None,
 }

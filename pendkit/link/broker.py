@@ -203,12 +203,16 @@ def write_classroom_config(rigs: list[str], out_dir: str | Path, port: int = 188
     return paths
 
 
+def mosquitto_binary() -> str | None:
+    """Debian's mosquitto, on the PATH or in /usr/sbin (outside root's PATH); None when not installed."""
+    return shutil.which("mosquitto") or ("/usr/sbin/mosquitto" if Path("/usr/sbin/mosquitto").exists() else None)
+
+
 class MosquittoBroker:
     """A Mosquitto process on a loopback port (tests, benchmarks); with `rigs`, the classroom config."""
 
     def __init__(self, work_dir: str | Path, port: int | None = None, rigs: list[str] | None = None) -> None:
-        self.binary = shutil.which("mosquitto") or ("/usr/sbin/mosquitto" if Path("/usr/sbin/mosquitto").exists()
-                                                   else None)
+        self.binary = mosquitto_binary()
         if self.binary is None:
             raise PendkitError("mosquitto is not installed: apt-get install mosquitto (or use EmbeddedBroker)")
         self.work_dir = Path(work_dir)

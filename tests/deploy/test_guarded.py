@@ -37,6 +37,7 @@ def test_a_watchdogs_reason_stops_the_run_and_the_servo_holds():
     run = run_guarded(env, lambda observation, state: np.array([next(ramp)], dtype=np.float32), watchdog,
                       steps=200, seed=0)
     assert run.stop_reason == "arm past 0.3 rad" and run.trace.stopped_by == run.stop_reason
+    # simulated seconds of the seeded twin (not wall time): the stop came inside the run, at a checked step
     assert 0 < run.stopped_at_s < 200 * env.unwrapped.dt and len(asked) == len(run.trace.time_s)
     # the ramp's last target, then one command: hold the target the servo had when the watchdog spoke
     # (the ramp would have gone on up)

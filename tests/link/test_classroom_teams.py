@@ -2,7 +2,6 @@
 fails, while each team's own deploy, eval and adaptation link work with its credentials."""
 
 import os
-import shutil
 import subprocess
 import time
 
@@ -12,7 +11,7 @@ from click.testing import CliRunner
 
 from pendkit.cli import main
 from pendkit.cli.broker_login import BrokerLogin
-from pendkit.link.broker import MosquittoBroker, write_classroom_config
+from pendkit.link.broker import MosquittoBroker, mosquitto_binary, write_classroom_config
 from pendkit.link.driver import RigLink
 from pendkit.link.virtual_rig import VirtualRig, VirtualRigGroup
 from tests.link.test_rig_link import wait_for
@@ -137,7 +136,7 @@ def test_the_generated_tls_listener_takes_a_team_with_the_classroom_ca(tmp_path)
     if os.geteuid() == 0:  # as MosquittoBroker does for tests: mosquitto cannot enter pytest's private folders
         with paths["conf"].open("a") as conf:
             conf.write("user root\n")
-    binary = shutil.which("mosquitto") or "/usr/sbin/mosquitto"
+    binary = mosquitto_binary()
     process = subprocess.Popen([binary, "-c", str(paths["conf"])], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
         assert wait_for_port("127.0.0.1", tls_port)

@@ -1,14 +1,13 @@
 """TLS to the broker when configured, and the reset that waits for the pendulum to settle."""
 
 import os
-import shutil
 import subprocess
 import time
 
 import pytest
 
 import pendkit
-from pendkit.link.broker import free_port, wait_for_port
+from pendkit.link.broker import free_port, mosquitto_binary, wait_for_port
 from pendkit.link.driver import RigLink, RigLinkError
 from pendkit.link.virtual_rig import LocalRig
 from tests.system_needs import needs
@@ -36,7 +35,7 @@ def test_tls_link_connects_with_the_ca_and_not_without(tmp_path):
     conf.write_text(f"listener {port} 127.0.0.1\nallow_anonymous true\ncafile {tmp_path / 'ca.crt'}\n"
                     f"certfile {tmp_path / 'server.crt'}\nkeyfile {tmp_path / 'server.key'}\n"
                     + ("user root\n" if os.geteuid() == 0 else ""))
-    binary = shutil.which("mosquitto") or "/usr/sbin/mosquitto"
+    binary = mosquitto_binary()
     broker = subprocess.Popen([binary, "-c", str(conf)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
         assert wait_for_port("127.0.0.1", port)
