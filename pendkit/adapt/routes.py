@@ -74,22 +74,28 @@ def _as_report(outcome: Evaluation) -> dict:
 
 
 def train_on_twin(identification: Identification, config, weights_path: Path,
-                  say: Callable[[str], None]) -> AgentRun:
-    """(c): the starting policy trained further on the identified twin (laptop time)."""
+                  say: Callable[[str], None], spread: dict | None = None) -> AgentRun:
+    """(c): the starting policy trained further on the identified twin (laptop time); with `spread`
+    ({field: (low, high)}: `pendkit.adapt.uncertainty.fit_spread`) on a rig drawn from it every episode."""
     from pendkit.agents.learners import learner
     from pendkit.agents.train import train_sync
 
     spec, state = starting_weights(config.policy)
     spec = dataclasses.replace(spec, randomize="", seed=config.seed)
     env = identified_twin(identification, **learner(spec.learner).env_kwargs())
+    if spread:
+        from pendkit.adapt.uncertainty import AroundTheFit
+
+        env = AroundTheFit(env, identification, spread, seed=config.seed)
     _, agent, inputs = build_run(spec, env)
     if state is not None:
         agent.load_state_dict(state)
     returns = train_sync(env, agent, config.twin_episodes, inputs, seed=config.seed, progress=False) \
         if config.twin_episodes else []
     save_weights(weights_path, agent, spec, {"identified_rig": identification.values(), "twin_episodes": len(returns)})
+    drawn = " (a rig drawn from what the recordings allow each episode)" if spread else ""
     say(f"(c) {config.policy if state is not None else spec.learner + ' (afresh)'} trained "
-        f"{len(returns)} episodes on the identified twin")
+        f"{len(returns)} episodes on the identified twin{drawn}")
     return AgentRun(spec, agent, inputs, identification.params)
 
 

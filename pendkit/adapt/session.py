@@ -27,6 +27,7 @@ from pendkit.adapt.identify import PRIOR_LATENCY_MS, Identification, identify_be
 from pendkit.adapt.plots import plot_identification
 from pendkit.adapt.routes import classical_on_device, classical_on_rig, fine_tune_on_rig, train_on_twin
 from pendkit.adapt.trials import Design, identified_design, trial_steps, try_on_device
+from pendkit.adapt.uncertainty import fit_spread, spread_table
 from pendkit.control.names import SWING_UP_CONTROLLERS
 from pendkit.env_name import EPISODE_STEPS
 from pendkit.errors import ConfigError
@@ -68,6 +69,9 @@ class AdaptConfig:
     loop_episodes: int = 0
     device_trials: bool = False  # on recalibrated rigs the trials chose no better than the identified twin's
     twin_episodes: int = 60
+    # the twin's training rig drawn every episode from what the recordings leave uncertain (the matching cost
+    # within (1 + this) of the fit's: pendkit.adapt.uncertainty); None: the identified rig alone
+    twin_tolerance: float | None = 1.0
     evaluation_episodes: int = 3
     # its observer is then designed for the identified rig: 5 of 18 greedy episodes on the 6 hidden rigs, where
     # starting from r-dqn-realistic solved none (docs/results/robust.md)
@@ -85,6 +89,8 @@ class AdaptConfig:
             raise ConfigError(f"loop_episodes must be >= 0, got {self.loop_episodes}")
         if self.twin_episodes < 0 or self.evaluation_episodes < 0:
             raise ConfigError("twin_episodes and evaluation_episodes must be >= 0")
+        if self.twin_tolerance is not None and not (math.isfinite(self.twin_tolerance) and self.twin_tolerance > 0):
+            raise ConfigError(f"twin_tolerance must be > 0 (or None), got {self.twin_tolerance}")
         if self.identification_restarts < 1:
             raise ConfigError(f"identification_restarts must be >= 1, got {self.identification_restarts}")
 
@@ -131,7 +137,13 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     chosen = device_trials(rig, identification.params, config, budget_s - rig.seconds(), step_s, report, say)
     if chosen is not None:
         save_device_design(chosen, out, report)
-    agent_run = train_on_twin(identification, config, out / "policy.pt", say)
+    spread = None
+    if config.twin_tolerance is not None and config.twin_episodes:
+        spread = fit_spread(identification, recordings, config.twin_tolerance)
+        report["uncertain"] = spread_table(identification, spread)
+        say("(c) what the recordings allow: " + ", ".join(f"{name} {low:.3g}..{high:.3g}"
+                                                          for name, (low, high) in spread.items()))
+    agent_run = train_on_twin(identification, config, out / "policy.pt", say, spread)
     fine_tune_episodes = max(0, int((budget_s - rig.seconds()) // (EPISODE_STEPS * step_s)))
     fine_tune_on_rig(rig, agent_run, fine_tune_episodes, config, out / "policy.pt", say)
     report["rig_s_budget"] = budget_s
@@ -256,14 +268,20 @@ def refinement_markdown(report: dict) -> str:
             f"{before['servo_speed_s_per_60deg']:.3f} -> {after['servo_speed_s_per_60deg']:.3f} s/60 deg.\n\n")
 
 
+def _allowed(row: dict | None) -> str:
+    return "-" if row is None else f"{row['low']:.4g} .. {row['high']:.4g}"
+
+
 def report_markdown(report: dict) -> str:
-    rows = "\n".join(f"| {name} | {report['prior'].get(name, float('nan')):.4g} | {value:.4g} |"
-                     for name, value in report["identified"].items())
+    uncertain = report.get("uncertain", {})
+    rows = "\n".join(f"| {name} | {report['prior'].get(name, float('nan')):.4g} | {value:.4g} | "
+                     f"{_allowed(uncertain.get(name))} |" for name, value in report["identified"].items())
     return (f"# Adaptation of {report['rig']}\n\n"
             f"Rig time: {report['rig_s_adaptation']:.0f} s to adapt ({report['rig_s_excitation']:.0f} s of "
             f"excitation), {report['rig_s_total']:.0f} s with the evaluation; wall clock to adapt: "
             f"{report['wall_s_adaptation']:.0f} s.\n\n"
-            f"| parameter | prior | identified |\n|---|---|---|\n{rows}\n\n{refinement_markdown(report)}"
+            f"| parameter | prior | identified | the recordings allow (the twin's training) |\n|---|---|---|---|\n"
+            f"{rows}\n\n{refinement_markdown(report)}"
             f"Matching cost (mean squared angle error, rad^2): prior {report['matching_cost']['prior']:.4f}, "
             f"identified {report['matching_cost']['identified']:.4f}. Encoder: the hanging pendulum read "
             f"{report.get('encoder_recalibrated_counts', 0):+d} counts"

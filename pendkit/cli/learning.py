@@ -285,6 +285,9 @@ def policies_build(names: tuple[str, ...]) -> None:
                    "excitation, device trials if asked for, fine-tuning in the whole episodes left.")
 @click.option("--twin-episodes", type=click.IntRange(0), default=60, show_default=True,
               help="Training episodes on the identified twin (laptop time).")
+@click.option("--twin-tolerance", type=click.FloatRange(0), default=1.0, show_default=True,
+              help="Train on a rig drawn each episode from what the recordings allow: the matching cost within "
+                   "(1 + this) of the fit's; 0: the identified rig alone.")
 @click.option("--evaluate", "evaluation_episodes", type=click.IntRange(0), default=3, show_default=True,
               help="Greedy episodes on the rig afterwards, for the policy and for the classical controllers.")
 @click.option("--policy", "policy_name", default="td3-robust", show_default=True,
@@ -300,8 +303,9 @@ def policies_build(names: tuple[str, ...]) -> None:
                    "and keep the twin that matches them best.")
 @click.option("--seed", type=int, default=0, show_default=True)
 @broker_login_options
-def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, twin_episodes, evaluation_episodes,
-          policy_name, device_trials, loop_episodes, restarts, seed, username, password, tls_ca) -> None:
+def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, twin_episodes, twin_tolerance,
+          evaluation_episodes, policy_name, device_trials, loop_episodes, restarts, seed, username, password,
+          tls_ca) -> None:
     """Fit the kit to one rig in a few of its episodes: excite it, identify its twin from the encoder, design
     the device's swing-up for it, train on that twin, fine-tune on the rig; report every route."""
     _torch_or_exit()
@@ -319,6 +323,7 @@ def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, t
         else:
             rig = mqtt_rig(rig_id, broker, login_from(username, password, tls_ca))
         config = AdaptConfig(episodes=episodes, excitation_episodes=min(6, episodes), twin_episodes=twin_episodes,
+                             twin_tolerance=twin_tolerance or None,
                              evaluation_episodes=evaluation_episodes, policy=policy_name,
                              device_trials=device_trials, identification_restarts=restarts, seed=seed,
                              **({} if loop_episodes is None else {"loop_episodes": loop_episodes}))

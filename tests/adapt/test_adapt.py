@@ -142,6 +142,11 @@ def test_an_adaptation_session_writes_rig_policy_and_report_within_its_rig_time(
     text = (tmp_path / "report.md").read_text()
     assert "| servo_speed_s_per_60deg |" in text and "run by the rig's own device" in text
     assert "without trials" in text and f"Deploy: {report['recommended'] or 'none of them'}" in text
+    # the twin's training drew its rigs from what the recordings allow, each interval about the fit
+    assert set(saved["uncertain"]) >= {"servo_speed_s_per_60deg", "servo_full_torque_error_deg", "dowel_length_m"}
+    assert all(row["low"] < row["fit"] < row["high"] for name, row in saved["uncertain"].items()
+               if name != "latency_ms")
+    assert "the recordings allow" in text
     # with loop episodes the servo is refined over them too, and the report says from what to what
     assert ("servo_refined" in saved) == bool(config.loop_episodes)
     if config.loop_episodes:
