@@ -183,7 +183,8 @@ def load_lab(lab: str) -> list[Task]:
     return [t for t in TASKS.values() if lab_of(t.id) == lab]
 
 
-_LOADED_HIDDEN: set[str] = set()
+_LOADED_HIDDEN: dict[str, object] = {}  # content digest -> the module it made
+HIDDEN_MODULES: dict[str, object] = {}  # each loaded hidden-test module by its file's stem (its answer key too)
 
 
 def load_hidden(path: str | Path) -> None:
@@ -202,6 +203,7 @@ def load_hidden_source(path: Path, source: bytes) -> None:
     """`load_hidden` from bytes read earlier (the grader reads every hidden file before any student code runs)."""
     digest = hashlib.sha256(source).hexdigest()
     if digest in _LOADED_HIDDEN:
+        HIDDEN_MODULES.setdefault(path.stem, _LOADED_HIDDEN[digest])
         return
     before = {task_id: len(t.tests) for task_id, t in TASKS.items()}
     try:
@@ -216,7 +218,7 @@ def load_hidden_source(path: Path, source: bytes) -> None:
             else:
                 del TASKS[task_id].tests[before[task_id]:]
         raise ConfigError(f"hidden tests {path.name} were not loaded ({type(error).__name__}: {error})") from None
-    _LOADED_HIDDEN.add(digest)
+    _LOADED_HIDDEN[digest] = HIDDEN_MODULES[path.stem] = module
 
 
 def run_test(test: TestCase, fn: Callable, time_limit: bool = True) -> TestResult:

@@ -28,3 +28,19 @@ def lists_and_the_boundary(fn, rng):
 
 
 prelab_answers("00", {"steps_per_second": 16.666667, "episode_seconds": 30.0})
+
+
+# --- The answer key (tests/grading/test_wrong_answers.py grades each through the tests above): a correct
+# answer per task, which gets full marks, and plausible mistakes, each with words its feedback must contain.
+
+CORRECT = {
+    "00.reward": lambda theta, omega: -theta**2 - 0.5 * (omega / (2 * math.pi)) ** 2,
+    "00.upright_fraction": lambda angles: float(np.mean(np.abs(np.asarray(angles)) < 0.3)),
+}
+
+MISTAKES = [
+    ("00.reward", lambda theta, omega: -theta**2 - 0.5 * omega**2, "rev/s"),
+    ("00.reward", lambda theta, omega: theta**2 + 0.5 * (omega / (2 * math.pi)) ** 2, "never positive"),
+    ("00.upright_fraction", lambda angles: float(np.mean(np.asarray(angles) < 0.3)), "absolute value"),
+    ("00.upright_fraction", lambda angles: int(np.sum(np.abs(np.asarray(angles)) < 0.3)), "count"),
+]

@@ -78,3 +78,93 @@ def the_seam_exactly(fn, rng):
 
 
 prelab_answers("01", {"counts_per_turn": 1024, "counts_between_readings": 25.6})
+
+
+# --- The answer key (tests/grading/test_wrong_answers.py grades each through the tests above): a correct
+# answer per task, which gets full marks, and plausible mistakes, each with words its feedback must contain.
+
+
+def decode_frame(frame):
+    status = encoder.frame_status(frame)
+    if status != "ok":
+        raise ValueError(status)
+    return frame >> 6
+
+
+def wrap_delta(new, old):
+    return int(encoder.wrap_delta_counts(new, old))
+
+
+def decode_lsb_first(frame):
+    return int(f"{frame >> 6:010b}"[::-1], 2)
+
+
+def decode_ignoring_parity(frame):
+    status = encoder.frame_status(frame)
+    if status not in ("ok", "parity"):
+        raise ValueError(status)
+    return frame >> 6
+
+
+def decode_ignoring_status(frame):
+    if bin(frame).count("1") % 2:
+        raise ValueError("parity")
+    return frame >> 6
+
+
+def decode_rejecting_one_magnet_bit(frame):
+    if frame & 0b110:
+        raise ValueError("magnet")
+    return decode_frame(frame)
+
+
+def decode_whole_frame(frame):
+    decode_frame(frame)
+    return frame
+
+
+def decode_off_by_one_shift(frame):
+    decode_frame(frame)
+    return frame >> 5
+
+
+def counts_in_degrees(raw, offset):
+    return ((raw - offset) % 1024) * 360 / 1024
+
+
+def counts_adding_offset(raw, offset):
+    return ((raw + offset) % 1024) * 2 * math.pi / 1024
+
+
+def counts_over_1023(raw, offset):
+    return ((raw - offset) % 1024) * 2 * math.pi / 1023
+
+
+def counts_without_wrap(raw, offset):
+    return (raw - offset) * 2 * math.pi / 1024
+
+
+CORRECT = {
+    "01.decode_frame": decode_frame,
+    "01.counts_to_angle": lambda raw, offset: float(encoder.counts_to_rad(raw, offset)),
+    "01.angle_from_upright": lambda angle: float(encoder.angle_from_upright_rad(angle)),
+    "01.wrap_delta": wrap_delta,
+}
+
+MISTAKES = [
+    ("01.decode_frame", decode_lsb_first, "bits reversed"),
+    ("01.decode_frame", decode_ignoring_parity, "parity"),
+    ("01.decode_frame", decode_ignoring_status, "OCF"),
+    ("01.decode_frame", decode_rejecting_one_magnet_bit, "only one magnet bit"),
+    ("01.decode_frame", decode_whole_frame, "whole frame"),
+    ("01.decode_frame", decode_off_by_one_shift, "frame >> 6"),
+    ("01.counts_to_angle", counts_in_degrees, "degrees"),
+    ("01.counts_to_angle", counts_adding_offset, "added the offset"),
+    ("01.counts_to_angle", counts_over_1023, "not 1023"),
+    ("01.counts_to_angle", counts_without_wrap, "negative"),
+    ("01.angle_from_upright", lambda angle: angle - math.pi, "wrap into [-pi, pi)"),
+    ("01.angle_from_upright", lambda angle: angle, "still the angle from the bottom"),
+    ("01.wrap_delta", lambda new, old: new - old, "long way round"),
+    ("01.wrap_delta", lambda new, old: -wrap_delta(new, old), "wrong sign"),
+    ("01.wrap_delta", lambda new, old: (new - old + 512) % 1024 - 512, "exactly half a turn"),
+]

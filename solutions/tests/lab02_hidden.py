@@ -1,5 +1,7 @@
 """Hidden tests for lab 02 (instructor material: never copied into labs/)."""
 
+import math
+
 import numpy as np
 
 from pendkit import encoder
@@ -55,3 +57,52 @@ def random_periods(fn, rng):
 
 
 prelab_answers("02", {"slowest_rev_s": 0.097656, "fastest_rev_s": 20.0})
+
+
+# --- The answer key (tests/grading/test_wrong_answers.py grades each through the tests above): a correct
+# answer per task, which gets full marks, and plausible mistakes, each with words its feedback must contain.
+
+
+def velocity_no_wrap(p, t):
+    return np.diff(np.asarray(p, float)) * 1000 / (1024 * np.diff(np.asarray(t, float)))
+
+
+def velocity_rad_s(p, t):
+    return encoder.finite_difference_rev_s(p, t) * 2 * math.pi
+
+
+def velocity_seconds(p, t):
+    return encoder.finite_difference_rev_s(p, t) / 1000
+
+
+def velocity_1023(p, t):
+    return encoder.finite_difference_rev_s(p, t) * 1024 / 1023
+
+
+def mean_without_zero_padding(v, w):
+    v = np.asarray(v, float)
+    return np.array([v[max(0, k - w + 1): k + 1].mean() for k in range(len(v))])
+
+
+def mean_centred(v, w):
+    return np.convolve(v, np.ones(w) / w, mode="same")
+
+
+CORRECT = {
+    "02.velocity_rev_s": lambda p, t: encoder.finite_difference_rev_s(p, t),
+    "02.firmware_mean": lambda v, w: np.convolve(np.concatenate([np.zeros(w - 1), v]), np.ones(w) / w, "valid"),
+    "02.low_pass": lambda v, a: encoder.low_pass(v, a),
+    "02.period_limits": lambda ms: (1 / 1024 / (ms / 1000), 0.5 / (ms / 1000)),
+}
+
+MISTAKES = [
+    ("02.velocity_rev_s", velocity_no_wrap, "wrap-aware"),
+    ("02.velocity_rev_s", velocity_rad_s, "rad/s"),
+    ("02.velocity_rev_s", velocity_seconds, "milliseconds"),
+    ("02.velocity_rev_s", velocity_1023, "not 1023"),
+    ("02.firmware_mean", mean_without_zero_padding, "full of zeros"),
+    ("02.firmware_mean", mean_centred, "looks ahead"),
+    ("02.low_pass", lambda v, a: encoder.low_pass(v, 1 - a) if a < 1 else np.asarray(v, float), "1 - alpha"),
+    ("02.period_limits", lambda ms: (1 / 1024 / (ms / 1000), 1 / (ms / 1000)), "half a turn"),
+    ("02.period_limits", lambda ms: (2 * math.pi / 1024 / (ms / 1000), 0.5 / (ms / 1000)), "rad/s"),
+]

@@ -75,3 +75,68 @@ def the_twins_servo(fn, rng):
 
 
 prelab_answers("03", {"period_s": 1.185507, "log_decrement": 0.693147})
+
+
+# --- The answer key (tests/grading/test_wrong_answers.py grades each through the tests above): a correct
+# answer per task, which gets full marks, and plausible mistakes, each with words its feedback must contain.
+
+
+def slew_rate(t, command, arm, interpolate=True):
+    t, command, arm = (np.asarray(v, dtype=float) for v in (t, command, arm))
+    k = int(np.argmax(command != command[0]))
+    progress = (arm[k:] - arm[k - 1]) / (command[k] - arm[k - 1])
+    times = t[k:]
+
+    def crossing(level):
+        i = int(np.argmax(progress >= level))
+        if not interpolate:
+            return times[i]
+        return times[i - 1] + (level - progress[i - 1]) * (times[i] - times[i - 1]) / (progress[i] - progress[i - 1])
+
+    return 0.8 * abs(command[k] - arm[k - 1]) / (crossing(0.9) - crossing(0.1))
+
+
+def up_crossings(t, a, interpolate=True):
+    t, a = np.asarray(t, float), np.asarray(a, float)
+    up = np.nonzero((a[:-1] < 0) & (a[1:] >= 0))[0]
+    if not interpolate:
+        return t[up + 1]
+    return t[up] - a[up] * (t[up + 1] - t[up]) / (a[up + 1] - a[up])
+
+
+def log_decrement(peaks, log=np.log):
+    peaks = np.asarray(peaks, float)
+    return float(np.mean(log(peaks[:-1] / peaks[1:])))
+
+
+def period_counting_both_directions(t, a):
+    crossings = np.sort(np.concatenate([up_crossings(t, a), up_crossings(t, -np.asarray(a))]))
+    return float(np.mean(np.diff(crossings)))
+
+
+def damping_with_log10(peaks):
+    delta = log_decrement(peaks, np.log10)
+    return delta / math.sqrt(4 * math.pi**2 + delta**2)
+
+
+CORRECT = {
+    "03.natural_frequency": lambda m, com, j: math.sqrt(m * 9.81 * com / j),
+    "03.period_from_crossings": lambda t, a: float(np.mean(np.diff(up_crossings(t, a)))),
+    "03.damping_ratio": lambda p: log_decrement(p) / math.sqrt(4 * math.pi**2 + log_decrement(p) ** 2),
+    "03.slew_rate": lambda t, command, arm: slew_rate(t, command, arm),
+}
+
+MISTAKES = [
+    ("03.natural_frequency", lambda m, com, j: m * 9.81 * com / j, "square root"),
+    ("03.natural_frequency", lambda m, com, j: math.sqrt(m * 9.81 * com / j) / (2 * math.pi), "Hz"),
+    ("03.natural_frequency", lambda m, com, j: math.sqrt(9.81 / com), "point mass"),
+    ("03.period_from_crossings", lambda t, a: period_counting_both_directions(t, a), "both directions"),
+    ("03.period_from_crossings", lambda t, a: float(np.mean(np.diff(up_crossings(t, a, interpolate=False)))),
+     "interpolation"),
+    ("03.damping_ratio", lambda p: log_decrement(p), "decrement itself"),
+    ("03.damping_ratio", lambda p: log_decrement(p) / (2 * math.pi), "light damping"),
+    ("03.damping_ratio", lambda p: damping_with_log10(p), "log10"),
+    ("03.slew_rate", lambda t, c, a: -slew_rate(t, c, a) if c[-1] < c[0] else slew_rate(t, c, a), "positive"),
+    ("03.slew_rate", lambda t, c, a: slew_rate(t, c, a) / 0.8, "80 %"),
+    ("03.slew_rate", lambda t, c, a: slew_rate(t, c, a, interpolate=False), "interpolation"),
+]

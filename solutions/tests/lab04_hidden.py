@@ -51,3 +51,42 @@ def random_rigs(fn, rng):
 
 
 prelab_answers("04", {"growth_per_step": 1.3498588075760032, "steps_to_tenfold": 7.675283643313486})
+
+
+# --- The answer key (tests/grading/test_wrong_answers.py grades each through the tests above): a correct
+# answer per task, which gets full marks, and plausible mistakes, each with words its feedback must contain.
+
+
+def upright_matrices_with(model, gravity_sign=1.0, coupling=True, coupling_sign=-1.0, arm_damping=True):
+    off_diagonal = coupling_sign * model.coupling_kg_m2 if coupling else 0.0
+    mass = np.array([[model.arm_inertia_kg_m2, off_diagonal], [off_diagonal, model.pendulum_inertia_kg_m2]])
+    damping = model.servo_kv_n_m_s_per_rad + (model.arm_damping_n_m_s_per_rad if arm_damping else 0.0)
+    forces = np.array([
+        [-model.servo_kp_n_m_per_rad, 0, -damping, 0],
+        [0, gravity_sign * model.gravity_torque_n_m, 0, -model.pendulum_damping_n_m_s_per_rad]])
+    a = np.zeros((4, 4))
+    a[0, 2] = a[1, 3] = 1
+    a[2:] = np.linalg.inv(mass) @ forces
+    b = np.zeros((4, 1))
+    b[2:, 0] = np.linalg.inv(mass) @ [model.servo_kp_n_m_per_rad, 0]
+    return a, b
+
+
+CORRECT = {
+    "04.upright_matrices": lambda model: tuple(np.asarray(m) for m in (model.linearise("upright").A,
+                                                                        model.linearise("upright").B)),
+    "04.lqr_gain": lambda a, b, q, r: np.asarray(control.dlqr(a, b, np.diag(q), [[r]])[0]),
+    "04.closed_loop_poles": lambda a, b, k: np.linalg.eigvals(a - b @ k),
+}
+
+MISTAKES = [
+    ("04.upright_matrices", lambda model: upright_matrices_with(model, gravity_sign=-1.0), "wrong sign"),
+    ("04.upright_matrices", lambda model: upright_matrices_with(model, coupling=False), "coupling"),
+    ("04.lqr_gain", lambda a, b, q, r: np.asarray(control.lqr(a, b, np.diag(q), [[r]])[0]), "continuous-time"),
+    ("04.lqr_gain", lambda a, b, q, r: -np.asarray(control.dlqr(a, b, np.diag(q), [[r]])[0]), "wrong sign"),
+    ("04.closed_loop_poles", lambda a, b, k: np.linalg.eigvals(a + b @ k), "A + B K"),
+    ("04.upright_matrices", lambda model: upright_matrices_with(model, coupling_sign=1.0), "coupling's sign"),
+    ("04.upright_matrices", lambda model: upright_matrices_with(model, arm_damping=False), "back-EMF"),
+    ("04.closed_loop_poles", lambda a, b, k: np.abs(np.linalg.eigvals(np.asarray(a) - np.asarray(b) @ k)),
+     "magnitudes"),
+]

@@ -79,3 +79,50 @@ def other_limits(fn, rng):
 
 
 prelab_answers("05", {"energy_bottom_fast": 1.0, "energy_tilted_at_rest": -0.5, "energy_horizontal_moving": 0.5})
+
+
+# --- The answer key (tests/grading/test_wrong_answers.py grades each through the tests above): a correct
+# answer per task, which gets full marks, and plausible mistakes, each with words its feedback must contain.
+
+
+def catch_set(upright, angle, velocity, arm, arm_velocity, centre=None, one_sided=False):
+    centre = upright if centre is None else centre
+    low_rate = 0.0 if one_sided else 1.0
+    return ([-arm, centre - angle, -low_rate * arm_velocity, -low_rate * velocity],
+            [arm, centre + angle, arm_velocity, velocity])
+
+
+def terminal_cost(x, upright):
+    return 0.1 * x[0] ** 2 + 10 * (x[1] - upright) ** 2 + 0.1 * x[2] ** 2 + x[3] ** 2
+
+
+def next_mode(mode, theta, w, catch=0.8, fall=1.1, check_velocity=True):
+    if mode == "swing" and abs(theta) < catch and (abs(w) < 5.0 or not check_velocity):
+        return "balance"
+    if mode == "balance" and abs(theta) > fall:
+        return "swing"
+    return mode
+
+
+CORRECT = {
+    "05.pendulum_energy": lambda alpha, w, w0: 0.5 * (w / w0) ** 2 - math.cos(alpha),
+    "05.pumping_direction": lambda alpha, w: -1 if w * math.cos(alpha) > 0 else 1,
+    "05.next_mode": lambda mode, theta, w: next_mode(mode, theta, w),
+    "05.path_limits": lambda arm, rev_s: (arm, 2 * math.pi * rev_s),
+    "05.catch_set": lambda up, a, w, arm, arm_w: catch_set(up, a, w, arm, arm_w),
+    "05.terminal_cost": lambda x, up: terminal_cost(x, up),
+}
+
+MISTAKES = [
+    ("05.pendulum_energy", lambda alpha, w, w0: 0.5 * (w / w0) ** 2 + math.cos(alpha), "sign is flipped"),
+    ("05.pendulum_energy", lambda alpha, w, w0: (w / w0) ** 2 - math.cos(alpha), "factor 1/2"),
+    ("05.pendulum_energy", lambda alpha, w, w0: 0.5 * w**2 - math.cos(alpha), "natural frequency"),
+    ("05.pumping_direction", lambda alpha, w: 1 if w * math.cos(alpha) > 0 else -1, "against"),
+    ("05.pumping_direction", lambda alpha, w: -1 if w > 0 else 1, "above horizontal"),
+    ("05.next_mode", lambda mode, theta, w: next_mode(mode, theta, w, fall=0.8), "hysteresis"),
+    ("05.next_mode", lambda mode, theta, w: next_mode(mode, theta, w, check_velocity=False), "fly through"),
+    ("05.path_limits", lambda arm, rev_s: (arm, rev_s), "revolutions to radians"),
+    ("05.catch_set", lambda up, a, w, arm, arm_w: catch_set(up, a, w, arm, arm_w, centre=0.0), "around hanging"),
+    ("05.catch_set", lambda up, a, w, arm, arm_w: catch_set(up, a, w, arm, arm_w, one_sided=True), "both sides"),
+    ("05.terminal_cost", lambda x, up: terminal_cost(x, 0.0), "not from 0"),
+]

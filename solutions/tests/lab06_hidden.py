@@ -34,3 +34,29 @@ def random_states(fn, rng):
 
 
 prelab_answers("06", {"round_trip_ms": 40.0, "growth_during_delay": 1.419068})
+
+
+# --- The answer key (tests/grading/test_wrong_answers.py grades each through the tests above): a correct
+# answer per task, which gets full marks, and plausible mistakes, each with words its feedback must contain.
+
+
+def fit_latency(samples, subtract_floor=True):
+    samples = np.asarray(samples, float)
+    floor = samples.min()
+    above = samples - floor if subtract_floor else samples
+    return floor, float(np.median(above)), float(np.std(np.log(above[above > 0])))
+
+
+CORRECT = {
+    "06.period_error_p99_ms": lambda t, nominal: float(np.percentile(np.abs(np.diff(t) - nominal) * 1000, 99)),
+    "06.fit_latency": lambda samples: fit_latency(samples),
+    "06.predict_angle": lambda theta, rate, d, w0: theta + rate * d + 0.5 * w0**2 * theta * d**2,
+}
+
+MISTAKES = [
+    ("06.period_error_p99_ms", lambda t, n: float(np.percentile(np.abs(np.diff(t) - n), 99)), "seconds"),
+    ("06.period_error_p99_ms", lambda t, n: float(np.percentile((np.diff(t) - n) * 1000, 99)), "absolute error"),
+    ("06.fit_latency", lambda samples: fit_latency(samples, subtract_floor=False), "subtract the floor"),
+    ("06.predict_angle", lambda theta, rate, d, w0: theta + rate * d, "left out gravity"),
+    ("06.predict_angle", lambda theta, rate, d, w0: theta + rate * d - 0.5 * w0**2 * theta * d**2, "not minus"),
+]

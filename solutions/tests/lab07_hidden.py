@@ -63,3 +63,54 @@ def any_order_and_both_kinds_of_start(fn, rng):
                f"{sum(held)} of 10 held: got held {got['held']}, solved {got['solved']}")
     only_rest = fn([True] * 10, ["rest"] * 10)
     expect(not only_rest["solved"], "10 episodes all hanging still is not the rule: it takes 5 random starts too")
+
+
+# --- The answer key (tests/grading/test_wrong_answers.py grades each through the tests above): a correct
+# answer per task, which gets full marks, and plausible mistakes, each with words its feedback must contain.
+
+
+def policy_verdict(held, starts, strict=False, lucky=False, share=False):
+    held, starts = [bool(h) for h in held], list(starts)
+    complete = len(held) == 10 and starts.count("rest") == 5 and starts.count("random") == 5
+    if lucky:
+        solved = held[0]
+    elif share:
+        solved = sum(held) >= 0.9 * len(held)
+    else:
+        solved = complete and (sum(held) > 9 if strict else sum(held) >= 9)
+    return {"held": sum(held), "episodes": len(held), "solved": solved}
+
+
+def td_target(rewards, dones, online_q, target_q, gamma, double, mask_terminal=True):
+    rows = np.arange(len(rewards))
+    future = target_q[rows, online_q.argmax(axis=1)] if double else target_q.max(axis=1)
+    return rewards + gamma * (1 - dones if mask_terminal else 1) * future
+
+
+CORRECT = {
+    "07.epsilon": lambda step, start, end, decay: end + (start - end) * max(0.0, 1 - step / decay),
+    "07.td_target": lambda r, done, online, target, gamma, double: td_target(r, done, online, target, gamma, double),
+    "07.huber": lambda e, delta: np.where(np.abs(e) <= delta, 0.5 * e**2, delta * (np.abs(e) - 0.5 * delta)),
+    "07.policy_verdict": lambda held, starts: policy_verdict(held, starts),
+}
+
+MISTAKES = [
+    ("07.epsilon", lambda step, start, end, decay: start + (end - start) * step / decay, "stop at the end value"),
+    ("07.td_target", lambda r, done, on, tq, g, double: td_target(r, done, on, tq, g, False), "plain max"),
+    ("07.td_target", lambda r, done, on, tq, g, double: td_target(r, done, on, tq, g, double, False), "no future"),
+    ("07.huber", lambda e, delta: 0.5 * np.asarray(e) ** 2, "grows linearly"),
+    ("07.huber", lambda e, delta: np.where(np.abs(e) <= delta, 0.5 * e**2, np.abs(e)), "subtract 0.5 delta"),
+    ("07.policy_verdict", lambda held, starts: policy_verdict(held, starts, strict=True), "9 passes"),
+    ("07.policy_verdict", lambda held, starts: policy_verdict(held, starts, lucky=True), "one lucky episode"),
+    ("07.policy_verdict", lambda held, starts: policy_verdict(held, starts, share=True), "the rule takes 10"),
+    ("07.td_target", lambda r, done, online, target, gamma, double: td_target(r, 1 - np.asarray(done), online,
+                                                                               target, gamma, double),
+     "kept it only where it ended"),
+    ("07.td_target", lambda r, done, online, target, gamma, double: td_target(r, done, target, online, gamma, double)
+     if double else td_target(r, done, online, target, gamma, double), "roles are swapped"),
+    ("07.td_target", lambda r, done, online, target, gamma, double: np.asarray(r) + gamma * (1 - np.asarray(done))
+     * np.asarray(target).max(axis=0), "over axis=1, the actions"),
+    ("07.epsilon", lambda step, start, end, decay: start + (end - start) * min(1.0, (step + 1) / decay), "off by one"),
+    ("07.huber", lambda e, delta: np.where(np.abs(e) <= delta, np.asarray(e) ** 2, delta * (np.abs(e) - 0.5 * delta)),
+     "half the square"),
+]

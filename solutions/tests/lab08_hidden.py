@@ -67,3 +67,55 @@ def random_sweeps(fn, rng):
 prelab_answers("08", {"gru_input_weights": 1152, "delay_steps": 4},
                where="Each question gives what it needs: the GRU's three blocks of weights are in the question "
                      "(and in Task 3).")
+
+
+# --- The answer key (tests/grading/test_wrong_answers.py grades each through the tests above): a correct
+# answer per task, which gets full marks, and plausible mistakes, each with words its feedback must contain.
+
+
+def shared_buffer_augmented_state():
+    """The aliasing bug: one array for the codes, made once and filled again on every call."""
+    buffer = {}
+
+    def augmented(observation, recent, n):
+        codes = buffer.setdefault((len(recent), n), np.zeros((len(recent), n)))
+        codes[np.arange(len(recent)), list(recent)] = 1.0
+        return np.concatenate([np.asarray(observation, dtype=float).ravel(), codes.ravel()])
+
+    return augmented
+
+
+def augmented_state(observation, recent, n, oldest_first=False, one_hot=True):
+    recent = list(recent)[::-1] if oldest_first else list(recent)
+    codes = np.eye(n)[recent].ravel() if one_hot else np.asarray(recent, dtype=float)
+    return np.concatenate([np.asarray(observation, dtype=float).ravel(), codes])
+
+
+def gru_step(x, h, w_ih, w_hh, b_ih, b_hh, swap_update=False):
+    size = len(h)
+    gi, gh = w_ih @ x + b_ih, w_hh @ h + b_hh
+    reset = 1 / (1 + np.exp(-(gi[:size] + gh[:size])))
+    update = 1 / (1 + np.exp(-(gi[size:2 * size] + gh[size:2 * size])))
+    new = np.tanh(gi[2 * size:] + reset * gh[2 * size:])
+    return update * new + (1 - update) * h if swap_update else (1 - update) * new + update * h
+
+
+CORRECT = {
+    "08.delayed_view": lambda obs, k: np.asarray(obs)[np.maximum(0, np.arange(len(obs)) - k)],
+    "08.gru_step": lambda x, h, w_ih, w_hh, b_ih, b_hh: gru_step(x, h, w_ih, w_hh, b_ih, b_hh),
+    "08.augmented_state": lambda obs, recent, n: augmented_state(obs, recent, n),
+    "08.breaking_delay": lambda d, p, r, t=0.5: next((a for a, b, c in zip(d, p, r) if b < t <= c), None),
+}
+
+MISTAKES = [
+    ("08.delayed_view", lambda obs, k: np.roll(obs, k, axis=0), "np.roll"),
+    ("08.delayed_view", lambda obs, k: np.asarray(obs), "nothing is delayed"),
+    ("08.gru_step", lambda x, h, a, b, c, d: gru_step(x, h, a, b, c, d, swap_update=True), "swapped"),
+    ("08.augmented_state", lambda o, r, n: augmented_state(o, r, n, oldest_first=True), "wrong order"),
+    ("08.augmented_state", lambda o, r, n: augmented_state(o, r, n, one_hot=False), "one-hot codes"),
+    ("08.breaking_delay", lambda d, p, r, t=0.5: d[int(np.argmin(p))], "first breaks"),
+    ("08.breaking_delay", lambda d, p, r, t=0.5: next((x for x, a, b in zip(d, p, r) if a <= t <= b), None),
+     "not <="),
+    ("08.breaking_delay", lambda d, p, r, t=0.5: next((x for x, a, b in zip(d, p, r) if a < t < b), None), "not >"),
+    ("08.augmented_state", shared_buffer_augmented_state(), "shared between calls"),
+]

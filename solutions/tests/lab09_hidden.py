@@ -85,3 +85,58 @@ def random_swings(fn, rng):
 prelab_answers("09", {"speed_ratio": 1.4, "stale_steps": 5.0, "growth_before_stop": 4.4817},
                where="Each question gives its numbers: a ratio of times, a count of steps, and e to the pole "
                      "times the wait.")
+
+
+# --- The answer key (tests/grading/test_wrong_answers.py grades each through the tests above): a correct
+# answer per task, which gets full marks, and plausible mistakes, each with words its feedback must contain.
+
+
+def final_upright_start(angles, dt):
+    return time_to_upright_s(angles, dt)
+
+
+def first_upright_entry(angles, dt):
+    inside = np.nonzero(np.abs(np.asarray(angles, dtype=float)) < 0.3)[0]
+    return None if final_upright_start(angles, dt) is None else float(inside[0] * dt)
+
+
+def balance_error_deg(angles, dt, rms=True):
+    start = final_upright_start(angles, dt)
+    if start is None:
+        return None
+    tail = np.asarray(angles, dtype=float)[int(round(start / dt)):]
+    return float(np.degrees(np.sqrt(np.mean(tail**2)) if rms else np.mean(tail)))
+
+
+def should_stop(arm, rate, age):
+    if not abs(arm) <= 1.6:
+        return "arm"
+    if not abs(rate) <= 20.0:
+        return "spin"
+    return None if age <= 0.3 else "stale"
+
+
+CORRECT = {
+    "09.time_to_upright_s": lambda angles, dt: final_upright_start(angles, dt),
+    "09.balance_error_deg": lambda angles, dt: balance_error_deg(angles, dt),
+    "09.should_stop": lambda arm, rate, age: should_stop(arm, rate, age),
+    "09.matching_cost": lambda sim, rec: float(np.mean(((np.asarray(sim) - rec + np.pi) % (2 * np.pi) - np.pi) ** 2)),
+}
+
+MISTAKES = [
+    ("09.time_to_upright_s", lambda a, dt: first_upright_entry(a, dt), "only the final run counts"),
+    ("09.matching_cost", lambda sim, rec: float(np.mean((np.asarray(sim) - rec + np.pi) % (2 * np.pi) - np.pi) ** 2),
+     "cancelled"),
+    ("09.matching_cost", lambda sim, rec: float(np.mean(((np.asarray(sim) - rec) % (2 * np.pi)) ** 2)),
+     "not [0, 2 pi)"),
+    ("09.time_to_upright_s", lambda a, dt: final_upright_start(np.abs(np.maximum(a, 0.0)), dt), "compare |angle|"),
+    ("09.time_to_upright_s", lambda a, dt: None if final_upright_start(a, dt) is None
+     else round(final_upright_start(a, dt) / dt), "step index"),
+    ("09.balance_error_deg", lambda a, dt: balance_error_deg(a, dt, rms=False), "mean"),
+    ("09.balance_error_deg", lambda a, dt: None if balance_error_deg(a, dt) is None
+     else math.radians(balance_error_deg(a, dt)), "radians"),
+    ("09.should_stop", lambda arm, rate, age: "arm" if abs(arm) > 1.6 or abs(rate) > 20 or age > 0.3 else None,
+     "not a number"),
+    ("09.should_stop", lambda arm, rate, age: "arm" if arm > 1.6 or rate > 20 or not age <= 0.3 else None,
+     "either way"),
+]

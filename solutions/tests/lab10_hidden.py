@@ -1,5 +1,6 @@
 """Hidden tests for lab 10 (instructor material: never copied into labs/)."""
 
+import math
 import struct
 
 from pendkit.grading import expect, task
@@ -26,8 +27,8 @@ def random_rigs_and_states(fn, rng):
 
 @chunks.test(points=1, hidden=True, hint="Blobs of any size, any chunk size; the last chunk may be short.")
 def any_blob_any_size(fn, rng):
-    from pendkit.device.controller_blob import pack
     from pendkit.deploy.swingup_design import design_swing_up
+    from pendkit.device.controller_blob import pack
 
     blob = pack(design_swing_up(None, str(rng.choice(["energy", "trajopt"]))))
     size = int(rng.integers(7, 700))
@@ -37,3 +38,32 @@ def any_blob_any_size(fn, rng):
     offsets = [struct.unpack("<I", c[4:8])[0] for c in got if len(c) >= 8]
     expect(offsets == list(range(0, len(blob), size)), f"offsets {offsets[:5]}... for {size}-byte chunks")
     expect(device_takes(got)["accepted"] == 1, f"a {len(blob)}-byte blob in {size}-byte chunks was not accepted")
+
+
+# --- The answer key (tests/grading/test_wrong_answers.py grades each through the tests above): a correct
+# answer per task, which gets full marks, and plausible mistakes, each with words its feedback must contain.
+
+
+def pendulum_acceleration(angle, rate, push, w0, damping, coupling, push_sign=-1.0):
+    return -w0**2 * math.sin(angle) - damping * rate + push_sign * coupling * math.cos(angle) * push
+
+
+def upload_chunks(blob, start=0, size=1024, order="<", whole_size=True):
+    return [b"PKUP" + struct.pack(order + "II", offset, len(blob) if whole_size else len(blob[offset:offset + size]))
+            + blob[offset:offset + size] for offset in range(start, len(blob), size)]
+
+
+CORRECT = {
+    "10.pendulum_acceleration": lambda a, w, p, w0, d, k: pendulum_acceleration(a, w, p, w0, d, k),
+    "10.upload_chunks": lambda blob, start=0, size=1024: upload_chunks(blob, start, size),
+}
+
+MISTAKES = [
+    ("10.pendulum_acceleration", lambda a, w, p, w0, d, k: pendulum_acceleration(a, w, p, w0, d, k, 1.0),
+     "wrong sign"),
+    ("10.pendulum_acceleration", lambda a, w, p, w0, d, k: pendulum_acceleration(a, w, 0.0, w0, d, k), "missing"),
+    ("10.upload_chunks", lambda blob, start=0, size=1024: upload_chunks(blob, start, size, ">"), "big-endian"),
+    ("10.upload_chunks", lambda blob, start=0, size=1024: upload_chunks(blob, start, size, whole_size=False),
+     "whole blob's size"),
+    ("10.upload_chunks", lambda blob, start=0, size=1024: upload_chunks(blob, 0, size), "offsets"),
+]
