@@ -7,6 +7,7 @@
 | dqn+actions       | DQN                     | observation + the actions it has not seen (delay-aware) |
 | dqn+estimated     | DQN                     | the observer's estimate of the present state + action   |
 | r-dqn             | R-DQN, trained GRU      | observation + last action, through the GRU              |
+| r-dqn+estimated   | R-DQN, trained GRU      | the observer's estimate + last action, through the GRU  |
 | r-dqn-reservoir   | DQN on a fixed GRU      | the ablation: an untrained random GRU's encoding        |
 | td3, td3+actions, td3+estimated, r-td3, r-td3-reservoir: the same for TD3's continuous actions |
 
@@ -120,7 +121,8 @@ def _family(algorithm: str) -> list[Learner]:
 
 
 LEARNERS: dict[str, Learner] = {learner.name: learner for learner in [
-    *_family("dqn"), Learner("r-dqn", "r-dqn"), Learner("r-dqn-reservoir", "r-dqn-reservoir"),
+    *_family("dqn"), Learner("r-dqn", "r-dqn"), Learner("r-dqn+estimated", "r-dqn", features="estimated"),
+    Learner("r-dqn-reservoir", "r-dqn-reservoir"),
     *_family("td3"), Learner("r-td3", "r-td3"), Learner("r-td3-reservoir", "r-td3-reservoir"),
 ]}
 LEARNER_NAMES = tuple(LEARNERS)
