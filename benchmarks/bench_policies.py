@@ -27,7 +27,14 @@ import time
 
 import pendkit
 from pendkit.agents.policy_rule import REPORT_SEED
-from pendkit.agents.pretrained import MEASURED_FILE, POLICIES, POLICY_DIR, policy_weights, weights_digest
+from pendkit.agents.pretrained import (
+    MEASURED_FILE,
+    POLICIES,
+    POLICY_DIR,
+    measured_figures,
+    policy_weights,
+    weights_digest,
+)
 from pendkit.agents.runs import Evaluation, build_run, evaluate_agent, held_fraction, make_env
 from pendkit.demo import CONTROLLERS
 from pendkit.episode import run_episode, time_to_upright_s
@@ -78,6 +85,20 @@ def line(name: str, rig: str, random: Evaluation, hanging: Evaluation, pushes: s
     return text, figures
 
 
+def without_policies(argv: list[str]) -> list[str]:
+    """`argv` without `--policies NAME ...` (the names up to the next option)."""
+    kept, skipping = [], False
+    for arg in argv:
+        if arg == "--policies":
+            skipping = True
+        elif skipping and not arg.startswith("--"):
+            continue
+        else:
+            skipping = False
+            kept.append(arg)
+    return kept
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--random", type=int, default=20, help="episodes from random starts")
@@ -89,6 +110,8 @@ def main() -> None:
     parser.add_argument("--record", action="store_true", help=f"write the figures to {MEASURED_FILE.name}")
     args = parser.parse_args()
     command = "python benchmarks/bench_policies.py " + " ".join(sys.argv[1:])
+    # what measures every policy this way (the file's command; each row keeps the command that measured it)
+    everything = "python benchmarks/bench_policies.py " + " ".join(without_policies(sys.argv[1:]))
     print(f"# {command}", flush=True)
     names = args.policies if args.policies is not None else [n for n in POLICIES if (POLICY_DIR / f"{n}.pt").exists()]
     recorded = {}
@@ -98,14 +121,18 @@ def main() -> None:
             rig, random, hanging = policy_outcomes(name, args.random, args.rest, condition)
             text, figures = line(name, rig, random, hanging, condition)
             print(f"{text} wall_s={time.perf_counter() - started:.0f}", flush=True)
-            recorded.setdefault(name, {"weights_sha256": weights_digest(name)})[
+            recorded.setdefault(name, {"weights_sha256": weights_digest(name), "command": command})[
                 "pushes_" + condition if condition else "twin"] = figures
         for controller in args.controllers:
             random, hanging = controller_outcomes(controller, args.controller_fidelity, args.random, args.rest,
                                                   condition)
             print(line(controller, args.controller_fidelity, random, hanging, condition)[0], flush=True)
-    if args.record:
-        MEASURED_FILE.write_text(json.dumps({"command": command, "policies": recorded}, indent=1) + "\n")
+    if args.record:  # the other policies' figures stay while their weights are the ones measured
+        kept, _ = measured_figures()
+        kept = {name: figures for name, figures in kept.items() if name in POLICIES and name not in recorded
+                and (POLICY_DIR / f"{name}.pt").exists() and figures.get("weights_sha256") == weights_digest(name)}
+        MEASURED_FILE.write_text(json.dumps({"command": everything, "policies": {**kept, **recorded}}, indent=1)
+                                 + "\n")
         print(f"recorded in {MEASURED_FILE}")
 
 
