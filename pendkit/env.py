@@ -20,7 +20,8 @@ from pendkit.sim.backend import STARTS, SimBackend
 from pendkit.sim.fidelity import Fidelity
 
 ACTION_MODES = ("discrete", "continuous")
-FEATURE_SOURCES = ("measured", "estimated")
+FEATURE_SOURCES = ("measured", "estimated", "estimated+measured")
+OBSERVED_SOURCES = ("estimated", "estimated+measured")  # the feature sources that run an observer
 RIG_PROTOCOLS = {"v1": 1, "v2": 2}  # v1: the authors' firmware; v2: the kit's (docs/protocol.md)
 RIG_OPTIONS = ("username", "password", "tls_ca", "observation_timeout_s", "reset_stop_s", "settle",
                "connect_timeout_s", "network_latency_ms")
@@ -91,7 +92,8 @@ class SwingUpEnv(gym.Env):
     filter_coefficient (default `params.filter_coefficient`), max_episode_steps, render_mode ("rgb_array"),
     log_dir (realistic twin or rig: every message of each episode to `log_dir/episode-NNNN.jsonl`);
     features ("measured": the readings as they arrive; "estimated": a model-based observer's estimate of the
-    present state from the readings and the actions sent, `pendkit.control.estimated_state`);
+    present state from the readings and the actions sent, `pendkit.control.estimated_state`; "estimated+measured":
+    the estimate, then the readings, so a policy can see where the observer's model and the rig part);
     observer_params (with features="estimated": the rig the observer is designed for, and so fixed through
     `set_rig`; default `params`, followed through `set_rig`. A policy meant for rigs it does not know is
     trained and judged with the nominal rig's observer);
@@ -133,7 +135,8 @@ class SwingUpEnv(gym.Env):
             raise ConfigError(f"params must be a pendkit.RigParams (e.g. RigParams.preset('mks-x5-hbl550')), "
                               f"got {type(params).__name__} {params!r}")
         self.params = params if params is not None else RigParams()
-        if observer_params is not None and (features != "estimated" or not isinstance(observer_params, RigParams)):
+        if observer_params is not None and (features not in OBSERVED_SOURCES
+                                            or not isinstance(observer_params, RigParams)):
             raise ConfigError("observer_params is a pendkit.RigParams for features='estimated', got "
                               f"{type(observer_params).__name__} with features={features!r}")
         if filter_coefficient is not None and (isinstance(filter_coefficient, bool)
@@ -166,11 +169,11 @@ class SwingUpEnv(gym.Env):
             self.action_space = gym.spaces.Discrete(len(self._increments))
         else:
             self.action_space = gym.spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
-        self.observation_space = gym.spaces.Box(
-            np.array([f.low for f in self.features], dtype=np.float32),
-            np.array([f.high for f in self.features], dtype=np.float32), dtype=np.float32)
+        shown = self.features * (2 if features == "estimated+measured" else 1)  # the estimate, then the readings
+        self.observation_space = gym.spaces.Box(np.array([f.low for f in shown], dtype=np.float32),
+                                                np.array([f.high for f in shown], dtype=np.float32), dtype=np.float32)
         self._bounded = tuple((k, float(self.observation_space.low[k]), float(self.observation_space.high[k]))
-                              for k in range(len(self.features)))
+                              for k in range(len(shown)))
         self._state: RigState | None = None
         self._shown: RigState | None = None  # what the observation is made of: measured, or estimated
         self._estimator = None
@@ -178,7 +181,7 @@ class SwingUpEnv(gym.Env):
         self._observer_design = None  # (params, timing) the observer keeps through set_rig, when pinned
         if observer_params is not None:
             self._observer_design = (observer_params, self.timing)
-        if features == "estimated":
+        if features in OBSERVED_SOURCES:
             self._estimator = self._new_estimator()
         self._filtered_unit = 0.0
         self._steps = 0
@@ -202,6 +205,11 @@ class SwingUpEnv(gym.Env):
         """What the backend tells controllers about time (`BackendTiming`): the step, the command's and the
         reading's delays, and whether the readings are the firmware's (worth an observer)."""
         return self.backend.timing
+
+    @property
+    def observes(self) -> bool:
+        """True when an observer feeds the observation (features "estimated" or "estimated+measured")."""
+        return self.feature_source in OBSERVED_SOURCES
 
     @property
     def observer_pinned(self) -> bool:
@@ -328,12 +336,15 @@ class SwingUpEnv(gym.Env):
     # --- observation ---
     def _observation(self) -> np.ndarray:
         values = [feature.read(self._shown) for feature in self.features]
+        if self.feature_source == "estimated+measured":
+            values += [feature.read(self._state) for feature in self.features]
         self._clipped = False
         for index, low, high in self._bounded:  # plain floats: cheaper than numpy on 7 values
             value = values[index]
             if not low <= value <= high:
                 if value != value:  # NaN: a backend bug (decoding rejects NaN readings)
-                    raise FloatingPointError(f"the observation's {self.features[index].name} is NaN")
+                    name = self.features[index % len(self.features)].name
+                    raise FloatingPointError(f"the observation's {name} is NaN")
                 values[index] = low if value < low else high
                 self._clipped = True
         return np.array(values, dtype=np.float32)

@@ -6,6 +6,8 @@ one policy for every rig of the `robust` ranges, and what does the observer's kn
                                                                                  # each drawn rig (as adapt's
                                                                                  # identified one): td3-robust
     python benchmarks/studies/robust_observer.py --start-from td3-realistic     # fine-tuned over the ranges
+    python benchmarks/studies/robust_observer.py --learner r-td3+both           # a GRU reading the estimate
+                                                                                 # and the raw readings
 
 Trains over `robust` (a new rig each episode), keeps the checkpoint that solves most validation rigs (8 rigs
 from the training ranges, rest + one random start each), then prints the default rig (rest + 20 random
@@ -24,6 +26,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--observer", choices=["nominal", "told"], default="nominal")
     parser.add_argument("--start-from", default=None, help="a shipped policy to fine-tune (default: afresh)")
+    parser.add_argument("--learner", default="td3+estimated", help="a learner reading the observer's estimate")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--episodes", type=int, default=1000)
     parser.add_argument("--check-every", type=int, default=100)
@@ -37,7 +40,7 @@ def main() -> None:
 
     use_kit_threads()
     told = args.observer == "told"
-    spec = PretrainedSpec(RunSpec("td3+estimated", "realistic", seed=args.seed, randomize="robust",
+    spec = PretrainedSpec(RunSpec(args.learner, "realistic", seed=args.seed, randomize="robust",
                                   observer="rig" if told else "base"), args.episodes, check_every=args.check_every)
     started = time.monotonic()
     env, agent, inputs = build_run(spec.run)
@@ -51,7 +54,8 @@ def main() -> None:
     if told:  # the same policy as it would run zero-shot: the laptop's observer designed for the nominal rig
         nominal = summary(policy_on_rigs(run, state, {**preset_rigs(), **random_rigs(10)}, starts=5))
         print(f"zero-shot with the nominal rig's observer: {nominal['solved']}/{nominal['episodes']}")
-    print(f"robust-observer observer={args.observer} from={args.start_from or 'afresh'} seed={args.seed} "
+    print(f"robust-observer learner={args.learner} observer={args.observer} from={args.start_from or 'afresh'} "
+          f"seed={args.seed} "
           f"episodes={args.episodes} chosen_at={chosen['chosen_at_episode']} "
           f"validation={chosen['validation_solved']}/16 default={default['solved']}/{default['episodes']} "
           f"presets_and_held_out={together['solved']}/{together['episodes']} "

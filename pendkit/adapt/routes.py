@@ -12,6 +12,7 @@ from pathlib import Path
 from pendkit.adapt.identify import Identification
 from pendkit.agents.runs import Evaluation, RunSpec, build_run, evaluate_agent, held_fraction, save_weights
 from pendkit.control.names import CONTROLLER_NAMES
+from pendkit.env import OBSERVED_SOURCES
 from pendkit.network import LatencyModel, NetworkImpairment
 from pendkit.rig import RigParams
 from pendkit.sim.fidelity import FIDELITY_PRESETS
@@ -56,7 +57,7 @@ class AgentRun:
         from pendkit.agents.learners import learner
 
         kwargs = learner(self.spec.learner).env_kwargs()
-        if kwargs.get("features") == "estimated" and self.observer_params is not None:
+        if kwargs.get("features") in OBSERVED_SOURCES and self.observer_params is not None:
             kwargs["observer_params"] = self.observer_params  # what the laptop knows of the rig, not the rig
         return kwargs
 

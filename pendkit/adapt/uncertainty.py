@@ -105,7 +105,7 @@ class AroundTheFit(gym.Wrapper):
 
         super().__init__(env)
         base = env.unwrapped
-        if base.feature_source == "estimated":
+        if base.observes:
             base.pin_observer(fit.params)
         self.fit, self.spread = fit, spread
         self.fidelity = resolve_fidelity(base.backend.fidelity)

@@ -8,8 +8,9 @@
 | dqn+estimated     | DQN                     | the observer's estimate of the present state + action   |
 | r-dqn             | R-DQN, trained GRU      | observation + last action, through the GRU              |
 | r-dqn+estimated   | R-DQN, trained GRU      | the observer's estimate + last action, through the GRU  |
+| r-td3+both        | R-TD3, trained GRU      | the estimate and the raw readings + last action (GRU)   |
 | r-dqn-reservoir   | DQN on a fixed GRU      | the ablation: an untrained random GRU's encoding        |
-| td3, td3+actions, td3+estimated, r-td3, r-td3-reservoir: the same for TD3's continuous actions |
+| td3, td3+actions, td3+estimated, td3+both, r-td3, r-td3-reservoir: the same for TD3's continuous actions |
 
 A new agent is one module with a class that keeps the contract (`pendkit.agents.base.Agent`) and one
 `Algorithm` row here; a new learner on an existing algorithm is one `Learner` row.
@@ -95,7 +96,7 @@ def check_agent_settings(name: str, settings: dict) -> None:
 @dataclass(frozen=True)
 class Learner:
     """`algorithm` (a key of ALGORITHMS); `actions_seen` (an int, or "delay": from the env's delay);
-    `features` of the env ("measured", or "estimated": the observer's present state)."""
+    `features` of the env ("measured"; "estimated": the observer's present state; "estimated+measured": both)."""
 
     name: str
     algorithm: str
@@ -123,7 +124,8 @@ def _family(algorithm: str) -> list[Learner]:
 LEARNERS: dict[str, Learner] = {learner.name: learner for learner in [
     *_family("dqn"), Learner("r-dqn", "r-dqn"), Learner("r-dqn+estimated", "r-dqn", features="estimated"),
     Learner("r-dqn-reservoir", "r-dqn-reservoir"),
-    *_family("td3"), Learner("r-td3", "r-td3"), Learner("r-td3-reservoir", "r-td3-reservoir"),
+    *_family("td3"), Learner("td3+both", "td3", features="estimated+measured"), Learner("r-td3", "r-td3"),
+    Learner("r-td3+both", "r-td3", features="estimated+measured"), Learner("r-td3-reservoir", "r-td3-reservoir"),
 ]}
 LEARNER_NAMES = tuple(LEARNERS)
 

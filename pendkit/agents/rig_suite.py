@@ -9,6 +9,7 @@ through the same code; `bench_transfer.py` and `pendkit adapt` use it.
 from __future__ import annotations
 
 from pendkit.agents.runs import Evaluation, RunSpec, build_run, evaluate_agent
+from pendkit.env import OBSERVED_SOURCES
 from pendkit.rig import SERVO_PRESETS, RigParams
 from pendkit.sim.fidelity import FIDELITY_PRESETS
 from pendkit.sim.randomize import RandomRig, held_out_rigs
@@ -41,7 +42,7 @@ def rig_env(rig: RandomRig, spec: RunSpec | None = None, observer_knows_rig: boo
 
     fidelity = rig.fidelity(FIDELITY_PRESETS["realistic"])
     kwargs = learner(spec.learner).env_kwargs() if spec is not None else {}
-    if kwargs.get("features") == "estimated":
+    if kwargs.get("features") in OBSERVED_SOURCES:
         env_options.setdefault("observer_params", rig.params if observer_knows_rig else RigParams())
     return pendkit.make(fidelity=fidelity, params=rig.params, **kwargs, **env_options)
 

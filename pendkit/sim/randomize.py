@@ -181,7 +181,7 @@ class DomainRandomization(gym.Wrapper):
         if needs_mcu and not self.base_fidelity.mcu_pipeline:
             raise ConfigError(f"randomising {', '.join(sorted(needs_mcu))} needs a fidelity with the MCU pipeline "
                               "(e.g. 'realistic')")
-        if base.feature_source == "estimated" and not base.observer_pinned and not observer_follows_rig:
+        if base.observes and not base.observer_pinned and not observer_follows_rig:
             base.pin_observer()
         self.ranges = ranges
         self.rng = np.random.default_rng(seed)

@@ -86,6 +86,25 @@ def test_estimated_features_are_closer_to_the_truth_than_the_readings(action_mod
         pendkit.make(features="guessed")
 
 
+def test_both_feature_sources_show_the_estimate_then_the_readings_each_as_its_own_env_would():
+    """"estimated+measured": the first half of the observation is what an estimating env shows, the second
+    what a measuring env shows, step for step on the same seeded twin and actions."""
+    envs = {features: pendkit.make(fidelity="realistic", action_mode="continuous", features=features)
+            for features in ("estimated", "measured", "estimated+measured")}
+    both = envs["estimated+measured"]
+    assert both.observation_space.shape == (2 * envs["measured"].observation_space.shape[0],)
+    assert both.unwrapped.observes and envs["estimated"].unwrapped.observes and not envs["measured"].unwrapped.observes
+    shown = {features: [env.reset(seed=5)[0]] for features, env in envs.items()}
+    for k in range(60):
+        action = np.array([np.sin(k / 5)], dtype=np.float32)
+        for features, env in envs.items():
+            shown[features].append(env.step(action)[0])
+    half = envs["measured"].observation_space.shape[0]
+    together = np.array(shown["estimated+measured"])
+    assert np.allclose(together[:, :half], shown["estimated"]) and np.allclose(together[:, half:], shown["measured"])
+    assert not np.allclose(together[:, :half], together[:, half:])  # the two halves differ: the observer works
+
+
 def test_the_shipped_delay_sweep_is_a_sweep_output_with_every_point():
     from pathlib import Path
 
