@@ -70,11 +70,12 @@ class AdaptConfig:
     device_trials: bool = False  # on recalibrated rigs the trials chose no better than the identified twin's
     twin_episodes: int = 60
     # the twin's training rig drawn every episode from what the recordings leave uncertain (the matching cost
-    # within (1 + this) of the fit's: pendkit.adapt.uncertainty); None: the identified rig alone
+    # within (1 + this) of the fit's: pendkit.adapt.uncertainty; 8 of 18 greedy episodes on the hidden rigs
+    # against 5 on the identified rig alone, docs/results/robust.md); None: the identified rig alone
     twin_tolerance: float | None = 1.0
     evaluation_episodes: int = 3
-    # its observer is then designed for the identified rig: 5 of 18 greedy episodes on the 6 hidden rigs, where
-    # starting from r-dqn-realistic solved none (docs/results/robust.md)
+    # its observer is then designed for the identified rig; starting from r-dqn-realistic solved none of the
+    # hidden rigs' episodes (docs/results/robust.md)
     policy: str = "td3-robust"
     identification_evaluations: int = 1200
     identification_restarts: int = 3  # from the same recordings; the best match is kept (docs/results/transfer.md)
