@@ -33,6 +33,7 @@ class DelayedAngleObserver:
         self.target_in_force_rad = 0.0
         self.ramp_in_force_rad_s = 0.0
         self._history: list[tuple[float, float]] = []  # (seconds before now, predicted pendulum angle)
+        self.last_innovation_rad = 0.0  # the newest reading less the model's prediction of it
 
     def _kalman_gain(self, process_std, measurement_std_rad: float) -> np.ndarray:
         linear = control.c2d(self.model.linearise("upright"), self.period_s, method="zoh")
@@ -55,6 +56,7 @@ class DelayedAngleObserver:
         predicted = self._predicted_angle_at(age_s)
         innovation = (state.pendulum_angle_rad - predicted + math.pi) % (2 * math.pi) - math.pi
         self.estimate = self.estimate + self.gain * innovation
+        self.last_innovation_rad = innovation
         return self.estimate
 
     def _predicted_angle_at(self, age_s: float) -> float:
