@@ -30,6 +30,11 @@ DISCRETE_ACTION_NAMES = ("stop", "left slow", "left fast", "right slow", "right 
 _RANGE_TOLERANCE = 1e-6  # float32 policies may land a hair outside [-1, 1]
 
 
+
+def _rig_or_bank(value) -> bool:
+    return isinstance(value, RigParams) or (isinstance(value, (list, tuple)) and len(value) > 0
+                                            and all(isinstance(v, RigParams) for v in value))
+
 class SwingUpEnv(gym.Env):
     """Swing up and balance a rotary (Furuta) pendulum driven by a hobby position servo.
 
@@ -94,9 +99,9 @@ class SwingUpEnv(gym.Env):
     features ("measured": the readings as they arrive; "estimated": a model-based observer's estimate of the
     present state from the readings and the actions sent, `pendkit.control.estimated_state`; "estimated+measured":
     the estimate, then the readings, so a policy can see where the observer's model and the rig part);
-    observer_params (with features="estimated": the rig the observer is designed for, and so fixed through
-    `set_rig`; default `params`, followed through `set_rig`. A policy meant for rigs it does not know is
-    trained and judged with the nominal rig's observer);
+    observer_params (with features="estimated": the rig the observer is designed for, or a tuple of rigs for
+    `pendkit.control.observer_bank`, fixed through `set_rig`; default `params`, followed through `set_rig`. A
+    policy meant for rigs it does not know is trained and judged with the nominal rig's observer);
     with backend="rig": rig ("r01"), broker (URL, default mqtt://127.0.0.1:1883), rig_options (username,
     password, tls_ca, observation_timeout_s, reset_stop_s, settle, connect_timeout_s, network_latency_ms),
     protocol ("v2", or "v1" for a rig
@@ -114,7 +119,7 @@ class SwingUpEnv(gym.Env):
                  max_episode_steps: int | None = EPISODE_STEPS, render_mode: str | None = None,
                  log_dir: str | None = None, rig: str = "r01", broker: str | None = None,
                  rig_options: dict[str, Any] | None = None, features: str = "measured",
-                 protocol: str = "v2", observer_params: RigParams | None = None) -> None:
+                 protocol: str = "v2", observer_params: RigParams | tuple[RigParams, ...] | None = None) -> None:
         if action_mode not in ACTION_MODES:
             raise ConfigError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
         if start not in STARTS:
@@ -135,10 +140,10 @@ class SwingUpEnv(gym.Env):
             raise ConfigError(f"params must be a pendkit.RigParams (e.g. RigParams.preset('mks-x5-hbl550')), "
                               f"got {type(params).__name__} {params!r}")
         self.params = params if params is not None else RigParams()
-        if observer_params is not None and (features not in OBSERVED_SOURCES
-                                            or not isinstance(observer_params, RigParams)):
-            raise ConfigError("observer_params is a pendkit.RigParams for features='estimated', got "
-                              f"{type(observer_params).__name__} with features={features!r}")
+        if observer_params is not None and (features not in OBSERVED_SOURCES or not _rig_or_bank(observer_params)):
+            raise ConfigError("observer_params is a pendkit.RigParams (or a bank of them) for features='estimated', "
+                              f"got {type(observer_params).__name__} with features={features!r}")
+        observer_params = tuple(observer_params) if isinstance(observer_params, (list, tuple)) else observer_params
         if filter_coefficient is not None and (isinstance(filter_coefficient, bool)
                                                or not isinstance(filter_coefficient, (int, float, np.number))):
             raise ConfigError(f"filter_coefficient must be a number in [0, 1), got {filter_coefficient!r}")
@@ -195,10 +200,10 @@ class SwingUpEnv(gym.Env):
 
     def _new_estimator(self):
         """The observer's feed, designed for this step and the backend's own delays (or the pinned design)."""
-        from pendkit.control.estimated_state import EstimatedStateFeed
+        from pendkit.control.observer_bank import observer_feed
 
         params, timing = self._observer_design or (self.params, self.timing)
-        return EstimatedStateFeed(params, self.dt, timing)
+        return observer_feed(params, self.dt, timing)
 
     @property
     def timing(self):

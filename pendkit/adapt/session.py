@@ -3,11 +3,12 @@
 (a) excitation episodes on the rig (`excitation`), (b) the rig's twin identified from them (`identify`) and its
 encoder's zero moved to where the pendulum hung, (e) the device's swing-up design made on the identified twin
 (or, asked for, short trials of designs on twins whose servo loop differs where the recordings cannot tell:
-`trials`), (c) the policy trained on the identified twin from the
-shipped one (laptop time), a rig drawn each episode from what the recordings allow (`uncertainty`), (d) greedy episodes on the rig with the non-blocking trainer learning from them,
-in the whole episodes of the budget left. The classical controllers (energy swing-up + LQR, and the
-minimum-time plan tracked by LQR) are designed on the same twin, so the report compares both routes on the
-same rig. Rig time is what the rig itself counted (`Rig.seconds`); the budget is `episodes` of 500 steps.
+`trials`), (c) the policy trained on the identified twin from the shipped one (laptop time), a rig drawn
+each episode from what the recordings allow (`uncertainty`), (d) greedy episodes on the rig with the
+non-blocking trainer learning from them, in the whole episodes of the budget left. The classical
+controllers (energy swing-up + LQR, and the minimum-time plan tracked by LQR) are designed on the same
+twin, so the report compares both routes on the same rig. Rig time is what the rig itself counted
+(`Rig.seconds`); the budget is `episodes` of 500 steps.
 """
 
 from __future__ import annotations

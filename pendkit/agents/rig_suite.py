@@ -16,6 +16,7 @@ from pendkit.sim.randomize import RandomRig, held_out_rigs
 
 HELD_OUT_SEED = 2026  # the documented draw of held-out rigs (docs/adapt.md)
 VALIDATION_SEED = 77  # rigs from the training ranges that choose a checkpoint; never the held-out ones
+BANK_SEED, BANK_SIZE = 7, 13  # the observer bank's candidate rigs: the nominal one and 12 from the training ranges
 
 
 def preset_rigs() -> dict[str, RandomRig]:
@@ -32,18 +33,27 @@ def validation_rigs(count: int = 8, seed: int = VALIDATION_SEED) -> dict[str, Ra
     return {f"validation-{k:02d}": rig for k, rig in enumerate(held_out_rigs(count, seed, widening=1.0))}
 
 
+def observer_bank(size: int = BANK_SIZE, seed: int = BANK_SEED) -> tuple[RigParams, ...]:
+    """Candidate rigs for a bank of observers (`pendkit.control.observer_bank`): the nominal rig and `size - 1`
+    drawn from the training ranges (never the held-out or validation draws): how a policy trained with an
+    observer told each rig runs on a rig nobody identified."""
+    return (RigParams(), *(rig.params for rig in held_out_rigs(size - 1, seed, widening=1.0)))
+
+
 def rig_env(rig: RandomRig, spec: RunSpec | None = None, observer_knows_rig: bool = False, **env_options):
     """The realistic twin of `rig`, made for `spec`'s learner (or a plain continuous env without one). A
     learner reading the observer's estimate gets an observer designed for the nominal rig (the laptop does
-    not know the rig's parameters), or for the rig itself with `observer_knows_rig` (what identifying it
+    not know the rig's parameters; a policy trained with observers told each rig, `spec.observer == "rig"`,
+    gets the `observer_bank` instead), or for the rig itself with `observer_knows_rig` (what identifying it
     perfectly would give)."""
     import pendkit
     from pendkit.agents.learners import learner
 
     fidelity = rig.fidelity(FIDELITY_PRESETS["realistic"])
     kwargs = learner(spec.learner).env_kwargs() if spec is not None else {}
-    if kwargs.get("features") in OBSERVED_SOURCES:
-        env_options.setdefault("observer_params", rig.params if observer_knows_rig else RigParams())
+    if kwargs.get("features") in OBSERVED_SOURCES:  # told the rig; else a policy trained so gets the bank
+        unknown = observer_bank() if spec.observer == "rig" else RigParams()
+        env_options.setdefault("observer_params", rig.params if observer_knows_rig else unknown)
     return pendkit.make(fidelity=fidelity, params=rig.params, **kwargs, **env_options)
 
 
