@@ -94,13 +94,16 @@ def weights_digest(name: str) -> str:
 
 def policy_env_options(name: str) -> dict:
     """What `pendkit.make` needs for shipped policy `name` on its own twin or a rig: its fidelity (twin
-    only), action mode and features, e.g. `pendkit.make(**policy_env_options(name), start="rest")`."""
+    only), action mode and features, e.g. `pendkit.make(**policy_env_options(name), start="rest")`; a policy
+    trained with observers told each rig meets the rig with the observer bank (`rig_suite.observer_bank`)."""
     from pendkit.agents.learners import learner
+    from pendkit.agents.rig_suite import observer_bank
 
     if name not in POLICIES:
         raise ConfigError(f"unknown policy {name!r}; the kit ships {sorted(POLICIES)}")
     run = POLICIES[name].run
-    return {"fidelity": run.fidelity, **learner(run.learner).env_kwargs()}
+    bank = {"observer_params": observer_bank()} if run.observer == "rig" else {}
+    return {"fidelity": run.fidelity, **learner(run.learner).env_kwargs(), **bank}
 
 
 def measured_figures() -> tuple[dict, str]:
