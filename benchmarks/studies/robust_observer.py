@@ -30,6 +30,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--episodes", type=int, default=1000)
     parser.add_argument("--check-every", type=int, default=100)
+    parser.add_argument("--out", default=None, help="write the kept weights here (the kit's weights format)")
     args = parser.parse_args()
     from pendkit.agents.pretrained import PretrainedSpec, policy_weights, train_keeping_best, validation_score
     from pendkit.agents.rig_suite import policy_on_rigs, preset_rigs, random_rigs, summary
@@ -48,6 +49,10 @@ def main() -> None:
         agent.load_state_dict(policy_weights(args.start_from)[1])
     _, chosen = train_keeping_best(env, agent, inputs, spec, validation_score)
     state, run = agent.state_dict(), dataclasses.replace(spec.run, randomize="")
+    if args.out:
+        from pendkit.agents.runs import save_weights
+
+        save_weights(args.out, agent, run, {**chosen, "episodes": args.episodes, "trained_on": "robust"})
     default = summary(policy_on_rigs(run, state, {"default": RandomRig(RigParams(), None, 0)}, starts=20))
     rigs = policy_on_rigs(run, state, {**preset_rigs(), **random_rigs(10)}, starts=5, observer_knows_rig=told)
     together = summary(rigs)
