@@ -9,6 +9,7 @@
 | r-dqn-realistic | r-dqn   | the realistic twin        | 260      |
 | td3-realistic   | td3+estimated | the realistic twin  | 300      |
 | td3-robust      | td3+estimated | a new realistic rig each episode, observer told the rig | 1000 (~25 min) |
+| r-td3-robust    | r-td3+both    | a new realistic rig each episode, the nominal observer  | 1000 (~40 min) |
 | r-dqn-robust    | r-dqn   | a new realistic rig each episode | 1500 (~55 min) |
 
 r-dqn-robust (`randomize="robust"`) keeps the checkpoint that did best on rigs drawn from its training
@@ -64,6 +65,10 @@ POLICIES = {"dqn-ideal": PretrainedSpec(RunSpec("dqn", "ideal"), 120),
             # observer, it does not hold: docs/results/robust.md)
             "td3-robust": PretrainedSpec(RunSpec("td3+estimated", "realistic", randomize="robust", observer="rig"),
                                          1000, check_every=100, built_by_default=False),
+            # zero-shot over the robust ranges: a GRU reading the nominal observer's estimate and the raw readings,
+            # which shows it where the observer's model and the rig part (docs/results/robust.md)
+            "r-td3-robust": PretrainedSpec(RunSpec("r-td3+both", "realistic", randomize="robust"), 1000,
+                                           check_every=100, built_by_default=False),
             "r-dqn-robust": PretrainedSpec(RunSpec("r-dqn", "realistic", randomize="robust", agent=ROBUST_AGENT),
                                            1500, check_every=125, built_by_default=False)}
 
