@@ -86,10 +86,10 @@ def line(name: str, rig: str, random: Evaluation, hanging: Evaluation, pushes: s
 
 
 def without_policies(argv: list[str]) -> list[str]:
-    """`argv` without `--policies NAME ...` (the names up to the next option)."""
+    """`argv` without the choice of what to measure (`--policies NAME ...`, `--controllers NAME ...`)."""
     kept, skipping = [], False
     for arg in argv:
-        if arg == "--policies":
+        if arg in ("--policies", "--controllers"):
             skipping = True
         elif skipping and not arg.startswith("--"):
             continue
@@ -110,7 +110,7 @@ def main() -> None:
     parser.add_argument("--record", action="store_true", help=f"write the figures to {MEASURED_FILE.name}")
     args = parser.parse_args()
     command = "python benchmarks/bench_policies.py " + " ".join(sys.argv[1:])
-    # what measures every policy this way (the file's command; each row keeps the command that measured it)
+    # what measures every policy this way (the file's command, whichever policies this run measured)
     everything = "python benchmarks/bench_policies.py " + " ".join(without_policies(sys.argv[1:]))
     print(f"# {command}", flush=True)
     names = args.policies if args.policies is not None else [n for n in POLICIES if (POLICY_DIR / f"{n}.pt").exists()]
@@ -121,7 +121,7 @@ def main() -> None:
             rig, random, hanging = policy_outcomes(name, args.random, args.rest, condition)
             text, figures = line(name, rig, random, hanging, condition)
             print(f"{text} wall_s={time.perf_counter() - started:.0f}", flush=True)
-            recorded.setdefault(name, {"weights_sha256": weights_digest(name), "command": command})[
+            recorded.setdefault(name, {"weights_sha256": weights_digest(name)})[
                 "pushes_" + condition if condition else "twin"] = figures
         for controller in args.controllers:
             random, hanging = controller_outcomes(controller, args.controller_fidelity, args.random, args.rest,

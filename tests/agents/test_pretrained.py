@@ -78,7 +78,8 @@ def test_policies_list_prints_each_policys_measured_figures_and_how_they_were_me
 
 
 @pytest.mark.parametrize("name, start, seed", [("td3-realistic", "random", 10_000), ("td3-realistic", "rest", 10_500),
-                                               ("td3-realistic", "random", 10_007), ("dqn-ideal", "random", 10_003)])
+                                               ("td3-realistic", "random", 10_007), ("dqn-ideal", "random", 10_003),
+                                               ("r-td3-robust", "rest", 10_501)])
 def test_a_shipped_policy_holds_starts_it_was_never_judged_on(name, start, seed):
     import pendkit
     from pendkit.agents.pretrained import policy_env_options, policy_weights
