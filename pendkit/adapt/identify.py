@@ -169,6 +169,17 @@ def simulate(params: RigParams, latency_ms: float, recording: Recording) -> np.n
     return angles + recording.start_pendulum_rad  # a pendulum at rest hangs plumb: what it read is the offset
 
 
+def guarded_cost(cost: Callable[[RigParams, float, list[Recording]], float], params: RigParams, last: float,
+                 recordings: list[Recording]) -> float:
+    """`cost`, or 4.0 (as bad as can be) for a candidate the twin cannot take (an impossible servo) or a value
+    that is not finite: what every search over candidate rigs compares."""
+    try:
+        value = float(cost(params, last, recordings))
+    except Exception:
+        return 4.0
+    return value if math.isfinite(value) else 4.0
+
+
 def matching_cost(params: RigParams, latency_ms: float, recordings: list[Recording]) -> float:
     return float(np.mean([angle_error_rad2(simulate(params, latency_ms, r), r.pendulum_rad) for r in recordings]))
 
@@ -199,12 +210,7 @@ def identify(recordings: list[Recording], prior: RigParams | None = None, max_ev
     def objective(x: np.ndarray) -> float:
         nonlocal count, best
         count += 1
-        params, latency = candidate(pendulum, x)
-        try:
-            value = float(cost(params, latency, recordings))
-        except Exception:  # a candidate the twin cannot take (an impossible servo): as bad as can be
-            value = 4.0
-        value = value if math.isfinite(value) else 4.0
+        value = guarded_cost(cost, *candidate(pendulum, x), recordings)
         best = min(best, value)
         if progress is not None:
             progress(count, best)
@@ -283,11 +289,7 @@ def refine_servo(fit: Identification, recordings: list[Recording], prior: RigPar
         return params if "tip_mass_kg" not in fields else same_swing(params, fit.params)
 
     def objective(x: np.ndarray) -> float:
-        try:
-            value = float(cost(params_at(x), last, recordings))
-        except Exception:  # a servo the twin cannot take
-            return 4.0
-        return value if math.isfinite(value) else 4.0
+        return guarded_cost(cost, params_at(x), last, recordings)
 
     spans = np.log([REFINE_SPAN.get(name, DEFAULT_REFINE_SPAN) for name in fields])
     start = np.zeros(len(fields))

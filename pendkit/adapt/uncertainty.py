@@ -20,7 +20,7 @@ import gymnasium as gym
 import numpy as np
 
 from pendkit.adapt.excitation import Recording
-from pendkit.adapt.identify import FITTED, Identification, matching_cost, on_device_clock
+from pendkit.adapt.identify import FITTED, Identification, guarded_cost, matching_cost, on_device_clock
 from pendkit.network import LatencyModel, NetworkImpairment
 from pendkit.rig import RigParams
 
@@ -54,11 +54,7 @@ def fit_spread(fit: Identification, recordings: list[Recording], tolerance: floa
     ceiling = best * (1 + tolerance)
 
     def matches(params: RigParams, latency_ms: float) -> bool:
-        try:
-            value = float(cost(params, latency_ms, recordings))
-        except Exception:  # a rig the twin cannot take
-            return False
-        return math.isfinite(value) and value <= ceiling
+        return guarded_cost(cost, params, latency_ms, recordings) <= ceiling
 
     def field_matches(name: str, log_offset: float) -> bool:
         return matches(with_field(fit.params, name, getattr(fit.params, name) * math.exp(log_offset)), last)

@@ -102,13 +102,12 @@ def policy_env_options(name: str) -> dict:
     only), action mode and features, e.g. `pendkit.make(**policy_env_options(name), start="rest")`; a policy
     trained with observers told each rig meets the rig with the observer bank (`rig_suite.observer_bank`)."""
     from pendkit.agents.learners import learner
-    from pendkit.agents.rig_suite import observer_bank
+    from pendkit.agents.rig_suite import unknown_rig_observer
 
     if name not in POLICIES:
         raise ConfigError(f"unknown policy {name!r}; the kit ships {sorted(POLICIES)}")
     run = POLICIES[name].run
-    bank = {"observer_params": observer_bank()} if run.observer == "rig" else {}
-    return {"fidelity": run.fidelity, **learner(run.learner).env_kwargs(), **bank}
+    return {"fidelity": run.fidelity, **learner(run.learner).env_kwargs(), **unknown_rig_observer(run)}
 
 
 def measured_figures() -> tuple[dict, str]:

@@ -40,6 +40,17 @@ def observer_bank(size: int = BANK_SIZE, seed: int = BANK_SEED) -> tuple[RigPara
     return (RigParams(), *(rig.params for rig in held_out_rigs(size - 1, seed, widening=1.0)))
 
 
+def unknown_rig_observer(spec: RunSpec) -> dict:
+    """`pendkit.make`'s observer option for `spec`'s learner on a rig the laptop does not know: none for a
+    learner without an observer, the `observer_bank` for one trained with observers told each rig
+    (`spec.observer == "rig"`), else the nominal rig's observer (what it was trained with)."""
+    from pendkit.agents.learners import learner
+
+    if learner(spec.learner).features not in OBSERVED_SOURCES:
+        return {}
+    return {"observer_params": observer_bank() if spec.observer == "rig" else RigParams()}
+
+
 def rig_env(rig: RandomRig, spec: RunSpec | None = None, observer_knows_rig: bool = False, **env_options):
     """The realistic twin of `rig`, made for `spec`'s learner (or a plain continuous env without one). A
     learner reading the observer's estimate gets an observer designed for the nominal rig (the laptop does
@@ -51,9 +62,10 @@ def rig_env(rig: RandomRig, spec: RunSpec | None = None, observer_knows_rig: boo
 
     fidelity = rig.fidelity(FIDELITY_PRESETS["realistic"])
     kwargs = learner(spec.learner).env_kwargs() if spec is not None else {}
-    if kwargs.get("features") in OBSERVED_SOURCES:  # told the rig; else a policy trained so gets the bank
-        unknown = observer_bank() if spec.observer == "rig" else RigParams()
-        env_options.setdefault("observer_params", rig.params if observer_knows_rig else unknown)
+    if observer_knows_rig and kwargs.get("features") in OBSERVED_SOURCES:
+        env_options.setdefault("observer_params", rig.params)
+    elif not observer_knows_rig and spec is not None:
+        env_options = {**unknown_rig_observer(spec), **env_options}
     return pendkit.make(fidelity=fidelity, params=rig.params, **kwargs, **env_options)
 
 

@@ -169,10 +169,10 @@ def evaluate(run_dir: Path | None, policy_name: str | None, episodes: int, backe
 
             spec = dataclasses.replace(spec, preset=None)
             options["params"] = RigParams.load(params_path)
-        if backend == "rig" and spec.observer == "rig" and params_path is None:  # an unknown rig: the bank
-            from pendkit.agents.rig_suite import observer_bank
+        if backend == "rig" and params_path is None:  # a rig the laptop does not know
+            from pendkit.agents.rig_suite import unknown_rig_observer
 
-            options["observer_params"] = observer_bank()
+            options.update(unknown_rig_observer(spec))
         env = make_env(spec, **options)
     except ConfigError as error:
         raise click.ClickException(str(error)) from None
