@@ -7,12 +7,14 @@ import subprocess
 import sys
 from pathlib import Path
 
+import click
 import pytest
 from click.testing import CliRunner
 
 from pendkit.bom import COLUMNS, cost_summary, read_bom
 from pendkit.cli import main
 from pendkit.errors import ConfigError
+from pendkit.readme_commands import ROW_START, command_row, rewrite
 from pendkit.wiring import connections, draw_wiring, read_pins
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -126,6 +128,22 @@ def test_every_command_in_the_docs_is_exercised_or_marked(workspace, monkeypatch
 
 
 def test_the_readmes_command_list_is_the_clis():
-    row = next(line for line in (ROOT / "README.md").read_text().splitlines() if line.startswith("| the command |"))
+    row = next(line for line in (ROOT / "README.md").read_text().splitlines() if line.startswith(ROW_START))
     listed = set(re.findall(r"`(?:pendkit )?([a-z][a-z-]*)(?: [a-z/]+)?`", row.split("|")[3]))
-    assert listed == set(main.commands), f"README lists {sorted(listed)}; the CLI has {sorted(main.commands)}"
+    assert listed == set(main.commands), (f"README lists {sorted(listed)}; the CLI has {sorted(main.commands)}: "
+                                          "`python -m pendkit.readme_commands` rewrites the row")
+    assert row == command_row(main), "README's command row is stale: `python -m pendkit.readme_commands` rewrites it"
+
+
+def test_the_readme_row_writer_adds_a_new_command(tmp_path):
+    @click.command("new-thing")
+    def new_thing():
+        """A command added in one module."""
+
+    group = click.Group(commands={**main.commands, "new-thing": new_thing})
+    readme = tmp_path / "README.md"
+    readme.write_text((ROOT / "README.md").read_text())
+    assert rewrite(readme, group)
+    assert "`new-thing`" in readme.read_text()
+    assert not rewrite(readme, group)
+

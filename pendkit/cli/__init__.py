@@ -1,20 +1,16 @@
-"""The `pendkit` command: thin subcommands over library calls, one module per area.
-
-| module      | commands                                                        |
-|-------------|-----------------------------------------------------------------|
-| kit.py      | demo, info, bom, cad, wiring, firmware-header                   |
-| labs.py     | labs build/check, grade, autograder-run                         |
-| learning.py | train, eval, plot, policies list/build                          |
-| link.py     | broker, broker-config, virtual-rig                              |
-| device.py   | export, deploy                                                  |
-| sweep.py    | sweep, sweep report                                             |
+"""The `pendkit` command: thin subcommands over library calls, one module per area (kit, labs, learning,
+link, device, sweep). Every module here with a `COMMANDS` tuple is picked up, so a new command is its
+function in its area's module (or a new module) and nothing else; `python -m pendkit.readme_commands` then
+rewrites the README's command row.
 """
 
 from __future__ import annotations
 
+import importlib
+import pkgutil
+
 import click
 
-from pendkit.cli import device, kit, labs, learning, link, sweep
 from pendkit.errors import PendkitError
 
 
@@ -38,6 +34,8 @@ def main() -> None:
     """pendkit: the swing-up pendulum teaching kit (twin, rig link, labs, grader)."""
 
 
-for _module in (kit, labs, learning, link, device, sweep):
-    for _command in _module.COMMANDS:
+for _info in sorted(pkgutil.iter_modules(__path__), key=lambda info: info.name):
+    if _info.name.startswith("_"):
+        continue
+    for _command in getattr(importlib.import_module(f"{__name__}.{_info.name}"), "COMMANDS", ()):
         main.add_command(_command)

@@ -1,0 +1,46 @@
+"""Lab 05: the student's pumping law and catch set drive the swing-up the twin shows."""
+
+import re
+
+import pytest
+
+from tests.labs.student_loop import printed_by_lab
+
+pytestmark = pytest.mark.expensive  # minutes of notebook runs: scheduled first (conftest.py)
+
+WRONG_DIRECTION = '''
+def pumping_direction(angle_from_bottom_rad, velocity_rad_s):
+    return 1 if velocity_rad_s * math.cos(angle_from_bottom_rad) > 0 else -1  # brakes
+'''
+
+
+
+def test_lab05_the_students_functions_swing_the_twin_up_and_a_braking_rule_does_not():
+    right = printed_by_lab("05_swingup.ipynb", "parts=yours), seed=0")
+    wrong = printed_by_lab("05_swingup.ipynb", "parts=yours), seed=0", {"pumping_direction": WRONG_DIRECTION})
+    assert re.search(r"time to upright: [\d.]+ s", right), right
+    assert "not upright at the end of the" in wrong and "None" not in wrong, wrong
+
+
+
+CATCH_AROUND_HANGING = '''
+def catch_set(upright_rad, angle_rad, velocity_rad_s, arm_angle_rad, arm_velocity_rad_s):
+    lower = [-arm_angle_rad, -angle_rad, -arm_velocity_rad_s, -velocity_rad_s]  # centred on hanging
+    upper = [arm_angle_rad, angle_rad, arm_velocity_rad_s, velocity_rad_s]
+    return lower, upper
+'''
+
+
+def upright_at_s(text: str, label: str) -> float:
+    return float(re.search(rf"{re.escape(label)}: upright at ([\d.]+) s", text).group(1))
+
+
+def test_lab05_the_students_problem_plans_a_swing_up_faster_than_pumping_and_a_wrong_catch_set_does_not():
+    # Times to upright printed by the lab are the ideal twin's simulated seconds (seed 0), not wall time.
+    right = printed_by_lab("05_swingup.ipynb", "your_planner(step_model, made)")
+    wrong = printed_by_lab("05_swingup.ipynb", "your_planner(step_model, made)", {"catch_set": CATCH_AROUND_HANGING})
+    assert upright_at_s(right, "tracked plan") < 0.6 * upright_at_s(right, "your pumping law"), right
+    assert "found no solution" in wrong, wrong
+    fallback = "energy pumping (no plan: the tracker's fallback)"
+    assert "tracked plan" not in wrong.split("fell back")[-1], wrong  # the fallback is not called a plan
+    assert upright_at_s(wrong, fallback) > upright_at_s(right, "tracked plan") + 1.0, (right, wrong)

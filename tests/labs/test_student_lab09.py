@@ -1,0 +1,47 @@
+"""Lab 09: the student's watchdog and matching cost drive the rig runs and the identified twin."""
+
+import re
+
+import pytest
+
+from tests.labs.student_loop import printed_by_lab
+
+pytestmark = pytest.mark.expensive  # minutes of notebook runs: scheduled first (conftest.py)
+
+NEVER_STOPS = '''
+def should_stop(arm_angle_rad, pendulum_velocity_rad_s, observation_age_s):
+    return None
+'''
+
+
+def test_lab09_the_students_watchdog_holds_the_rig_when_the_wifi_drops_and_a_silent_one_does_not():
+    right = printed_by_lab("09_deploy.ipynb", "WifiDropsOut(SwingUpController")
+    wrong = printed_by_lab("09_deploy.ipynb", "WifiDropsOut(SwingUpController", {"should_stop": NEVER_STOPS})
+    assert "your watchdog held the rig" in right and "old" in right, right
+    assert "your watchdog did not stop the rig" in wrong, wrong
+
+
+SIGNED_COST = '''
+def matching_cost(simulated_rad, recorded_rad):
+    return float(np.mean(np.asarray(simulated_rad) - np.asarray(recorded_rad)))  # gaps cancel
+'''
+# Run after the student's identification, in the same kernel: the signed cost searches the same recordings
+# (two runs of the real-time rig record it apart, and a busy machine can make one run's recordings poor).
+IDENTIFY_AGAIN_WITH_THE_SIGNED_COST = SIGNED_COST + '''
+signed = identify(recordings, pendkit.RigParams(), max_evaluations=evaluations, cost=your_cost)
+print(f"signed cost: gap of {kit_cost(signed.params, signed.latency_ms, recordings):.4f} rad^2")
+'''
+
+
+def gaps_to_nominal(text: str) -> tuple[float, float]:
+    """The twins identified with the student's cost and then the signed one: each one's mean squared gap to
+    the rig as a fraction of the nominal twin's, on the same recordings."""
+    found, nominal = re.search(r"gap of ([\d.]+) rad\^2 \(the nominal twin: ([\d.]+)\)", text).groups()
+    signed = re.search(r"signed cost: gap of ([\d.]+) rad\^2", text).group(1)
+    return float(found) / float(nominal), float(signed) / float(nominal)
+
+
+def test_lab09_the_students_cost_identifies_a_twin_that_follows_the_rig_and_a_signed_one_does_not():
+    text = printed_by_lab("09_deploy.ipynb", "your_cost(params, latency_ms", then=IDENTIFY_AGAIN_WITH_THE_SIGNED_COST)
+    right, signed = gaps_to_nominal(text)
+    assert right < 0.75 and signed > right + 0.2, text  # the nominal twin is 1.0
