@@ -22,6 +22,7 @@ solved by at least half of the seeds:
 
     python benchmarks/bench_learning.py --quick          # one seed of DQN on ideal
     python benchmarks/bench_learning.py --seeds 10 --sb3 --jobs 2
+    python benchmarks/bench_learning.py --sb3-sac --sb3-only --fidelities realistic --max-episodes 300
     python benchmarks/bench_learning.py --sweep-delay-steps 0 1 2 --algos dqn r-dqn --jobs 2
     python benchmarks/bench_learning.py --sweep-delay-ms 0 50 100 150 --algos dqn r-dqn --jobs 2
 """
@@ -42,7 +43,9 @@ import numpy as np
 import pendkit
 from pendkit.agents.dqn import DqnConfig
 from pendkit.agents.inputs import StepInputs
+from pendkit.agents.learners import learner
 from pendkit.agents.policy_rule import JUDGE_SEED, REPORT_SEED, RULE_MIN_HELD, RULE_STARTS, judge_policy
+from pendkit.agents.td3 import Td3Config
 from pendkit.sim.fidelity import Fidelity, observation_delay_fidelity
 from pendkit.sim.observation_delay import ObservationDelay
 from pendkit.sweep.ray_runner import run_sweep
@@ -64,11 +67,13 @@ class StepDelay:
         return f"ideal-delayed-{self.delay_steps}-steps"
 
 
-def sb3_env(setting: str | Fidelity | StepDelay):
-    """The env of a benchmark setting for Stable-Baselines3's DQN: the kit's default observation."""
+def sb3_env(setting: str | Fidelity | StepDelay, algo: str = "sb3-dqn"):
+    """The env of a benchmark setting for Stable-Baselines3: for DQN the kit's default observation; for SAC
+    the continuous target with the observer's estimate, as `td3+estimated` (the kit's best learner) reads it."""
+    kwargs = learner("td3+estimated").env_kwargs() if algo == "sb3-sac" else {}
     if isinstance(setting, StepDelay):
-        return ObservationDelay(pendkit.make(fidelity="ideal"), setting.delay_steps)
-    return pendkit.make(fidelity=setting)
+        return ObservationDelay(pendkit.make(fidelity="ideal", **kwargs), setting.delay_steps)
+    return pendkit.make(fidelity=setting, **kwargs)
 
 
 def spec_record(algos: list[str], setting_kind: str, settings: list, seeds: list[int], max_episodes: int,
@@ -79,20 +84,41 @@ def spec_record(algos: list[str], setting_kind: str, settings: list, seeds: list
             "agent": overrides or {}}
 
 
-def run_sb3(fidelity: str | Fidelity, seed: int, max_episodes: int,
-            max_wall_s: float) -> tuple[int | None, float, int]:
+def sb3_dqn(env, seed: int, total_steps: int):
+    """SB3's DQN with our DQN's settings."""
     from stable_baselines3 import DQN
-    from stable_baselines3.common.callbacks import BaseCallback
 
     ours = DqnConfig()
+    return DQN("MlpPolicy", env, seed=seed, learning_rate=ours.learning_rate, gamma=ours.gamma,
+               batch_size=ours.batch_size, buffer_size=ours.buffer_capacity, learning_starts=ours.learning_starts,
+               target_update_interval=ours.target_update_every, train_freq=1, gradient_steps=1,
+               exploration_initial_eps=ours.epsilon_start, exploration_final_eps=ours.epsilon_end,
+               exploration_fraction=ours.epsilon_decay_steps / total_steps,
+               policy_kwargs={"net_arch": list(ours.hidden)}, device="cpu", verbose=0)
+
+
+def sb3_sac(env, seed: int, total_steps: int):
+    """SB3's SAC (automatic entropy) with our TD3's network, gamma, batch, buffer and warm-up: the peer row for
+    a further continuous learner (issue 43 asks for SAC where it does better than the kit's own)."""
+    from stable_baselines3 import SAC
+
+    ours = Td3Config()
+    return SAC("MlpPolicy", env, seed=seed, learning_rate=ours.critic_learning_rate, gamma=ours.gamma,
+               batch_size=ours.batch_size, buffer_size=ours.buffer_capacity, learning_starts=ours.learning_starts,
+               train_freq=1, gradient_steps=1, policy_kwargs={"net_arch": list(ours.hidden)}, device="cpu",
+               verbose=0)
+
+
+SB3_ALGOS = {"sb3-dqn": sb3_dqn, "sb3-sac": sb3_sac}
+
+
+def run_sb3(fidelity: str | Fidelity, seed: int, max_episodes: int, max_wall_s: float,
+            algo: str = "sb3-dqn") -> tuple[int | None, float, int]:
+    from stable_baselines3.common.callbacks import BaseCallback
+
     total_steps = max_episodes * EPISODE_STEPS
-    env, probe = sb3_env(fidelity), sb3_env(fidelity)
-    model = DQN("MlpPolicy", env, seed=seed, learning_rate=ours.learning_rate, gamma=ours.gamma,
-                batch_size=ours.batch_size, buffer_size=ours.buffer_capacity, learning_starts=ours.learning_starts,
-                target_update_interval=ours.target_update_every, train_freq=1, gradient_steps=1,
-                exploration_initial_eps=ours.epsilon_start, exploration_final_eps=ours.epsilon_end,
-                exploration_fraction=ours.epsilon_decay_steps / total_steps,
-                policy_kwargs={"net_arch": list(ours.hidden)}, device="cpu", verbose=0)
+    env, probe = sb3_env(fidelity, algo), sb3_env(fidelity, algo)
+    model = SB3_ALGOS[algo](env, seed, total_steps)
     outcome: dict[str, int] = {}
     started = time.perf_counter()
 
@@ -125,7 +151,8 @@ class Sb3Greedy:
         pass
 
     def act(self, x, explore: bool = False):
-        return int(self.model.predict(x, deterministic=True)[0])
+        action = self.model.predict(x, deterministic=True)[0]
+        return int(action) if np.ndim(action) == 0 else np.asarray(action, dtype=np.float32)
 
 
 class RawObservation(StepInputs):
@@ -160,6 +187,9 @@ def main() -> None:
     parser.add_argument("--algos", nargs="+", default=["dqn", "r-dqn", "td3", "r-td3"])
     parser.add_argument("--fidelities", nargs="+", default=["ideal", "paper-delayed", "realistic"])
     parser.add_argument("--sb3", action="store_true", help="also Stable-Baselines3 DQN (pip install '.[bench]')")
+    parser.add_argument("--sb3-sac", action="store_true",
+                        help="also Stable-Baselines3 SAC on the continuous target with the estimate")
+    parser.add_argument("--sb3-only", action="store_true", help="only the SB3 rows (no sweep of the kit's learners)")
     parser.add_argument("--sweep-delay-ms", nargs="+", type=float, default=None,
                         help="instead of the fidelities: observation delays on the realistic pipeline")
     parser.add_argument("--sweep-delay-steps", nargs="+", type=int, default=None,
@@ -188,30 +218,34 @@ def main() -> None:
     seeds = list(range(args.first_seed, args.first_seed + args.seeds))
     record = spec_record(args.algos, kind, settings, seeds, args.max_episodes, args.max_wall_s, overrides)
     out = args.out or Path(tempfile.mkdtemp(prefix="bench-learning-"))
-    run_sweep(parse_spec(record), out, args.address, args.resume, num_cpus=args.jobs, say=print)
-    rows, missing = gather(out)
-    for line in summary_lines(rows, missing)[len(rows):]:  # the per-trial lines were printed as they finished
-        print(line, flush=True)
-    if args.sb3:
+    rows = []
+    if not args.sb3_only:
+        run_sweep(parse_spec(record), out, args.address, args.resume, num_cpus=args.jobs, say=print)
+        rows, missing = gather(out)
+        for line in summary_lines(rows, missing)[len(rows):]:  # the per-trial lines were printed as they finished
+            print(line, flush=True)
+    sb3_algos = [algo for algo, wanted in (("sb3-dqn", args.sb3), ("sb3-sac", args.sb3_sac)) if wanted]
+    if sb3_algos:
         _one_thread()
         sb3_settings = [StepDelay(k) for k in settings] if kind == "delay_steps" else settings
         if kind == "delay_ms":
             sb3_settings = [observation_delay_fidelity(delay) for delay in settings]
-        for setting in sb3_settings:
-            results = [run_sb3(setting, seed, args.max_episodes, args.max_wall_s) for seed in seeds]
-            report_sb3(setting_name(setting), results)
-    if args.json is not None:
+        for algo in sb3_algos:
+            for setting in sb3_settings:
+                results = [run_sb3(setting, seed, args.max_episodes, args.max_wall_s, algo) for seed in seeds]
+                report_sb3(setting_name(setting), results, algo)
+    if args.json is not None and rows:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         record = runs_record(rows, "python benchmarks/bench_learning.py " + " ".join(sys.argv[1:]))
         args.json.write_text(json.dumps(record, indent=1) + "\n")
 
 
-def report_sb3(setting: str, results: list[tuple[int | None, float, int]]) -> None:
+def report_sb3(setting: str, results: list[tuple[int | None, float, int]], algo: str = "sb3-dqn") -> None:
     won = [(e, s) for e, s, _ in results if e is not None]
     episodes = f"{np.median([e for e, _ in won]):.0f}" if won else "nan"
     wall = f"{np.median([s for _, s in won]):.0f}" if won else "nan"
     held = [h for _, _, h in results]
-    print(f"algo=sb3-dqn fidelity={setting} solved={len(won)}/{len(results)} median_episodes_to_policy={episodes} "
+    print(f"algo={algo} fidelity={setting} solved={len(won)}/{len(results)} median_episodes_to_policy={episodes} "
           f"median_wall_s_to_policy={wall} held_out={sum(h >= RULE_MIN_HELD for h in held)}/{len(held)} "
           f"policy_solved={sum(held)}/{len(RULE_STARTS) * len(held)}", flush=True)
 
