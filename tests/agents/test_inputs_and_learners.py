@@ -1,6 +1,8 @@
 """What the agents see: the delay-aware input (the actions an observation has not seen), the named
 learners, and the observer's estimate as features."""
 
+import re
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -108,11 +110,13 @@ def test_both_feature_sources_show_the_estimate_then_the_readings_each_as_its_ow
 def test_the_shipped_delay_sweep_is_a_sweep_output_with_every_point():
     from pathlib import Path
 
+    from pendkit.agents.policy_rule import RULE_TEXT
     from pendkit.agents.results import delay_sweep
     from pendkit.sweep.spec import load_spec
 
     sweep = delay_sweep()
-    assert sweep.command.startswith("pendkit sweep benchmarks/sweeps/lab08-delay.yaml --out DIR")
+    assert re.match(r"pendkit sweep (run )?benchmarks/sweeps/lab08-delay.yaml --out DIR", sweep.command), sweep.command
+    assert sweep.solved_rule.startswith(RULE_TEXT), sweep.solved_rule  # measured under the kit's one rule
     spec = load_spec(Path(__file__).resolve().parents[2] / "benchmarks" / "sweeps" / "lab08-delay.yaml")
     assert set(sweep.success_rate) == set(spec.learners)  # the file is the spec's sweep, every learner
     assert {"dqn", "dqn+actions", "r-dqn"} <= set(sweep.success_rate)
