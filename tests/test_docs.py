@@ -14,8 +14,8 @@ from click.testing import CliRunner
 from pendkit.bom import COLUMNS, cost_summary, read_bom
 from pendkit.cli import main
 from pendkit.errors import ConfigError
-from pendkit.readme_commands import ROW_START, command_row, rewrite
 from pendkit.wiring import connections, draw_wiring, read_pins
+from tests.readme_row import ROW_START, command_row, rewrite
 
 ROOT = Path(__file__).resolve().parents[1]
 BOM = ROOT / "hardware_bom" / "bom.csv"
@@ -131,8 +131,8 @@ def test_the_readmes_command_list_is_the_clis():
     row = next(line for line in (ROOT / "README.md").read_text().splitlines() if line.startswith(ROW_START))
     listed = set(re.findall(r"`(?:pendkit )?([a-z][a-z-]*)(?: [a-z/]+)?`", row.split("|")[3]))
     assert listed == set(main.commands), (f"README lists {sorted(listed)}; the CLI has {sorted(main.commands)}: "
-                                          "`python -m pendkit.readme_commands` rewrites the row")
-    assert row == command_row(main), "README's command row is stale: `python -m pendkit.readme_commands` rewrites it"
+                                          "`python -m tests.readme_row` rewrites the row")
+    assert row == command_row(main), "README's command row is stale: `python -m tests.readme_row` rewrites it"
 
 
 def test_the_readme_row_writer_adds_a_new_command(tmp_path):

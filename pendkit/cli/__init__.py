@@ -1,6 +1,6 @@
 """The `pendkit` command: thin subcommands over library calls, one module per area (kit, labs, learning,
 link, device, sweep). Every module here with a `COMMANDS` tuple is picked up, so a new command is its
-function in its area's module (or a new module) and nothing else; `python -m pendkit.readme_commands` then
+function in its area's module (or a new module) and nothing else; `python -m tests.readme_row` then
 rewrites the README's command row.
 """
 

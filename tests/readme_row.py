@@ -1,6 +1,6 @@
 """The README's command row, written from the CLI itself so a new command touches only its own module.
 
-`python -m pendkit.readme_commands` rewrites the row in README.md; `tests/test_docs.py` checks it is current.
+`python -m tests.readme_row` rewrites the row in README.md; `tests/test_docs.py` checks it is current.
 """
 
 from __future__ import annotations
