@@ -11,6 +11,7 @@
 | r-td3+both        | R-TD3, trained GRU      | the estimate and the raw readings + last action (GRU)   |
 | r-dqn-reservoir   | DQN on a fixed GRU      | the ablation: an untrained random GRU's encoding        |
 | td3, td3+actions, td3+estimated, td3+both, r-td3, r-td3-reservoir: the same for TD3's continuous actions |
+| sac, sac+actions, sac+estimated: SAC (squashed Gaussian actor, tuned entropy) on the same inputs as TD3's |
 
 A new agent is one module with a class that keeps the contract (`pendkit.agents.base.Agent`) and one
 `Algorithm` row here; a new learner on an existing algorithm is one `Learner` row.
@@ -47,6 +48,12 @@ def _td3(input_dim: int, env, seed: int, config: dict) -> Agent:
     return Td3Agent(input_dim, math.prod(env.action_space.shape), Td3Config(seed=seed, **config))
 
 
+def _sac(input_dim: int, env, seed: int, config: dict) -> Agent:
+    from pendkit.agents.sac import SacAgent, SacConfig
+
+    return SacAgent(input_dim, math.prod(env.action_space.shape), SacConfig(seed=seed, **config))
+
+
 def _r_td3(input_dim: int, env, seed: int, config: dict) -> Agent:
     from pendkit.agents.recurrent_td3 import RecurrentTd3Agent, RecurrentTd3Config
 
@@ -72,6 +79,7 @@ ALGORITHMS: dict[str, Algorithm] = {
     "td3": Algorithm(_td3, continuous=True, config="pendkit.agents.td3:Td3Config"),
     "r-td3": Algorithm(_r_td3, continuous=True, config="pendkit.agents.recurrent_td3:RecurrentTd3Config"),
     "r-td3-reservoir": Algorithm(_td3, continuous=True, config="pendkit.agents.td3:Td3Config", reservoir=True),
+    "sac": Algorithm(_sac, continuous=True, config="pendkit.agents.sac:SacConfig"),
 }
 
 
@@ -126,6 +134,7 @@ LEARNERS: dict[str, Learner] = {learner.name: learner for learner in [
     Learner("r-dqn-reservoir", "r-dqn-reservoir"),
     *_family("td3"), Learner("td3+both", "td3", features="estimated+measured"), Learner("r-td3", "r-td3"),
     Learner("r-td3+both", "r-td3", features="estimated+measured"), Learner("r-td3-reservoir", "r-td3-reservoir"),
+    *_family("sac"),
 ]}
 LEARNER_NAMES = tuple(LEARNERS)
 
