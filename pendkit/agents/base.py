@@ -160,3 +160,33 @@ class Stateless:
 
     def step_extras(self) -> dict:
         return {}
+
+
+class FeedForwardActor(Stateless):
+    """A feed-forward actor-critic agent (TD3, SAC): its policy is `self.actor`'s weights, and its state the
+    modules named in `MODULES` plus `steps`, `updates` and what `_extra_state` adds."""
+
+    MODULES: tuple[str, ...] = ()
+
+    def policy_state(self) -> dict:
+        """What an actor needs to act: the actor network's weights (copied)."""
+        return {name: tensor.clone() for name, tensor in self.actor.state_dict().items()}
+
+    def load_policy(self, state: dict) -> None:
+        self.actor.load_state_dict(state)
+
+    def state_dict(self) -> dict:
+        return {name: getattr(self, name).state_dict() for name in self.MODULES} | {
+            "steps": self.steps, "updates": self.updates} | self._extra_state()
+
+    def load_state_dict(self, state: dict) -> None:
+        for name in self.MODULES:
+            getattr(self, name).load_state_dict(state[name])
+        self.steps, self.updates = state["steps"], state["updates"]
+        self._load_extra_state(state)
+
+    def _extra_state(self) -> dict:
+        return {}
+
+    def _load_extra_state(self, state: dict) -> None:
+        pass

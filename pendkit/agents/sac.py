@@ -13,7 +13,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from pendkit.agents.base import OffPolicyConfig, Stateless
+from pendkit.agents.base import FeedForwardActor, OffPolicyConfig
 from pendkit.agents.nets import adam, descend, mlp, soft_update
 from pendkit.agents.replay import Batch, ReplayBuffer
 from pendkit.errors import ConfigError
@@ -40,8 +40,10 @@ class SacConfig(OffPolicyConfig):
         self._positive("learning_rate", "initial_temperature")
 
 
-class SacAgent(Stateless):
+class SacAgent(FeedForwardActor):
     """`act(observation, explore)` -> action array in [-1, 1]; `update(batch)`; `state_dict()`."""
+
+    MODULES = ("actor", "critics", "critics_target", "actor_optimizer", "critic_optimizer", "temperature_optimizer")
 
     def __init__(self, observation_dim: int, action_dim: int, config: SacConfig | None = None) -> None:
         self.config = config or SacConfig()
@@ -111,25 +113,10 @@ class SacAgent(Stateless):
             raise FloatingPointError("the SAC critic loss is not finite: lower the learning rate")
         return metrics
 
-    def policy_state(self) -> dict:
-        """What an actor needs to act: the actor network's weights (copied)."""
-        return {name: tensor.clone() for name, tensor in self.actor.state_dict().items()}
+    def _extra_state(self) -> dict:
+        return {"log_temperature": self.log_temperature.detach().clone(), "generator": self.generator.get_state()}
 
-    def load_policy(self, state: dict) -> None:
-        self.actor.load_state_dict(state)
-
-    def state_dict(self) -> dict:
-        return {name: getattr(self, name).state_dict() for name in
-                ("actor", "critics", "critics_target", "actor_optimizer", "critic_optimizer",
-                 "temperature_optimizer")} | {
-            "log_temperature": self.log_temperature.detach().clone(), "steps": self.steps,
-            "updates": self.updates, "generator": self.generator.get_state()}
-
-    def load_state_dict(self, state: dict) -> None:
-        for name in ("actor", "critics", "critics_target", "actor_optimizer", "critic_optimizer",
-                     "temperature_optimizer"):
-            getattr(self, name).load_state_dict(state[name])
+    def _load_extra_state(self, state: dict) -> None:
         with torch.no_grad():
             self.log_temperature.copy_(state["log_temperature"])
-        self.steps, self.updates = state["steps"], state["updates"]
         self.generator.set_state(state["generator"])

@@ -12,7 +12,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from pendkit.agents.base import ActorCriticConfig, Stateless
+from pendkit.agents.base import ActorCriticConfig, FeedForwardActor
 from pendkit.agents.nets import adam, descend, mlp, soft_update
 from pendkit.agents.replay import Batch, ReplayBuffer
 
@@ -24,8 +24,10 @@ class Td3Config(ActorCriticConfig):
     learning_starts: int = 1000
 
 
-class Td3Agent(Stateless):
+class Td3Agent(FeedForwardActor):
     """`act(observation, explore)` -> action array in [-1, 1]; `update(batch)`; `state_dict()`."""
+
+    MODULES = ("actor", "critics", "actor_target", "critics_target", "actor_optimizer", "critic_optimizer")
 
     def __init__(self, observation_dim: int, action_dim: int, config: Td3Config | None = None) -> None:
         self.config = config or Td3Config()
@@ -77,20 +79,8 @@ class Td3Agent(Stateless):
             raise FloatingPointError("the TD3 critic loss is not finite: lower the learning rates")
         return metrics
 
-    def policy_state(self) -> dict:
-        """What an actor needs to act: the actor network's weights (copied)."""
-        return {name: tensor.clone() for name, tensor in self.actor.state_dict().items()}
+    def _extra_state(self) -> dict:
+        return {"rng": self.rng.bit_generator.state}
 
-    def load_policy(self, state: dict) -> None:
-        self.actor.load_state_dict(state)
-
-    def state_dict(self) -> dict:
-        return {name: getattr(self, name).state_dict() for name in
-                ("actor", "critics", "actor_target", "critics_target", "actor_optimizer", "critic_optimizer")} | {
-            "steps": self.steps, "updates": self.updates, "rng": self.rng.bit_generator.state}
-
-    def load_state_dict(self, state: dict) -> None:
-        for name in ("actor", "critics", "actor_target", "critics_target", "actor_optimizer", "critic_optimizer"):
-            getattr(self, name).load_state_dict(state[name])
-        self.steps, self.updates = state["steps"], state["updates"]
+    def _load_extra_state(self, state: dict) -> None:
         self.rng.bit_generator.state = state["rng"]

@@ -5,25 +5,15 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from pendkit.agents.replay import ReplayBuffer  # noqa: E402
 from pendkit.agents.sac import SacAgent, SacConfig  # noqa: E402
 from pendkit.errors import ConfigError  # noqa: E402
+from tests.agents.test_td3 import learn_the_bandit  # noqa: E402
 
 
 def test_sac_learns_the_best_action_of_a_contextual_bandit():
-    # reward -(a - 0.5 s)^2 in one step: the best action is a = 0.5 s, and the greedy action is the mean's
-    agent = SacAgent(1, 1, SacConfig(hidden=(32, 32), batch_size=64, seed=1))
-    buffer = ReplayBuffer(5000, 1, seed=1, action_dim=1)
-    rng = np.random.default_rng(1)
-    for _ in range(3000):
-        s = rng.uniform(-1, 1, 1).astype(np.float32)
-        a = rng.uniform(-1, 1, 1).astype(np.float32)
-        buffer.add(s, a, float(-(a[0] - 0.5 * s[0]) ** 2), s, True)
-    for _ in range(1500):
-        metrics = agent.update(buffer.sample(64))
+    # the greedy action is tanh of the actor's mean
+    metrics, states, actions = learn_the_bandit(SacAgent(1, 1, SacConfig(hidden=(32, 32), batch_size=64, seed=1)))
     assert np.isfinite(metrics["critic_loss"]) and metrics["temperature"] < 1.0  # tuned down from 1
-    states = np.linspace(-0.9, 0.9, 7, dtype=np.float32)
-    actions = np.array([agent.act([s], explore=False)[0] for s in states])
     np.testing.assert_allclose(actions, 0.5 * states, atol=0.1)
 
 

@@ -10,9 +10,9 @@ from pendkit.agents.td3 import Td3Agent, Td3Config  # noqa: E402
 from pendkit.errors import ConfigError  # noqa: E402
 
 
-def test_td3_learns_the_best_action_of_a_contextual_bandit():
-    # reward -(a - 0.5 s)^2 in one step: the optimal deterministic policy is a = 0.5 s
-    agent = Td3Agent(1, 1, Td3Config(hidden=(32, 32), batch_size=64, seed=1))
+def learn_the_bandit(agent) -> tuple[dict, np.ndarray, np.ndarray]:
+    """Reward -(a - 0.5 s)^2 in one step (the best deterministic policy is a = 0.5 s): 1500 updates from 3000
+    random tries; (the last update's metrics, states, the greedy actions at them)."""
     buffer = ReplayBuffer(5000, 1, seed=1, action_dim=1)
     rng = np.random.default_rng(1)
     for _ in range(3000):
@@ -21,9 +21,13 @@ def test_td3_learns_the_best_action_of_a_contextual_bandit():
         buffer.add(s, a, float(-(a[0] - 0.5 * s[0]) ** 2), s, True)
     for _ in range(1500):
         metrics = agent.update(buffer.sample(64))
-    assert "actor_loss" in metrics and np.isfinite(metrics["critic_loss"])
     states = np.linspace(-0.9, 0.9, 7, dtype=np.float32)
-    actions = np.array([agent.act([s], explore=False)[0] for s in states])
+    return metrics, states, np.array([agent.act([s], explore=False)[0] for s in states])
+
+
+def test_td3_learns_the_best_action_of_a_contextual_bandit():
+    metrics, states, actions = learn_the_bandit(Td3Agent(1, 1, Td3Config(hidden=(32, 32), batch_size=64, seed=1)))
+    assert "actor_loss" in metrics and np.isfinite(metrics["critic_loss"])
     np.testing.assert_allclose(actions, 0.5 * states, atol=0.1)
 
 
