@@ -31,6 +31,9 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=1000)
     parser.add_argument("--check-every", type=int, default=100)
     parser.add_argument("--out", default=None, help="write the kept weights here (the kit's weights format)")
+    parser.add_argument("--default-in-validation", type=int, default=0, metavar="STARTS",
+                        help="also score each checkpoint on the default rig (rest + STARTS random starts) and "
+                             "keep by the sum; each checkpoint's two scores are printed")
     args = parser.parse_args()
     from pendkit.agents.pretrained import PretrainedSpec, policy_weights, train_keeping_best, validation_score
     from pendkit.agents.rig_suite import policy_on_rigs, preset_rigs, random_rigs, summary
@@ -47,7 +50,10 @@ def main() -> None:
     env, agent, inputs = build_run(spec.run)
     if args.start_from:
         agent.load_state_dict(policy_weights(args.start_from)[1])
-    _, chosen = train_keeping_best(env, agent, inputs, spec, validation_score)
+    score = validation_score
+    if args.default_in_validation:
+        score = with_default_rig(validation_score, args.default_in_validation)
+    _, chosen = train_keeping_best(env, agent, inputs, spec, score)
     state, run = agent.state_dict(), dataclasses.replace(spec.run, randomize="")
     if args.out:
         from pendkit.agents.runs import save_weights
@@ -63,13 +69,30 @@ def main() -> None:
                                          wrap=lambda env: pin_nominal_observer(env)))
         print(f"zero-shot with the observer bank: {bank['solved']}/{bank['episodes']}, with the nominal rig's "
               f"observer: {nominal['solved']}/{nominal['episodes']}")
+    extra = args.default_in_validation + 1 if args.default_in_validation else 0
     print(f"robust-observer learner={args.learner} observer={args.observer} from={args.start_from or 'afresh'} "
           f"seed={args.seed} "
           f"episodes={args.episodes} chosen_at={chosen['chosen_at_episode']} "
-          f"validation={chosen['validation_solved']}/16 default={default['solved']}/{default['episodes']} "
+          f"validation={chosen['validation_solved']}/{16 + extra} default={default['solved']}/{default['episodes']} "
           f"presets_and_held_out={together['solved']}/{together['episodes']} "
           + " ".join(f"{name}={sum(e.solved)}/{len(e.solved)}" for name, e in rigs.items())
           + f" wall_s={time.monotonic() - started:.0f}")
+
+
+def with_default_rig(score, starts: int):
+    """`score` plus the default rig's greedy episodes (rest + `starts` random starts, seeds apart from the
+    default rig's judging seeds), each part printed: a validation that sees the rig most users have."""
+    from pendkit.agents.rig_suite import policy_on_rigs
+    from pendkit.rig import RigParams
+    from pendkit.sim.randomize import RandomRig
+
+    def scored(spec, state):
+        solved, mean_return = score(spec, state)
+        default = policy_on_rigs(spec.run, state, {"default": RandomRig(RigParams(), None, 0)}, starts=starts,
+                                 seed=20_000)["default"]
+        print(f"  validation rigs {solved}, default rig {sum(default.solved)}/{len(default.solved)}")
+        return solved + sum(default.solved), mean_return
+    return scored
 
 
 def pin_nominal_observer(env):
