@@ -78,16 +78,17 @@ def train_on_twin(identification: Identification, config, weights_path: Path,
                   say: Callable[[str], None], spread: dict | None = None) -> AgentRun:
     """(c): the starting policy trained further on the identified twin (laptop time); with `spread`
     ({field: (low, high)}: `pendkit.adapt.uncertainty.fit_spread`) on a rig drawn from it every episode."""
-    from pendkit.agents.learners import learner
     from pendkit.agents.train import train_sync
 
     spec, state = starting_weights(config.policy)
     spec = dataclasses.replace(spec, randomize="", seed=config.seed)
-    env = identified_twin(identification, **learner(spec.learner).env_kwargs())
+    observer = policy_observer(spec, identification)
+    run_kwargs = AgentRun(spec, None, None, observer).env_kwargs()
+    env = identified_twin(identification, **run_kwargs)
     if spread:
         from pendkit.adapt.uncertainty import AroundTheFit
 
-        env = AroundTheFit(env, identification, spread, seed=config.seed)
+        env = AroundTheFit(env, identification, spread, seed=config.seed, observer_params=observer)
     _, agent, inputs = build_run(spec, env)
     if state is not None:
         agent.load_state_dict(state)
@@ -97,7 +98,14 @@ def train_on_twin(identification: Identification, config, weights_path: Path,
     drawn = " (a rig drawn from what the recordings allow each episode)" if spread else ""
     say(f"(c) {config.policy if state is not None else spec.learner + ' (afresh)'} trained "
         f"{len(returns)} episodes on the identified twin{drawn}")
-    return AgentRun(spec, agent, inputs, identification.params)
+    return AgentRun(spec, agent, inputs, observer)
+
+
+def policy_observer(spec: RunSpec, identification: Identification) -> RigParams:
+    """The rig a learned policy's observer is designed for on the way to the rig: the identified one for a
+    policy trained with observers told each rig (`spec.observer == "rig"`), else the nominal rig it was
+    trained with (a recurrent policy that reads the nominal observer's errors to tell the rig)."""
+    return identification.params if spec.observer == "rig" else RigParams()
 
 
 def fine_tune_on_rig(rig, run: AgentRun, episodes: int, config, weights_path: Path,

@@ -94,15 +94,17 @@ def spread_table(fit: Identification, spread: dict[str, Interval]) -> dict[str, 
 class AroundTheFit(gym.Wrapper):
     """Before every reset, a rig drawn from `spread` about `fit` (log-uniformly; latency uniformly, as the
     network's floor) behind a network from the kit's training ranges. A policy reading the observer's
-    estimate keeps its observer designed for the fit: what the laptop knows of the rig."""
+    estimate keeps its observer designed for `observer_params` (default the fit: what the laptop knows of the
+    rig)."""
 
-    def __init__(self, env: gym.Env, fit: Identification, spread: dict[str, Interval], seed: int = 0) -> None:
+    def __init__(self, env: gym.Env, fit: Identification, spread: dict[str, Interval], seed: int = 0,
+                 observer_params: RigParams | None = None) -> None:
         from pendkit.sim.fidelity import resolve_fidelity
 
         super().__init__(env)
         base = env.unwrapped
         if base.observes:
-            base.pin_observer(fit.params)
+            base.pin_observer(observer_params or fit.params)
         self.fit, self.spread = fit, spread
         self.fidelity = resolve_fidelity(base.backend.fidelity)
         self.rng = np.random.default_rng(seed)

@@ -280,3 +280,15 @@ def test_a_rig_over_mqtt_is_recalibrated_for_its_envs_and_its_device_runs():
         assert abs(start) == pytest.approx(np.pi)
     finally:
         local.stop()
+
+
+def test_a_learned_policy_keeps_the_observer_it_was_trained_with():
+    from pendkit.adapt.routes import policy_observer
+    from pendkit.agents.runs import RunSpec
+    from pendkit.rig import RigParams
+
+    identified = type("Fit", (), {"params": RigParams(arm_mass_kg=0.2)})()
+    told = RunSpec("td3+estimated", "realistic", observer="rig")
+    nominal = RunSpec("r-td3+both", "realistic")
+    assert policy_observer(told, identified).arm_mass_kg == 0.2
+    assert policy_observer(nominal, identified) == RigParams()
