@@ -133,16 +133,24 @@ def solved(infos: list[dict], tail_steps: int = SOLVED_TAIL_STEPS) -> bool:
     return holds_upright([info["angle_from_upright_rad"] for info in infos], tail_steps)
 
 
+CAUGHT_STEPS = 15  # 0.9 s at the rig's 60 ms: longer than a swing takes to pass over the top
+
+
 def held_fraction(angles_from_upright_rad) -> float | None:
-    """Of the steps after the pendulum first comes within 0.3 rad of upright, the fraction that stay within
-    it (the balance holds, not wobbles); None if it never comes up."""
+    """Of the steps after the pendulum first comes up and is caught (the first CAUGHT_STEPS steps in a row
+    within 0.3 rad of upright), the fraction that stay within it: 1.0 when nothing knocks it out once up, less
+    for every step of a fall and a swing back. A pass over the top that is not caught is part of the swing-up,
+    not a fall. None if it is never caught."""
     import numpy as np
 
     from pendkit.features import UPRIGHT_RAD
 
-    angles = np.abs(np.asarray(angles_from_upright_rad))
-    up = np.nonzero(angles < UPRIGHT_RAD)[0]
-    return float(np.mean(angles[up[0]:] < UPRIGHT_RAD)) if len(up) else None
+    inside = np.abs(np.asarray(angles_from_upright_rad)) < UPRIGHT_RAD
+    if len(inside) < CAUGHT_STEPS:
+        return None
+    runs = np.convolve(inside, np.ones(CAUGHT_STEPS, dtype=int), mode="valid")
+    caught = np.nonzero(runs == CAUGHT_STEPS)[0]
+    return float(np.mean(inside[caught[0]:])) if len(caught) else None
 
 
 @dataclass(frozen=True)

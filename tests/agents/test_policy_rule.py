@@ -1,5 +1,6 @@
 """The kit's one rule for a policy: many starts, never one episode."""
 
+import pytest
 from click.testing import CliRunner
 
 from pendkit.agents.policy_rule import (
@@ -89,3 +90,15 @@ def test_eval_prints_the_rule_and_the_verdict():
     assert lines[2] == "policy: policy_solved=10/10 (yes) rest=5/5 random=5/5"
     short = CliRunner().invoke(main, ["eval", "--policy", "dqn-ideal", "--episodes", "2"])
     assert "policy: not judged" in short.output
+
+
+def test_held_fraction_counts_falls_after_a_catch_not_a_pass_over_the_top():
+    from pendkit.agents.runs import CAUGHT_STEPS, held_fraction
+
+    down, up = [3.0] * 40, [0.1] * 200
+    passing_over = [0.2] * (CAUGHT_STEPS - 5)
+    assert held_fraction(down + passing_over + down + up) == 1.0
+    fall = [1.5] * 20
+    held = held_fraction(down + up + fall + up)
+    assert held == pytest.approx(400 / 420)
+    assert held_fraction(down + passing_over + down) is None
