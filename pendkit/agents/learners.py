@@ -10,6 +10,7 @@
 | r-dqn+estimated   | R-DQN, trained GRU      | the observer's estimate + last action, through the GRU  |
 | r-td3+both        | R-TD3, trained GRU      | the estimate and the raw readings + last action (GRU)   |
 | r-dqn-reservoir   | DQN on a fixed GRU      | the ablation: an untrained random GRU's encoding        |
+| r-dqn+levels      | R-DQN, trained GRU      | as r-dqn; acts on 9 continuous targets, not the 5 ramps |
 | td3, td3+actions, td3+estimated, td3+both, r-td3, r-td3-reservoir: the same for TD3's continuous actions |
 | sac, sac+actions, sac+estimated: SAC (squashed Gaussian actor, tuned entropy) on the same inputs as TD3's |
 
@@ -28,6 +29,7 @@ from pendkit.agents.inputs import StepInputs, actions_for_delay
 from pendkit.errors import ConfigError
 
 RESERVOIR_SIZE = 32
+TARGET_LEVELS = 9  # 22.5 deg apart, smoothed by the c = 0.85 filter
 
 
 def _dqn(input_dim: int, env, seed: int, config: dict) -> Agent:
@@ -104,12 +106,15 @@ def check_agent_settings(name: str, settings: dict) -> None:
 @dataclass(frozen=True)
 class Learner:
     """`algorithm` (a key of ALGORITHMS); `actions_seen` (an int, or "delay": from the env's delay);
-    `features` of the env ("measured"; "estimated": the observer's present state; "estimated+measured": both)."""
+    `features` of the env ("measured"; "estimated": the observer's present state; "estimated+measured": both);
+    `target_levels` (a discrete algorithm): that many continuous targets in place of the five ramps
+    (`pendkit.agents.target_levels`)."""
 
     name: str
     algorithm: str
     actions_seen: int | str = 1
     features: str = "measured"
+    target_levels: int = 0
 
     @property
     def continuous(self) -> bool:
@@ -117,7 +122,15 @@ class Learner:
 
     @property
     def action_mode(self) -> str:
-        return "continuous" if self.continuous else "discrete"
+        return "continuous" if self.continuous or self.target_levels else "discrete"
+
+    def wrap(self, env):
+        """`env` (made with `env_kwargs`) as this learner acts on it."""
+        if not self.target_levels:
+            return env
+        from pendkit.agents.target_levels import TargetLevels
+
+        return TargetLevels(env, self.target_levels)
 
     def env_kwargs(self) -> dict:
         """What `pendkit.make` needs for this learner (beyond the fidelity)."""
@@ -131,7 +144,7 @@ def _family(algorithm: str) -> list[Learner]:
 
 LEARNERS: dict[str, Learner] = {learner.name: learner for learner in [
     *_family("dqn"), Learner("r-dqn", "r-dqn"), Learner("r-dqn+estimated", "r-dqn", features="estimated"),
-    Learner("r-dqn-reservoir", "r-dqn-reservoir"),
+    Learner("r-dqn-reservoir", "r-dqn-reservoir"), Learner("r-dqn+levels", "r-dqn", target_levels=TARGET_LEVELS),
     *_family("td3"), Learner("td3+both", "td3", features="estimated+measured"), Learner("r-td3", "r-td3"),
     Learner("r-td3+both", "r-td3", features="estimated+measured"), Learner("r-td3-reservoir", "r-td3-reservoir"),
     *_family("sac"),
@@ -178,5 +191,8 @@ def build_learner(name: str, env, seed: int = 0, **config) -> tuple[Agent, StepI
     if source != chosen.features:
         raise ConfigError(f"{name} reads features={chosen.features!r}, the env has features={source!r}: make it "
                           f"with pendkit.make(..., **learner({name!r}).env_kwargs())")
+    if chosen.target_levels and not hasattr(env.action_space, "n"):
+        raise ConfigError(f"{name} chooses between {chosen.target_levels} targets: wrap the env with "
+                          f"learner({name!r}).wrap(env)")
     inputs = inputs_for(name, env, seed)
     return ALGORITHMS[chosen.algorithm].make(inputs.dim, env, seed, config), inputs

@@ -66,7 +66,8 @@ def rig_env(rig: RandomRig, spec: RunSpec | None = None, observer_knows_rig: boo
         env_options.setdefault("observer_params", rig.params)
     elif not observer_knows_rig and spec is not None:
         env_options = {**unknown_rig_observer(spec), **env_options}
-    return pendkit.make(fidelity=fidelity, params=rig.params, **kwargs, **env_options)
+    env = pendkit.make(fidelity=fidelity, params=rig.params, **kwargs, **env_options)
+    return learner(spec.learner).wrap(env) if spec is not None else env
 
 
 def policy_on_rigs(spec: RunSpec, state: dict, rigs: dict[str, RandomRig], starts: int = 5,

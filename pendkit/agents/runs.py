@@ -65,8 +65,9 @@ def make_env(spec: RunSpec, **env_options):
     from pendkit.rig import RigParams
 
     params = RigParams.preset(spec.preset) if spec.preset else env_options.pop("params", None)
-    env = pendkit.make(fidelity=spec.fidelity, max_episode_steps=spec.max_steps, params=params,
-                       **learner(spec.learner).env_kwargs(), **env_options)
+    chosen = learner(spec.learner)
+    env = chosen.wrap(pendkit.make(fidelity=spec.fidelity, max_episode_steps=spec.max_steps, params=params,
+                                   **chosen.env_kwargs(), **env_options))
     if spec.delay_steps:
         from pendkit.sim.observation_delay import ObservationDelay
 

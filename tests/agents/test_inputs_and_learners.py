@@ -50,7 +50,7 @@ def test_delay_aware_learner_sees_as_many_actions_as_the_delay_hides():
     _, plain = build_learner("dqn", delayed)
     assert plain.actions_seen == 1
     for name, learner in LEARNERS.items():  # every named learner builds on its env, keeps the contract and acts
-        env = pendkit.make(fidelity="realistic", **learner.env_kwargs())
+        env = learner.wrap(pendkit.make(fidelity="realistic", **learner.env_kwargs()))
         agent, inputs = build_learner(name, env, seed=1)
         assert isinstance(agent, Agent) and agent.input_dim == inputs.dim, name
         x = inputs.reset(env.reset(seed=0)[0])
@@ -123,3 +123,22 @@ def test_the_shipped_delay_sweep_is_a_sweep_output_with_every_point():
     assert sweep.delays_ms == sorted(sweep.delays_ms) and sweep.delays_ms[0] == 0 and sweep.seeds >= 3
     for rates in sweep.success_rate.values():
         assert len(rates) == len(sweep.delays_ms) and all(0 <= r <= 1 for r in rates)
+
+
+def test_target_levels_send_evenly_spaced_targets_through_the_filter_and_refuse_bad_actions():
+    from pendkit.agents.learners import learner
+    from pendkit.agents.runs import RunSpec, build_run
+    from pendkit.errors import ActionError
+
+    env, agent, inputs = build_run(RunSpec("r-dqn+levels", "ideal"))
+    assert env.action_space.n == 9 and inputs.action_dim == 9
+    env.reset(seed=0)
+    for _ in range(40):  # the rightmost target, held: the filtered command reaches it
+        env.step(8)
+    assert env.unwrapped._filtered_unit == pytest.approx(1.0, abs=1e-2)
+    for bad in (9, -1, 1.5, True, np.array([1, 2])):
+        with pytest.raises(ActionError):
+            env.step(bad)
+    with pytest.raises(ConfigError):
+        build_run(RunSpec("r-dqn+levels", "ideal"), pendkit.make(action_mode="continuous"))
+    assert learner("r-dqn+levels").wrap(pendkit.make(action_mode="continuous")).action(4)[0] == 0.0
