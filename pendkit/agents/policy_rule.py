@@ -30,6 +30,23 @@ RULE_TEXT = (f"a policy is solved when >= {RULE_MIN_HELD} of {len(RULE_STARTS)} 
              f"({RULE_STARTS.count('random')} random starts, {RULE_STARTS.count('rest')} hanging still) hold "
              f"|theta| < {UPRIGHT_RAD:g} rad for their last {SOLVED_TAIL_STEPS} steps")
 
+# the bar a shipped policy is held to on its own twin (issue 43; benchmarks/bench_policies.py measures it)
+SHIPPED_RANDOM, SHIPPED_REST, SHIPPED_HELD_MIN = (19, 20), (10, 10), 0.99
+SHIPPED_TEXT = (f">= {SHIPPED_RANDOM[0]}/{SHIPPED_RANDOM[1]} random starts, {SHIPPED_REST[0]}/{SHIPPED_REST[1]} "
+                f"hanging, held_min >= {SHIPPED_HELD_MIN}")
+
+
+def meets_shipped_bar(figures: dict) -> bool:
+    """Whether `bench_policies`' figures for a policy on its twin ({"solved": "k/n", "rest": "k/n",
+    "held_min": float}) reach the shipped bar, on at least as many episodes as it names."""
+    def reaches(text: str, bar: tuple[int, int]) -> bool:
+        held, episodes = (int(part) for part in text.split("/"))
+        return episodes >= bar[1] and held * bar[1] >= bar[0] * episodes
+
+    held_min = figures.get("held_min")
+    return (reaches(figures["solved"], SHIPPED_RANDOM) and reaches(figures["rest"], SHIPPED_REST)
+            and held_min is not None and held_min >= SHIPPED_HELD_MIN)
+
 
 @dataclass(frozen=True)
 class PolicyVerdict:

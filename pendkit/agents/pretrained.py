@@ -44,6 +44,7 @@ class PretrainedSpec:
     validation_rigs: int = 8
     built_by_default: bool = True  # False: only when named (an hour's training)
     kept_by: str = "rigs"
+    role: str = ""  # what the policy is kept for, said beside its figures (those below the shipped bar say why)
 
     def __post_init__(self) -> None:
         if self.kept_by not in ("rigs", "rule"):
@@ -54,8 +55,11 @@ class PretrainedSpec:
 # (docs/results/transfer.md)
 ROBUST_AGENT = {"hidden": [128, 128], "gru_size": 64, "sequence_length": 16, "learning_rate": 5e-4,
                 "buffer_capacity": 1_000_000}
-POLICIES = {"dqn-ideal": PretrainedSpec(RunSpec("dqn", "ideal"), 120),
-            "r-dqn-realistic": PretrainedSpec(RunSpec("r-dqn", "realistic"), 260),
+POLICIES = {"dqn-ideal": PretrainedSpec(RunSpec("dqn", "ideal"), 120, role=(
+                "the plain DQN on the ideal twin, a quick one to deploy and compare (docs/results/learning.md)")),
+            "r-dqn-realistic": PretrainedSpec(RunSpec("r-dqn", "realistic"), 260, role=(
+                "lab 08's R-DQN and the device's policy blob vectors; R-DQN on the raw readings did not reach the "
+                "rule in 3 seeds up to 2000 episodes (docs/results/learning.md)")),
             # continuous, through the c = 0.85 filter, reading the observer's estimate of the present state
             # (plain TD3 and R-TD3 on the raw readings spin the pendulum round instead: docs/results/learning.md)
             "td3-realistic": PretrainedSpec(RunSpec("td3+estimated", "realistic", seed=1), 300, check_every=20,
@@ -64,13 +68,17 @@ POLICIES = {"dqn-ideal": PretrainedSpec(RunSpec("dqn", "ideal"), 120),
             # gives an observer designed for the identified rig (zero-shot, with the nominal rig's
             # observer, it does not hold: docs/results/robust.md)
             "td3-robust": PretrainedSpec(RunSpec("td3+estimated", "realistic", randomize="robust", observer="rig"),
-                                         1000, check_every=100, built_by_default=False),
+                                         1000, check_every=100, built_by_default=False, role=(
+                                             "pendkit adapt's start: it holds when its observer is told the rig, "
+                                             "not with the nominal one (docs/results/robust.md)")),
             # zero-shot over the robust ranges: a GRU reading the nominal observer's estimate and the raw readings,
             # which shows it where the observer's model and the rig part (docs/results/robust.md)
             "r-td3-robust": PretrainedSpec(RunSpec("r-td3+both", "realistic", randomize="robust"), 1000,
                                            check_every=100, built_by_default=False),
             "r-dqn-robust": PretrainedSpec(RunSpec("r-dqn", "realistic", randomize="robust", agent=ROBUST_AGENT),
-                                           1500, check_every=125, built_by_default=False)}
+                                           1500, check_every=125, built_by_default=False, role=(
+                                               "the discrete policy over many rigs, for comparison "
+                                               "(docs/results/transfer.md); r-td3-robust holds the default rig"))}
 
 
 class GreedyPolicy:

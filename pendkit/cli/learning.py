@@ -239,6 +239,7 @@ def policies() -> None:
 def policies_list() -> None:
     """Name, learner, twin and training episodes of each shipped policy, and what it measured on its twin
     (random starts solved, starts hanging still solved, the smallest held share; benchmarks/bench_policies.py)."""
+    from pendkit.agents.policy_rule import SHIPPED_TEXT, meets_shipped_bar
     from pendkit.agents.pretrained import POLICIES, POLICY_DIR, measured_figures, weights_digest
 
     measured, command = measured_figures()
@@ -254,8 +255,12 @@ def policies_list() -> None:
             where = "on its twin" if condition == "twin" else f"with two {condition.removeprefix('pushes_')} pushes"
             click.echo(f"{'':<18} measured {where}: random starts {figures['solved']}, hanging {figures['rest']}, "
                        f"held_min {figures['held_min'] if figures['held_min'] is not None else '-'}")
+        if "twin" in figures_of:
+            verdict = "meets" if meets_shipped_bar(figures_of["twin"]) else "below"
+            click.echo(f"{'':<18} {verdict} the shipped bar on its twin" + (f"; {spec.role}" if spec.role else ""))
         if name not in measured:
             click.echo(f"{'':<18} not measured yet: python benchmarks/bench_policies.py --record")
+    click.echo(f"the shipped bar: {SHIPPED_TEXT}")
     if command:
         click.echo(f"measured by: {command}")
 

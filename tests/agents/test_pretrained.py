@@ -6,6 +6,7 @@ import pytest
 import torch
 from click.testing import CliRunner
 
+from pendkit.agents.policy_rule import SHIPPED_TEXT, meets_shipped_bar
 from pendkit.agents.pretrained import POLICIES, PretrainedSpec, train_keeping_best
 from pendkit.agents.rig_suite import random_rigs, validation_rigs
 from pendkit.agents.runs import RunSpec, build_run
@@ -74,7 +75,21 @@ def test_policies_list_prints_each_policys_measured_figures_and_how_they_were_me
         figures = conditions["twin"]
         block = out.split(name, 1)[1]
         assert f"measured on its twin: random starts {figures['solved']}, hanging {figures['rest']}" in block
-    assert f"measured by: {command}" in out
+        verdict = block.split("the shipped bar on its twin", 1)[0].rsplit("\n", 1)[1].strip()
+        assert verdict == ("meets" if meets_shipped_bar(figures) else "below"), name
+        if verdict == "below":  # a policy under the bar says what it is kept for
+            assert POLICIES[name].role and POLICIES[name].role in block.replace("\n", " ")
+    assert f"measured by: {command}" in out and f"the shipped bar: {SHIPPED_TEXT}" in out
+
+
+def test_the_shipped_bar_needs_every_part_on_enough_episodes():
+    good = {"solved": "19/20", "rest": "10/10", "held_min": 0.99}
+    assert meets_shipped_bar(good)
+    assert not meets_shipped_bar({**good, "solved": "18/20"})
+    assert not meets_shipped_bar({**good, "solved": "2/2"})  # too few episodes to say
+    assert not meets_shipped_bar({**good, "rest": "9/10"})
+    assert not meets_shipped_bar({**good, "held_min": 0.98})
+    assert not meets_shipped_bar({**good, "held_min": None})
 
 
 @pytest.mark.parametrize("name, start, seed", [("td3-realistic", "random", 10_000), ("td3-realistic", "rest", 10_500),
