@@ -1,12 +1,13 @@
 """Policies trained on the twin and shipped with the kit, in the kit's weights format (lab 09 deploys them).
 
-    pendkit policies build [NAME ...]      # trains them again into pendkit/data/policies (~6 min)
+    pendkit policies build [NAME ...]      # trains them again into pendkit/data/policies (~25 min of one core)
     python -m pendkit.agents.pretrained    # the same
 
 | name            | learner | trained on                | episodes |
 |-----------------|---------|---------------------------|----------|
 | dqn-ideal       | dqn     | the ideal twin            | 300 (kept by the rule) |
 | r-dqn-realistic | r-dqn   | the realistic twin        | 260      |
+| r-dqn-levels-realistic | r-dqn+levels | the realistic twin | 500 (kept by the rule) |
 | td3-realistic   | td3+estimated | the realistic twin  | 300      |
 | td3-robust      | td3+estimated | a new realistic rig each episode, observer told the rig | 1000 (~25 min) |
 | r-td3-robust    | r-td3+both    | a new realistic rig each episode, the nominal observer  | 1000 (~40 min) |
@@ -61,6 +62,10 @@ POLICIES = {"dqn-ideal": PretrainedSpec(RunSpec("dqn", "ideal"), 300, check_ever
                 "rule in 3 seeds up to 2000 episodes (docs/results/learning.md)")),
             # continuous, through the c = 0.85 filter, reading the observer's estimate of the present state
             # (plain TD3 and R-TD3 on the raw readings spin the pendulum round instead: docs/results/learning.md)
+            # R-DQN choosing between 9 targets through the filter, not the five ramps: on the same raw readings it
+            # holds where r-dqn-realistic does not (docs/results/learning.md)
+            "r-dqn-levels-realistic": PretrainedSpec(RunSpec("r-dqn+levels", "realistic"), 500, check_every=50,
+                                                     kept_by="rule"),
             "td3-realistic": PretrainedSpec(RunSpec("td3+estimated", "realistic", seed=1), 300, check_every=20,
                                             kept_by="rule"),
             # over the robust ranges, its observer designed for each drawn rig: the start `pendkit adapt`
@@ -81,10 +86,11 @@ POLICIES = {"dqn-ideal": PretrainedSpec(RunSpec("dqn", "ideal"), 300, check_ever
 
 
 class GreedyPolicy:
-    """A trained agent as `policy(observation, state) -> action`, fed what it saw in training."""
+    """A trained agent as `policy(observation, state) -> action`, fed what it saw in training; `to_env_action`
+    turns the agent's action into the env's (a target level into its target)."""
 
-    def __init__(self, agent, inputs) -> None:
-        self.agent, self.inputs = agent, inputs
+    def __init__(self, agent, inputs, to_env_action=None) -> None:
+        self.agent, self.inputs, self.to_env_action = agent, inputs, to_env_action
         self._x, self._last = None, None
 
     def reset(self, state=None) -> None:
@@ -94,7 +100,7 @@ class GreedyPolicy:
     def __call__(self, observation, state=None):
         self._x = self.inputs.reset(observation) if self._x is None else self.inputs.step(observation, self._last)
         self._last = self.agent.act(self._x, explore=False)
-        return self._last
+        return self._last if self.to_env_action is None else self.to_env_action(self._last)
 
 
 def weights_digest(name: str) -> str:
@@ -142,10 +148,14 @@ def policy_weights(name: str) -> tuple[RunSpec, dict]:
 
 def load_policy(name: str, env) -> GreedyPolicy:
     """The shipped policy `name` for `env` (an env of the policy's action mode: twin or rig)."""
+    from pendkit.agents.learners import learner
+
     spec, state = policy_weights(name)
-    _, agent, inputs = build_run(spec, env)
+    chosen = learner(spec.learner)
+    acting = chosen.wrap(env) if chosen.target_levels and not hasattr(env.action_space, "n") else env
+    _, agent, inputs = build_run(spec, acting)
     agent.load_state_dict(state)
-    return GreedyPolicy(agent, inputs)
+    return GreedyPolicy(agent, inputs, acting.action if acting is not env else None)
 
 
 def build(names: list[str] | None = None) -> None:
