@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import time
 
 
@@ -30,12 +31,20 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--episodes", type=int, default=1000)
     parser.add_argument("--check-every", type=int, default=100)
+    parser.add_argument("--agent", default="{}", help="agent settings as JSON, e.g. '{\"hidden\": [128, 128]}'; "
+                        "robust: the shipped robust R-DQN's (pretrained.ROBUST_AGENT)")
     parser.add_argument("--out", default=None, help="write the kept weights here (the kit's weights format)")
     parser.add_argument("--default-in-validation", type=int, default=0, metavar="STARTS",
                         help="also score each checkpoint on the default rig (rest + STARTS random starts) and "
                              "keep by the sum; each checkpoint's two scores are printed")
     args = parser.parse_args()
-    from pendkit.agents.pretrained import PretrainedSpec, policy_weights, train_keeping_best, validation_score
+    from pendkit.agents.pretrained import (
+        ROBUST_AGENT,
+        PretrainedSpec,
+        policy_weights,
+        train_keeping_best,
+        validation_score,
+    )
     from pendkit.agents.rig_suite import policy_on_rigs, preset_rigs, random_rigs, summary
     from pendkit.agents.runs import RunSpec, build_run
     from pendkit.agents.threads import use_kit_threads
@@ -44,8 +53,10 @@ def main() -> None:
 
     use_kit_threads()
     told = args.observer == "told"
+    agent = ROBUST_AGENT if args.agent == "robust" else json.loads(args.agent)
     spec = PretrainedSpec(RunSpec(args.learner, "realistic", seed=args.seed, randomize="robust",
-                                  observer="rig" if told else "base"), args.episodes, check_every=args.check_every)
+                                  observer="rig" if told else "base", agent=agent), args.episodes,
+                          check_every=args.check_every)
     started = time.monotonic()
     env, agent, inputs = build_run(spec.run)
     if args.start_from:
