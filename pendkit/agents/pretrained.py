@@ -7,7 +7,7 @@
 |-----------------|---------|---------------------------|----------|
 | dqn-ideal       | dqn     | the ideal twin            | 300 (kept by the rule) |
 | r-dqn-realistic | r-dqn   | the realistic twin        | 260      |
-| r-dqn-levels-realistic | r-dqn+levels | the realistic twin | 500 (kept by the rule) |
+| r-dqn-levels-realistic | r-dqn+levels | the realistic twin | 800 (kept by the rule) |
 | td3-realistic   | td3+estimated | the realistic twin  | 300      |
 | td3-robust      | td3+estimated | a new realistic rig each episode, observer told the rig | 1000 (~25 min) |
 | r-td3-robust    | r-td3+both    | a new realistic rig each episode, the nominal observer  | 1000 (~40 min) |
@@ -64,8 +64,8 @@ POLICIES = {"dqn-ideal": PretrainedSpec(RunSpec("dqn", "ideal"), 300, check_ever
             # (plain TD3 and R-TD3 on the raw readings spin the pendulum round instead: docs/results/learning.md)
             # R-DQN choosing between 9 targets through the filter, not the five ramps: on the same raw readings it
             # holds where r-dqn-realistic does not (docs/results/learning.md)
-            "r-dqn-levels-realistic": PretrainedSpec(RunSpec("r-dqn+levels", "realistic"), 500, check_every=50,
-                                                     kept_by="rule"),
+            "r-dqn-levels-realistic": PretrainedSpec(RunSpec("r-dqn+levels", "realistic", seed=1), 800,
+                                                     check_every=50, kept_by="rule"),
             "td3-realistic": PretrainedSpec(RunSpec("td3+estimated", "realistic", seed=1), 300, check_every=20,
                                             kept_by="rule"),
             # over the robust ranges, its observer designed for each drawn rig: the start `pendkit adapt`

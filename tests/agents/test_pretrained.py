@@ -94,7 +94,8 @@ def test_the_shipped_bar_needs_every_part_on_enough_episodes():
 
 @pytest.mark.parametrize("name, start, seed", [("td3-realistic", "random", 10_000), ("td3-realistic", "rest", 10_500),
                                                ("td3-realistic", "random", 10_007), ("dqn-ideal", "random", 10_003),
-                                               ("r-td3-robust", "rest", 10_501)])
+                                               ("r-td3-robust", "rest", 10_501),
+                                               ("r-dqn-levels-realistic", "random", 10_004)])
 def test_a_shipped_policy_holds_starts_it_was_never_judged_on(name, start, seed):
     import pendkit
     from pendkit.agents.pretrained import policy_env_options, policy_weights
@@ -107,3 +108,21 @@ def test_a_shipped_policy_holds_starts_it_was_never_judged_on(name, start, seed)
     outcome = evaluate_agent(env, agent, inputs, 1, seed, start)
     assert outcome.solved == [True], outcome
     assert pendkit.make(**policy_env_options(name)).unwrapped.feature_source == env.unwrapped.feature_source
+
+
+def test_a_policy_of_target_levels_drives_a_plain_continuous_env_and_holds():
+    import numpy as np
+
+    import pendkit
+    from pendkit.agents.pretrained import load_policy, policy_env_options
+    from pendkit.episode import run_episode
+    from pendkit.features import holds_upright
+
+    env = pendkit.make(**policy_env_options("r-dqn-levels-realistic"), start="rest")
+    assert env.action_space.shape == (1,)  # what a rig or lab 09's guarded run gives it
+    policy = load_policy("r-dqn-levels-realistic", env)
+    policy.reset()
+    targets = []
+    trace = run_episode(env, policy, seed=10_503, on_step=lambda action, *rest: targets.append(action))
+    assert set(np.round(np.concatenate(targets), 3)) <= set(np.round(np.linspace(-1, 1, 9), 3))
+    assert holds_upright(trace.pendulum_from_upright_rad, 200)

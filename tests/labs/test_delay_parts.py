@@ -64,8 +64,8 @@ right_cell, swapped_gates = gru_cell(False), gru_cell(True)
 def angles(cell, steps=150):
     from pendkit.episode import run_episode
 
-    env = pendkit.make(fidelity="realistic", max_episode_steps=steps)
-    trace = run_episode(env, policy_with_cell("r-dqn-realistic", env, cell), seed=5, options={"start": "rest"})
+    env = pendkit.make(fidelity="realistic", action_mode="continuous", max_episode_steps=steps)
+    trace = run_episode(env, policy_with_cell("r-dqn-levels-realistic", env, cell), seed=5, options={"start": "rest"})
     return np.abs(trace.pendulum_from_upright_rad)
 
 
