@@ -58,8 +58,9 @@ ROBUST_AGENT = {"hidden": [128, 128], "gru_size": 64, "sequence_length": 16, "le
                 "buffer_capacity": 1_000_000}
 POLICIES = {"dqn-ideal": PretrainedSpec(RunSpec("dqn", "ideal"), 300, check_every=20, kept_by="rule"),
             "r-dqn-realistic": PretrainedSpec(RunSpec("r-dqn", "realistic"), 260, role=(
-                "lab 08's R-DQN and the device's policy blob vectors; R-DQN on the raw readings did not reach the "
-                "rule in 3 seeds up to 2000 episodes (docs/results/learning.md)")),
+                "the device's policy blobs (five ramps) and their shared vectors; with the ramps R-DQN on the raw "
+                "readings did not reach the rule in 3 seeds up to 2000 episodes, r-dqn-levels-realistic does "
+                "(docs/results/learning.md)")),
             # continuous, through the c = 0.85 filter, reading the observer's estimate of the present state
             # (plain TD3 and R-TD3 on the raw readings spin the pendulum round instead: docs/results/learning.md)
             # R-DQN choosing between 9 targets through the filter, not the five ramps: on the same raw readings it

@@ -245,21 +245,21 @@ def policies_list() -> None:
     measured, command = measured_figures()
     for name, spec in POLICIES.items():
         twin = spec.run.fidelity + (f" over rigs ({spec.run.randomize})" if spec.run.randomize else "")
-        click.echo(f"{name:<18} {spec.run.learner:<8} {twin:<30} {spec.episodes:>5} episodes"
+        click.echo(f"{name:<24} {spec.run.learner:<14} {twin:<30} {spec.episodes:>5} episodes"
                    + ("" if spec.built_by_default else " (built only when named)"))
         figures_of = dict(measured.get(name, {}))
         sha = figures_of.pop("weights_sha256", None)
         if figures_of and (POLICY_DIR / f"{name}.pt").exists() and sha != weights_digest(name):
-            click.echo(f"{'':<18} (stale: the weights changed since they were measured)")
+            click.echo(f"{'':<24} (stale: the weights changed since they were measured)")
         for condition, figures in figures_of.items():
             where = "on its twin" if condition == "twin" else f"with two {condition.removeprefix('pushes_')} pushes"
-            click.echo(f"{'':<18} measured {where}: random starts {figures['solved']}, hanging {figures['rest']}, "
+            click.echo(f"{'':<24} measured {where}: random starts {figures['solved']}, hanging {figures['rest']}, "
                        f"held_min {figures['held_min'] if figures['held_min'] is not None else '-'}")
         if "twin" in figures_of:
             verdict = "meets" if meets_shipped_bar(figures_of["twin"]) else "below"
-            click.echo(f"{'':<18} {verdict} the shipped bar on its twin" + (f"; {spec.role}" if spec.role else ""))
+            click.echo(f"{'':<24} {verdict} the shipped bar on its twin" + (f"; {spec.role}" if spec.role else ""))
         if name not in measured:
-            click.echo(f"{'':<18} not measured yet: python benchmarks/bench_policies.py --record")
+            click.echo(f"{'':<24} not measured yet: python benchmarks/bench_policies.py --record")
     click.echo(f"the shipped bar: {SHIPPED_TEXT}")
     if command:
         click.echo(f"measured by: {command}")
