@@ -236,6 +236,8 @@ def main() -> None:
     parser.add_argument("--address", default=None, help="an existing Ray cluster (auto, or ray://HOST:10001)")
     parser.add_argument("--out", default=None, help="Where the adaptations write (default: a temporary folder).")
     parser.add_argument("--policy", default=None, help="The shipped policy adaptation starts from.")
+    parser.add_argument("--variants", nargs="+", default=None,
+                        help="adapt's variants to run (full, identification-only, a learner afresh); default by mode")
     parser.add_argument("--loop-episodes", type=int, default=None,
                         help="Excitation episodes of small steps that show the servo's loop (default: adapt's).")
     args = parser.parse_args()
@@ -246,7 +248,7 @@ def main() -> None:
         device_on_true_parameters(args.rigs)
         return
     rigs = adapt_rigs(args.rigs)
-    variants = ["full"] if args.mode == "adapt" else ["identification-only", "full", "dqn+estimated"]
+    variants = args.variants or (["full"] if args.mode == "adapt" else ["identification-only", "full", "dqn+estimated"])
     out_root = args.out or tempfile.mkdtemp(prefix="bench-transfer-")
     if args.mode == "ablations":
         for rig_name, rig in rigs:
