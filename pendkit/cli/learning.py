@@ -299,8 +299,9 @@ def policies_build(names: tuple[str, ...]) -> None:
                    "(1 + this) of the fit's; 0: the identified rig alone.")
 @click.option("--evaluate", "evaluation_episodes", type=click.IntRange(0), default=3, show_default=True,
               help="Greedy episodes on the rig afterwards, for the policy and for the classical controllers.")
-@click.option("--policy", "policy_name", default="td3-robust", show_default=True,
-              help="The shipped policy to start from (its observer is designed for the identified rig).")
+@click.option("--policy", "policy_name", default="r-td3-robust", show_default=True,
+              help="The shipped policy to start from (an observer it reads stays as it was trained: designed for "
+                   "the identified rig for td3-robust, for the nominal rig for r-td3-robust).")
 @click.option("--device-trials/--no-device-trials", default=False, show_default=True,
               help="Try the device's designs for five servo loops on the rig first (3.5 minutes of its time); "
                    "without: the identified twin's minimum-time design, which did as well (docs/results/transfer.md).")
