@@ -61,10 +61,16 @@ class AgentRun:
             kwargs["observer_params"] = self.observer_params  # what the laptop knows of the rig, not the rig
         return kwargs
 
+    def make_env(self, rig):
+        """`rig`'s env as this policy acts on it (a target-level policy through its levels)."""
+        from pendkit.agents.learners import learner
+
+        return learner(self.spec.learner).wrap(rig.make_env(**self.env_kwargs()))
+
     def evaluate(self, rig, episodes: int) -> dict:
         if episodes == 0:
             return {"summary": "not evaluated"}
-        env = rig.make_env(**self.env_kwargs())
+        env = self.make_env(rig)
         outcome = evaluate_agent(env, self.agent, self.inputs, episodes, start=None)
         env.close()
         return _as_report(outcome)
@@ -83,8 +89,10 @@ def train_on_twin(identification: Identification, config, weights_path: Path,
     spec, state = starting_weights(config.policy)
     spec = dataclasses.replace(spec, randomize="", seed=config.seed)
     observer = policy_observer(spec, identification)
+    from pendkit.agents.learners import learner
+
     run_kwargs = AgentRun(spec, None, None, observer).env_kwargs()
-    env = identified_twin(identification, **run_kwargs)
+    env = learner(spec.learner).wrap(identified_twin(identification, **run_kwargs))
     if spread:
         from pendkit.adapt.uncertainty import AroundTheFit
 
@@ -115,7 +123,7 @@ def fine_tune_on_rig(rig, run: AgentRun, episodes: int, config, weights_path: Pa
         return
     from pendkit.agents.async_trainer import AsyncTrainer
 
-    env = rig.make_env(**run.env_kwargs())
+    env = run.make_env(rig)
     trainer = AsyncTrainer(run.agent, [env], [run.inputs], seed=config.seed)
     stats = trainer.run(seconds=episodes * 60.0, episodes=episodes)
     env.close()

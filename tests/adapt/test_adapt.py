@@ -92,8 +92,9 @@ def test_free_swings_read_a_shorter_pendulums_higher_frequency():
     assert ratio == pytest.approx(expected, rel=0.05)
 
 
-@pytest.mark.parametrize("loop_episodes", [None, 1], ids=["default", "loop-episode"])
-def test_an_adaptation_session_writes_rig_policy_and_report_within_its_rig_time(tmp_path, loop_episodes):
+@pytest.mark.parametrize("loop_episodes, policy", [(None, "r-dqn-realistic"), (1, "r-dqn-levels-realistic")],
+                         ids=["default", "loop-episode-and-target-levels"])
+def test_an_adaptation_session_writes_rig_policy_and_report_within_its_rig_time(tmp_path, loop_episodes, policy):
     pytest.importorskip("torch")
     from pendkit.adapt.session import AdaptConfig, adapt
     from pendkit.deploy.swingup_design import design_swing_up
@@ -102,7 +103,7 @@ def test_an_adaptation_session_writes_rig_policy_and_report_within_its_rig_time(
     rig = twin_rig(HIDDEN, "none")
     looped = {} if loop_episodes is None else {"loop_episodes": loop_episodes, "refinement_evaluations": 12}
     config = AdaptConfig(episodes=2, excitation_episodes=2, twin_episodes=1, evaluation_episodes=1,
-                         policy="r-dqn-realistic", identification_evaluations=30, **looped)
+                         policy=policy, identification_evaluations=30, **looped)
     report = adapt(rig, tmp_path, config, say=lambda text: None)
     identified = RigParams.load(tmp_path / "rig.json")
     assert identified != RigParams()  # something was identified
