@@ -74,8 +74,9 @@ POLICIES = {"dqn-ideal": PretrainedSpec(RunSpec("dqn", "ideal"), 300, check_ever
             # observer, it does not hold: docs/results/robust.md)
             "td3-robust": PretrainedSpec(RunSpec("td3+estimated", "realistic", randomize="robust", observer="rig"),
                                          1000, check_every=100, built_by_default=False, role=(
-                                             "pendkit adapt's start: it holds when its observer is told the rig, "
-                                             "not with the nominal one (docs/results/robust.md)")),
+                                             "a start for pendkit adapt --policy td3-robust: it holds when its "
+                                             "observer is told the rig, not with the nominal one "
+                                             "(docs/results/robust.md)")),
             # zero-shot over the robust ranges: a GRU reading the nominal observer's estimate and the raw readings,
             # which shows it where the observer's model and the rig part (docs/results/robust.md)
             "r-td3-robust": PretrainedSpec(RunSpec("r-td3+both", "realistic", randomize="robust"), 1000,
