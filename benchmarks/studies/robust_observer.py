@@ -25,7 +25,9 @@ import time
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--observer", choices=["nominal", "told"], default="nominal")
+    parser.add_argument("--observer", choices=["nominal", "told", "bank"], default="nominal",
+                        help="what the observer is designed for in training and judging: the nominal rig, each "
+                             "drawn rig, or a bank of candidate rigs (rig_suite.observer_bank)")
     parser.add_argument("--start-from", default=None, help="a shipped policy to fine-tune (default: afresh)")
     parser.add_argument("--learner", default="td3+estimated", help="a learner reading the observer's estimate")
     parser.add_argument("--seed", type=int, default=0)
@@ -54,8 +56,9 @@ def main() -> None:
     use_kit_threads()
     told = args.observer == "told"
     agent = ROBUST_AGENT if args.agent == "robust" else json.loads(args.agent)
+    observer = {"told": "rig", "bank": "bank"}.get(args.observer, "base")
     spec = PretrainedSpec(RunSpec(args.learner, "realistic", seed=args.seed, randomize="robust",
-                                  observer="rig" if told else "base", agent=agent), args.episodes,
+                                  observer=observer, agent=agent), args.episodes,
                           check_every=args.check_every)
     started = time.monotonic()
     env, agent, inputs = build_run(spec.run)

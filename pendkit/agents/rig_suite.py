@@ -42,13 +42,13 @@ def observer_bank(size: int = BANK_SIZE, seed: int = BANK_SEED) -> tuple[RigPara
 
 def unknown_rig_observer(spec: RunSpec) -> dict:
     """`pendkit.make`'s observer option for `spec`'s learner on a rig the laptop does not know: none for a
-    learner without an observer, the `observer_bank` for one trained with observers told each rig
-    (`spec.observer == "rig"`), else the nominal rig's observer (what it was trained with)."""
+    learner without an observer, the `observer_bank` for one trained with observers told each rig or with the
+    bank itself (`spec.observer` "rig" or "bank"), else the nominal rig's observer (what it was trained with)."""
     from pendkit.agents.learners import learner
 
     if learner(spec.learner).features not in OBSERVED_SOURCES:
         return {}
-    return {"observer_params": observer_bank() if spec.observer == "rig" else RigParams()}
+    return {"observer_params": observer_bank() if spec.observer in ("rig", "bank") else RigParams()}
 
 
 def rig_env(rig: RandomRig, spec: RunSpec | None = None, observer_knows_rig: bool = False, **env_options):

@@ -13,10 +13,12 @@ from pathlib import Path
 from pendkit.agents.base import Agent
 from pendkit.agents.inputs import StepInputs
 from pendkit.agents.learners import build_learner, learner
+from pendkit.env import OBSERVED_SOURCES
 from pendkit.errors import ConfigError
 
 WEIGHTS_FORMAT = "pendkit-weights/1"
 SOLVED_TAIL_STEPS = 200
+OBSERVERS = ("base", "rig", "bank")  # RunSpec.observer: what a learner's observer is designed for
 SOLVED_SEED = 123  # one greedy episode's default start seed (the rule's training starts begin here too)
 
 
@@ -27,7 +29,8 @@ class RunSpec:
     steps of pure observation delay on top (`ObservationDelay`); `agent`: overrides of the agent's config;
     `observer` (a learner reading the observer's estimate, over randomised rigs): "base", the observer keeps
     the base rig's design, as on a rig the laptop knows nothing of; "rig", it is designed for each drawn rig,
-    for a policy whose observer will be given its rig (`pendkit adapt` gives it the identified one)."""
+    for a policy whose observer will be given its rig (`pendkit adapt` gives it the identified one); "bank",
+    the fixed bank of observers (`rig_suite.observer_bank`) a rig nobody identified is met with."""
 
     learner: str = "dqn"
     fidelity: str = "ideal"  # a preset's name (a Fidelity object also serves, in runs that are not saved)
@@ -41,8 +44,8 @@ class RunSpec:
 
     def __post_init__(self) -> None:
         learner(self.learner)  # a clear error for an unknown name
-        if self.observer not in ("base", "rig"):
-            raise ConfigError(f"observer must be 'base' or 'rig', got {self.observer!r}")
+        if self.observer not in OBSERVERS:
+            raise ConfigError(f"observer must be one of {', '.join(OBSERVERS)}, got {self.observer!r}")
         if self.delay_steps < 0:
             raise ConfigError(f"delay_steps must be >= 0, got {self.delay_steps}")
 
@@ -66,6 +69,10 @@ def make_env(spec: RunSpec, **env_options):
 
     params = RigParams.preset(spec.preset) if spec.preset else env_options.pop("params", None)
     chosen = learner(spec.learner)
+    if spec.observer == "bank" and chosen.features in OBSERVED_SOURCES:
+        from pendkit.agents.rig_suite import observer_bank
+
+        env_options.setdefault("observer_params", observer_bank())
     env = chosen.wrap(pendkit.make(fidelity=spec.fidelity, max_episode_steps=spec.max_steps, params=params,
                                    **chosen.env_kwargs(), **env_options))
     if spec.delay_steps:
