@@ -27,7 +27,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--observer", choices=["nominal", "told", "bank"], default="nominal",
                         help="what the observer is designed for in training and judging: the nominal rig, each "
-                             "drawn rig, or a bank of candidate rigs (rig_suite.observer_bank)")
+                             "drawn rig, or a bank of candidate rigs (pendkit.sim.randomize.observer_bank)")
     parser.add_argument("--start-from", default=None, help="a shipped policy to fine-tune (default: afresh)")
     parser.add_argument("--learner", default="td3+estimated", help="a learner reading the observer's estimate")
     parser.add_argument("--seed", type=int, default=0)

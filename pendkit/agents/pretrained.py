@@ -115,7 +115,8 @@ def weights_digest(name: str) -> str:
 def policy_env_options(name: str) -> dict:
     """What `pendkit.make` needs for shipped policy `name` on its own twin or a rig: its fidelity (twin
     only), action mode and features, e.g. `pendkit.make(**policy_env_options(name), start="rest")`; a policy
-    trained with observers told each rig meets the rig with the observer bank (`rig_suite.observer_bank`)."""
+    trained with observers told each rig meets the rig with the observer bank
+    (`pendkit.sim.randomize.observer_bank`)."""
     from pendkit.agents.learners import learner
     from pendkit.agents.rig_suite import unknown_rig_observer
 

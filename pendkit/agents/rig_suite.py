@@ -12,11 +12,10 @@ from pendkit.agents.runs import Evaluation, RunSpec, build_run, evaluate_agent
 from pendkit.env import OBSERVED_SOURCES
 from pendkit.rig import SERVO_PRESETS, RigParams
 from pendkit.sim.fidelity import FIDELITY_PRESETS
-from pendkit.sim.randomize import RandomRig, held_out_rigs
+from pendkit.sim.randomize import RandomRig, held_out_rigs, observer_bank  # noqa: F401 - observer_bank re-exported
 
 HELD_OUT_SEED = 2026  # the documented draw of held-out rigs (docs/adapt.md)
 VALIDATION_SEED = 77  # rigs from the training ranges that choose a checkpoint; never the held-out ones
-BANK_SEED, BANK_SIZE = 7, 13  # the observer bank's candidate rigs: the nominal one and 12 from the training ranges
 
 
 def preset_rigs() -> dict[str, RandomRig]:
@@ -31,13 +30,6 @@ def random_rigs(count: int = 10, seed: int = HELD_OUT_SEED) -> dict[str, RandomR
 def validation_rigs(count: int = 8, seed: int = VALIDATION_SEED) -> dict[str, RandomRig]:
     """Rigs drawn from the training ranges themselves, to choose between checkpoints of a robust policy."""
     return {f"validation-{k:02d}": rig for k, rig in enumerate(held_out_rigs(count, seed, widening=1.0))}
-
-
-def observer_bank(size: int = BANK_SIZE, seed: int = BANK_SEED) -> tuple[RigParams, ...]:
-    """Candidate rigs for a bank of observers (`pendkit.control.observer_bank`): the nominal rig and `size - 1`
-    drawn from the training ranges (never the held-out or validation draws): how a policy trained with an
-    observer told each rig runs on a rig nobody identified."""
-    return (RigParams(), *(rig.params for rig in held_out_rigs(size - 1, seed, widening=1.0)))
 
 
 def unknown_rig_observer(spec: RunSpec) -> dict:

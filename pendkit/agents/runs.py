@@ -30,7 +30,7 @@ class RunSpec:
     `observer` (a learner reading the observer's estimate, over randomised rigs): "base", the observer keeps
     the base rig's design, as on a rig the laptop knows nothing of; "rig", it is designed for each drawn rig,
     for a policy whose observer will be given its rig (`pendkit adapt` gives it the identified one); "bank",
-    the fixed bank of observers (`rig_suite.observer_bank`) a rig nobody identified is met with."""
+    the fixed bank of observers (`pendkit.sim.randomize.observer_bank`) a rig nobody identified is met with."""
 
     learner: str = "dqn"
     fidelity: str = "ideal"  # a preset's name (a Fidelity object also serves, in runs that are not saved)
@@ -70,7 +70,7 @@ def make_env(spec: RunSpec, **env_options):
     params = RigParams.preset(spec.preset) if spec.preset else env_options.pop("params", None)
     chosen = learner(spec.learner)
     if spec.observer == "bank" and chosen.features in OBSERVED_SOURCES:
-        from pendkit.agents.rig_suite import observer_bank
+        from pendkit.sim.randomize import observer_bank
 
         env_options.setdefault("observer_params", observer_bank())
     env = chosen.wrap(pendkit.make(fidelity=spec.fidelity, max_episode_steps=spec.max_steps, params=params,

@@ -165,6 +165,16 @@ def held_out_rigs(count: int, seed: int = 2026, base: RigParams | None = None,
     return [sample_rig(base or RigParams(), ALIASES["robust"], rng, ranges) for _ in range(count)]
 
 
+BANK_SEED, BANK_SIZE = 7, 13  # the observer bank's candidate rigs: the nominal one and 12 from the training ranges
+
+
+def observer_bank(size: int = BANK_SIZE, seed: int = BANK_SEED) -> tuple[RigParams, ...]:
+    """Candidate rigs for a bank of observers (`pendkit.control.observer_bank`): the nominal rig and `size - 1`
+    drawn from the training ranges (never the held-out or validation draws): how a policy whose observer is
+    not designed for the nominal rig meets a rig nobody identified."""
+    return (RigParams(), *(rig.params for rig in held_out_rigs(size - 1, seed, widening=1.0)))
+
+
 class DomainRandomization(gym.Wrapper):
     """Before every reset, a new rig: `what` is a subset of RANDOMIZABLE (or "robust"). The network and
     the encoder's calibration need a fidelity with the MCU pipeline (it is what they act on). An env with

@@ -82,3 +82,19 @@ def test_a_policy_trained_with_observers_told_each_rig_meets_an_unknown_rig_with
     assert env.unwrapped._estimator.candidates == observer_bank() and HIDDEN not in observer_bank()
     assert rig_env(RandomRig(HIDDEN), told, observer_knows_rig=True).unwrapped._estimator.params == HIDDEN
     assert rig_env(RandomRig(HIDDEN), RunSpec("td3+estimated", "realistic")).unwrapped._estimator.params == RigParams()
+
+
+def test_a_learner_trained_with_the_bank_keeps_it_through_every_drawn_rig_and_meets_rigs_with_it():
+    from pendkit.agents.rig_suite import rig_env
+    from pendkit.agents.runs import RunSpec, make_env
+    from pendkit.sim.randomize import RandomRig, observer_bank
+
+    spec = RunSpec("r-td3+both", "realistic", randomize="robust", observer="bank")
+    env = make_env(spec)
+    for seed in range(2):
+        env.reset(seed=seed)
+        assert env.unwrapped._estimator.candidates == observer_bank()
+        assert env.unwrapped.params != RigParams()  # a drawn rig, the bank unchanged
+    assert rig_env(RandomRig(HIDDEN), spec).unwrapped._estimator.candidates == observer_bank()
+    with pytest.raises(ConfigError, match="observer must be one of"):
+        RunSpec("td3+estimated", "realistic", observer="oracle")
