@@ -139,6 +139,15 @@ def measured_figures() -> tuple[dict, str]:
         return {}, ""
 
 
+def policies_that_hold() -> list[str]:
+    """The shipped policies whose recorded figures on their own twin reach the shipped bar
+    (`pendkit.agents.policy_rule.SHIPPED_TEXT`); the others are kept for what their `role` says."""
+    from pendkit.agents.policy_rule import meets_shipped_bar
+
+    measured, _ = measured_figures()
+    return [name for name in POLICIES if "twin" in measured.get(name, {}) and meets_shipped_bar(measured[name]["twin"])]
+
+
 def policy_weights(name: str) -> tuple[RunSpec, dict]:
     """(spec, agent state) of the shipped policy `name`."""
     if name not in POLICIES:

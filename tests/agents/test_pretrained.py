@@ -80,6 +80,10 @@ def test_policies_list_prints_each_policys_measured_figures_and_how_they_were_me
         if verdict == "below":  # a policy under the bar says what it is kept for
             assert POLICIES[name].role and POLICIES[name].role in block.replace("\n", " ")
     assert f"measured by: {command}" in out and f"the shipped bar: {SHIPPED_TEXT}" in out
+    # what lab 09 deploys: exactly the policies the list says meet the bar, in the list's order
+    from pendkit.agents.pretrained import policies_that_hold
+
+    assert policies_that_hold() == [name for name in POLICIES if meets_shipped_bar(measured[name]["twin"])]
 
 
 def test_the_shipped_bar_needs_every_part_on_enough_episodes():
