@@ -4,7 +4,10 @@ alone, each step taking the action the pair's critics value most?
     python benchmarks/studies/ensemble_arbitration.py A.pt B.pt [--starts 5]
 
 Each member runs its own GRU on the same inputs and proposes an action; every member's critic (the smaller of
-its twin critics) scores every proposal, and the proposal with the highest mean score is sent. Judged as
+its twin critics) scores every proposal, and the proposal with the highest mean score is sent; with
+`--margin M` the member in charge keeps it until another's proposal scores M more (a pair that switches
+every step can lose a rig both members hold alone). Choose M on `--rigs validation` (the training ranges'
+validation rigs, rest + `--starts` random starts each), then judge once on the unseen rigs. Judged as
 `robust_observer.py` judges one policy: the default rig (rest + 20 random starts) and the 5 presets + 10
 held-out rigs (rest + `--starts` random starts each). Results: docs/results/robust.md.
 """
@@ -22,12 +25,13 @@ import torch
 class CriticArbitration:
     """Greedy-only agent over recurrent actor-critic members (`RecurrentTd3Agent`) that read the same inputs."""
 
-    def __init__(self, members: list) -> None:
-        self.members = members
+    def __init__(self, members: list, margin: float = 0.0) -> None:
+        self.members, self.margin, self.in_charge = members, margin, 0
         self.config = members[0].config
         self.chosen = np.zeros(len(members), dtype=int)  # how often each member's proposal was sent
 
     def reset(self) -> None:
+        self.in_charge = 0
         for member in self.members:
             member.reset()
 
@@ -46,6 +50,9 @@ class CriticArbitration:
             scores = [np.mean([float(torch.min(*member.net.q(feature, proposal)))
                                for member, feature in zip(self.members, features)]) for proposal in proposals]
         best = int(np.argmax(scores))
+        if scores[best] < scores[self.in_charge] + self.margin:
+            best = self.in_charge
+        self.in_charge = best
         self.chosen[best] += 1
         return np.clip(proposals[best][0].numpy(), -1.0, 1.0).astype(np.float32)
 
@@ -54,8 +61,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("weights", nargs="+", help="weights files of the members (one learner, one observer)")
     parser.add_argument("--starts", type=int, default=5)
+    parser.add_argument("--margin", type=float, default=0.0)
+    parser.add_argument("--rigs", choices=["unseen", "validation"], default="unseen")
     args = parser.parse_args()
-    from pendkit.agents.rig_suite import preset_rigs, random_rigs, rig_env, summary
+    from pendkit.agents.rig_suite import preset_rigs, random_rigs, rig_env, summary, validation_rigs
     from pendkit.agents.runs import Evaluation, build_run, evaluate_agent, load_weights
     from pendkit.agents.threads import use_kit_threads
     from pendkit.rig import RigParams
@@ -77,16 +86,21 @@ def main() -> None:
                 _, agent, inputs = build_run(spec, env)
                 agent.load_state_dict(state)
                 members.append(agent)
-            pair = CriticArbitration(members)
+            pair = CriticArbitration(members, args.margin)
             outcomes[name] = evaluate_agent(env, pair, inputs, 1 + starts, 10_000, ["rest"] + ["random"] * starts)
             print(f"{name}: {sum(outcomes[name].solved)}/{1 + starts} (proposals sent: {pair.chosen.tolist()})",
                   flush=True)
             env.close()
         return outcomes
 
+    if args.rigs == "validation":
+        checked = on_rigs(validation_rigs(), args.starts)
+        print(json.dumps({"members": args.weights, "margin": args.margin, "validation": summary(checked)}))
+        return
     default = summary(on_rigs({"default": RandomRig(RigParams(), None, 0)}, 20))
     unseen = on_rigs({**preset_rigs(), **random_rigs(10)}, args.starts)
-    print(json.dumps({"members": args.weights, "default_rig": default, "presets_and_held_out": summary(unseen),
+    print(json.dumps({"members": args.weights, "margin": args.margin, "default_rig": default,
+                      "presets_and_held_out": summary(unseen),
                       "per_rig": {name: sum(e.solved) for name, e in unseen.items()},
                       "wall_s": round(time.monotonic() - started)}, indent=1))
 
