@@ -5,11 +5,15 @@ Solutions run strict: a check short of full marks fails the notebook.
 
 The suite runs on pytest-xdist workers (`-n auto` in pyproject.toml), one file per worker at a time (a
 notebook's cells share one kernel). Much of it waits on real time (virtual rigs, brokers, timeouts), so
-there are more workers than cores; each computes on one thread, or the workers' torch and BLAS threads
-fight over the cores (a 9 s R-DQN test took 97 s that way).
+there are more workers than cores (keep `--dist loadfile` when overriding addopts); each computes on one
+thread, or the workers' torch and BLAS threads fight over the cores (a 9 s R-DQN test took 97 s that way).
 """
 
+import atexit
+import itertools
 import os
+import shutil
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -25,12 +29,36 @@ ROOT = Path(__file__).resolve().parent
 SLOW_NOTEBOOKS = ("09_deploy.ipynb",)
 
 
+def _kernels_on_unix_sockets() -> None:
+    """nbval's kernels talk over Unix sockets in a folder of their own. Over TCP, jupyter_client picks free
+    ports and the kernel binds them a moment later, so two workers starting kernels at once can be handed the
+    same port (a kernel "died before replying to kernel_info")."""
+    try:
+        import nbval.kernel
+    except ImportError:
+        return
+    if os.name != "posix":
+        return
+    folder = tempfile.mkdtemp(prefix="pendkit-kernels-")
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
+    names, manager = itertools.count(), nbval.kernel.KernelManager
+
+    def on_unix_sockets(**kwargs):
+        return manager(transport="ipc", ip=os.path.join(folder, f"k{next(names)}"), **kwargs)
+
+    nbval.kernel.KernelManager = on_unix_sockets
+
+
+_kernels_on_unix_sockets()
+
+
 @pytest.hookimpl(optionalhook=True)
 def pytest_xdist_auto_num_workers(config):
-    """`-n auto`: a worker more than the cores (they wait on real time), at most 6 (memory: a worker with
-    torch, MuJoCo and a notebook kernel holds about 1 GB). Two more than the cores bought little on 2 cores
-    (453 s against 481 s) and a notebook kernel lost its port to another's (jupyter_client's port race)."""
-    return min(6, (os.cpu_count() or 1) + 1)
+    """`-n auto`: three workers more than the cores (they wait on real time: with one more, 2 cores were
+    busy 1.2 of the time), at most 6 (memory: a worker with torch, MuJoCo and a notebook kernel holds about
+    1 GB). On 2 cores: 5 workers 436 s, 3 workers 478 s (idle machine, 2026-11-26); more workers became
+    possible once the kernels left TCP (`_kernels_on_unix_sockets`)."""
+    return min(6, (os.cpu_count() or 1) + 3)
 
 
 def pytest_collection_modifyitems(config, items):
