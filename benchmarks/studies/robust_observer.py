@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import json
 import time
 
@@ -45,6 +46,7 @@ def main() -> None:
         PretrainedSpec,
         policy_weights,
         train_keeping_best,
+        validation_and_default_score,
         validation_score,
     )
     from pendkit.agents.rig_suite import policy_on_rigs, preset_rigs, random_rigs, summary
@@ -66,7 +68,7 @@ def main() -> None:
         agent.load_state_dict(policy_weights(args.start_from)[1])
     score = validation_score
     if args.default_in_validation:
-        score = with_default_rig(validation_score, args.default_in_validation)
+        score = functools.partial(validation_and_default_score, starts=args.default_in_validation)
     _, chosen = train_keeping_best(env, agent, inputs, spec, score)
     state, run = agent.state_dict(), dataclasses.replace(spec.run, randomize="")
     if args.out:
@@ -91,22 +93,6 @@ def main() -> None:
           f"presets_and_held_out={together['solved']}/{together['episodes']} "
           + " ".join(f"{name}={sum(e.solved)}/{len(e.solved)}" for name, e in rigs.items())
           + f" wall_s={time.monotonic() - started:.0f}")
-
-
-def with_default_rig(score, starts: int):
-    """`score` plus the default rig's greedy episodes (rest + `starts` random starts, seeds apart from the
-    default rig's judging seeds), each part printed: a validation that sees the rig most users have."""
-    from pendkit.agents.rig_suite import policy_on_rigs
-    from pendkit.rig import RigParams
-    from pendkit.sim.randomize import RandomRig
-
-    def scored(spec, state):
-        solved, mean_return = score(spec, state)
-        default = policy_on_rigs(spec.run, state, {"default": RandomRig(RigParams(), None, 0)}, starts=starts,
-                                 seed=20_000)["default"]
-        print(f"  validation rigs {solved}, default rig {sum(default.solved)}/{len(default.solved)}")
-        return solved + sum(default.solved), mean_return
-    return scored
 
 
 def pin_nominal_observer(env):

@@ -31,13 +31,17 @@ from pendkit.errors import ConfigError
 POLICY_DIR = Path(__file__).resolve().parents[1] / "data" / "policies"
 MEASURED_FILE = POLICY_DIR / "measured.json"  # written by benchmarks/bench_policies.py --record
 
+KEPT_BY = ("rigs", "rigs+default", "rule")
+DEFAULT_RIG_CHECK_STARTS, DEFAULT_RIG_CHECK_SEED = 3, 20_000  # seeds apart from the default rig's judging ones
+
 
 @dataclass(frozen=True)
 class PretrainedSpec:
     """`check_every` > 0: after each such stretch the greedy agent is scored and the best checkpoint is kept,
     not the last. `kept_by="rigs"`: on `validation_rigs` rigs drawn from the training ranges
-    (`rig_suite.validation_rigs`); `"rule"`: by the kit's rule on its training starts (episodes held, then
-    mean return; `pendkit.agents.policy_rule`)."""
+    (`rig_suite.validation_rigs`); `"rigs+default"`: those and the default rig (rest + 3 random starts), so
+    that a checkpoint which loses the rig most users have is not kept; `"rule"`: by the kit's rule on its
+    training starts (episodes held, then mean return; `pendkit.agents.policy_rule`)."""
 
     run: RunSpec
     episodes: int
@@ -48,8 +52,8 @@ class PretrainedSpec:
     role: str = ""  # what the policy is kept for, said beside its figures (those below the shipped bar say why)
 
     def __post_init__(self) -> None:
-        if self.kept_by not in ("rigs", "rule"):
-            raise ConfigError(f"kept_by must be 'rigs' or 'rule', got {self.kept_by!r}")
+        if self.kept_by not in KEPT_BY:
+            raise ConfigError(f"kept_by must be one of {', '.join(KEPT_BY)}, got {self.kept_by!r}")
 
 
 # the larger network and buffer: over rigs that change every episode the default R-DQN plateaus
@@ -182,7 +186,8 @@ def build(names: list[str] | None = None) -> None:
         env, agent, inputs = build_run(spec.run)
         notes = {"episodes": spec.episodes}
         if spec.check_every:
-            score = rule_score if spec.kept_by == "rule" else validation_score
+            score = {"rule": rule_score, "rigs": validation_score, "rigs+default": validation_and_default_score}[
+                spec.kept_by]
             returns, chosen = train_keeping_best(env, agent, inputs, spec, score)
             notes.update(chosen)
         else:
@@ -201,6 +206,21 @@ def validation_score(spec: PretrainedSpec, state: dict) -> tuple[int, float]:
     together = summary(policy_on_rigs(spec.run, state, validation_rigs(spec.validation_rigs), starts=1,
                                       observer_knows_rig=spec.run.observer == "rig"))
     return together["solved"], float(together["mean_return"])
+
+
+def validation_and_default_score(spec: PretrainedSpec, state: dict, starts: int = DEFAULT_RIG_CHECK_STARTS,
+                                 say=print) -> tuple[int, float]:
+    """`validation_score` plus the episodes held on the default rig (rest + `starts` random starts): a
+    validation that also sees the rig most users have. Each part is said."""
+    from pendkit.agents.rig_suite import policy_on_rigs
+    from pendkit.rig import RigParams
+    from pendkit.sim.randomize import RandomRig
+
+    solved, mean_return = validation_score(spec, state)
+    default = policy_on_rigs(spec.run, state, {"default": RandomRig(RigParams(), None, 0)}, starts=starts,
+                             seed=DEFAULT_RIG_CHECK_SEED)["default"]
+    say(f"  validation rigs {solved}, default rig {sum(default.solved)}/{len(default.solved)}")
+    return solved + sum(default.solved), mean_return
 
 
 def rule_score(spec: PretrainedSpec, state: dict) -> tuple[int, float]:

@@ -130,3 +130,18 @@ def test_a_policy_of_target_levels_drives_a_plain_continuous_env_and_holds():
     trace = run_episode(env, policy, seed=10_503, on_step=lambda action, *rest: targets.append(action))
     assert set(np.round(np.concatenate(targets), 3)) <= set(np.round(np.linspace(-1, 1, 9), 3))
     assert holds_upright(trace.pendulum_from_upright_rad, 200)
+
+
+def test_keeping_a_checkpoint_by_rigs_and_the_default_rig_adds_the_default_rigs_held_episodes():
+    from pendkit.agents.pretrained import policy_weights, validation_and_default_score, validation_score
+    from pendkit.errors import ConfigError
+
+    run, state = policy_weights("td3-realistic")
+    spec = PretrainedSpec(run, 10, check_every=5, validation_rigs=2, kept_by="rigs+default")
+    said = []
+    total, mean_return = validation_and_default_score(spec, state, starts=1, say=said.append)
+    rigs, _ = validation_score(spec, state)
+    held, episodes = (int(n) for n in said[0].rsplit("default rig ", 1)[1].split("/"))
+    assert episodes == 2 and total == rigs + held and f"validation rigs {rigs}" in said[0]
+    with pytest.raises(ConfigError, match="kept_by must be one of"):
+        PretrainedSpec(run, 10, kept_by="luck")
