@@ -236,34 +236,48 @@ def policies() -> None:
 
 
 @policies.command("list")
-def policies_list() -> None:
-    """Name, learner, twin and training episodes of each shipped policy, and what it measured on its twin
-    (random starts solved, starts hanging still solved, the smallest held share; benchmarks/bench_policies.py)."""
+@click.option("--all", "show_all", is_flag=True,
+              help="Also the weights kept below the shipped bar (for studies and the device's blobs).")
+def policies_list(show_all: bool) -> None:
+    """The shipped policies that hold by the shipped bar: name, learner, twin, training episodes and what each
+    measured on its twin (random starts solved, starts hanging still solved, the smallest held share;
+    benchmarks/bench_policies.py). `--all` adds the weights kept below the bar, each with what it is kept for."""
     from pendkit.agents.policy_rule import SHIPPED_TEXT
-    from pendkit.agents.pretrained import POLICIES, POLICY_DIR, measured_figures, policies_that_hold, weights_digest
+    from pendkit.agents.pretrained import POLICIES, measured_figures, policies_that_hold
 
     measured, command = measured_figures()
     holding = policies_that_hold()
-    for name, spec in POLICIES.items():
-        twin = spec.run.fidelity + (f" over rigs ({spec.run.randomize})" if spec.run.randomize else "")
-        click.echo(f"{name:<24} {spec.run.learner:<14} {twin:<30} {spec.episodes:>5} episodes"
-                   + ("" if spec.built_by_default else " (built only when named)"))
-        figures_of = dict(measured.get(name, {}))
-        sha = figures_of.pop("weights_sha256", None)
-        if figures_of and (POLICY_DIR / f"{name}.pt").exists() and sha != weights_digest(name):
-            click.echo(f"{'':<24} (stale: the weights changed since they were measured)")
-        for condition, figures in figures_of.items():
-            where = "on its twin" if condition == "twin" else f"with two {condition.removeprefix('pushes_')} pushes"
-            click.echo(f"{'':<24} measured {where}: random starts {figures['solved']}, hanging {figures['rest']}, "
-                       f"held_min {figures['held_min'] if figures['held_min'] is not None else '-'}")
-        if "twin" in figures_of:
-            verdict = "meets" if name in holding else "below"
-            click.echo(f"{'':<24} {verdict} the shipped bar on its twin" + (f"; {spec.role}" if spec.role else ""))
-        if name not in measured:
-            click.echo(f"{'':<24} not measured yet: python benchmarks/bench_policies.py --record")
+    below = [name for name in POLICIES if name not in holding]
+    for name in POLICIES if show_all else holding:
+        _echo_policy(name, measured.get(name, {}), name in holding)
     click.echo(f"the shipped bar: {SHIPPED_TEXT}")
+    if below and not show_all:
+        click.echo(f"also kept, below the bar (for studies and the device's blobs): {', '.join(below)}; "
+                   "`pendkit policies list --all` shows them")
     if command:
         click.echo(f"measured by: {command}")
+
+
+def _echo_policy(name: str, measured: dict, holds: bool) -> None:
+    from pendkit.agents.pretrained import POLICIES, POLICY_DIR, weights_digest
+
+    spec = POLICIES[name]
+    twin = spec.run.fidelity + (f" over rigs ({spec.run.randomize})" if spec.run.randomize else "")
+    click.echo(f"{name:<24} {spec.run.learner:<14} {twin:<30} {spec.episodes:>5} episodes"
+               + ("" if spec.built_by_default else " (built only when named)"))
+    figures_of = dict(measured)
+    sha = figures_of.pop("weights_sha256", None)
+    if figures_of and (POLICY_DIR / f"{name}.pt").exists() and sha != weights_digest(name):
+        click.echo(f"{'':<24} (stale: the weights changed since they were measured)")
+    for condition, figures in figures_of.items():
+        where = "on its twin" if condition == "twin" else f"with two {condition.removeprefix('pushes_')} pushes"
+        click.echo(f"{'':<24} measured {where}: random starts {figures['solved']}, hanging {figures['rest']}, "
+                   f"held_min {figures['held_min'] if figures['held_min'] is not None else '-'}")
+    if "twin" in figures_of:
+        verdict = "meets" if holds else "below"
+        click.echo(f"{'':<24} {verdict} the shipped bar on its twin" + (f"; {spec.role}" if spec.role else ""))
+    else:
+        click.echo(f"{'':<24} not measured yet: python benchmarks/bench_policies.py --record")
 
 
 @policies.command("build")

@@ -47,7 +47,7 @@ def test_validation_rigs_come_from_the_training_ranges_and_are_not_the_held_out_
 
 
 def test_policies_list_names_the_robust_policy_and_that_it_is_built_only_when_named():
-    out = CliRunner().invoke(main, ["policies", "list"]).output
+    out = CliRunner().invoke(main, ["policies", "list", "--all"]).output
     assert "r-dqn-robust" in out and "over rigs (robust)" in out and "built only when named" in out
     assert not POLICIES["r-dqn-robust"].built_by_default and POLICIES["r-dqn-realistic"].built_by_default
 
@@ -70,7 +70,7 @@ def test_policies_list_prints_each_policys_measured_figures_and_how_they_were_me
 
     measured, command = measured_figures()
     assert set(measured) == set(POLICIES) and command.startswith("python benchmarks/bench_policies.py")
-    out = CliRunner().invoke(main, ["policies", "list"]).output
+    out = CliRunner().invoke(main, ["policies", "list", "--all"]).output
     for name, conditions in measured.items():
         figures = conditions["twin"]
         block = out.split(name, 1)[1]
@@ -84,6 +84,12 @@ def test_policies_list_prints_each_policys_measured_figures_and_how_they_were_me
     from pendkit.agents.pretrained import policies_that_hold
 
     assert policies_that_hold() == [name for name in POLICIES if meets_shipped_bar(measured[name]["twin"])]
+    # without --all: only the policies that hold, each meeting the bar; the rest named once as kept below it
+    shown = CliRunner().invoke(main, ["policies", "list"]).output
+    listed = [line.split()[0] for line in shown.splitlines() if line[:1].strip() and line.split()[0] in POLICIES]
+    assert listed == policies_that_hold() and "below the shipped bar" not in shown
+    below = [name for name in POLICIES if name not in listed]
+    assert f"also kept, below the bar (for studies and the device's blobs): {', '.join(below)}" in shown
 
 
 def test_the_shipped_bar_needs_every_part_on_enough_episodes():
