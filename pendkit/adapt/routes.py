@@ -51,7 +51,7 @@ class AgentRun:
     spec: RunSpec
     agent: object
     inputs: object
-    observer_params: RigParams | None = None
+    observer_params: RigParams | tuple[RigParams, ...] | None = None
 
     def env_kwargs(self) -> dict:
         from pendkit.agents.learners import learner
@@ -109,10 +109,15 @@ def train_on_twin(identification: Identification, config, weights_path: Path,
     return AgentRun(spec, agent, inputs, observer)
 
 
-def policy_observer(spec: RunSpec, identification: Identification) -> RigParams:
+def policy_observer(spec: RunSpec, identification: Identification) -> RigParams | tuple[RigParams, ...]:
     """The rig a learned policy's observer is designed for on the way to the rig: the identified one for a
-    policy trained with observers told each rig (`spec.observer == "rig"`), else the nominal rig it was
-    trained with (a recurrent policy that reads the nominal observer's errors to tell the rig)."""
+    policy trained with observers told each rig (`spec.observer == "rig"`), the bank it was trained with
+    for `"bank"`, else the nominal rig it was trained with (a recurrent policy that reads the nominal
+    observer's errors to tell the rig)."""
+    if spec.observer == "bank":
+        from pendkit.sim.randomize import observer_bank
+
+        return observer_bank()
     return identification.params if spec.observer == "rig" else RigParams()
 
 

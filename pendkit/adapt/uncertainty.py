@@ -98,7 +98,7 @@ class AroundTheFit(gym.Wrapper):
     rig)."""
 
     def __init__(self, env: gym.Env, fit: Identification, spread: dict[str, Interval], seed: int = 0,
-                 observer_params: RigParams | None = None) -> None:
+                 observer_params: RigParams | tuple[RigParams, ...] | None = None) -> None:
         from pendkit.sim.fidelity import resolve_fidelity
 
         super().__init__(env)

@@ -293,3 +293,6 @@ def test_a_learned_policy_keeps_the_observer_it_was_trained_with():
     nominal = RunSpec("r-td3+both", "realistic")
     assert policy_observer(told, identified).arm_mass_kg == 0.2
     assert policy_observer(nominal, identified) == RigParams()
+    from pendkit.sim.randomize import observer_bank
+
+    assert policy_observer(RunSpec("r-td3+both", "realistic", observer="bank"), identified) == observer_bank()
