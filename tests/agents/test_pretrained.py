@@ -105,7 +105,8 @@ def test_the_shipped_bar_needs_every_part_on_enough_episodes():
 @pytest.mark.parametrize("name, start, seed", [("td3-realistic", "random", 10_000), ("td3-realistic", "rest", 10_500),
                                                ("td3-realistic", "random", 10_007), ("dqn-ideal", "random", 10_003),
                                                ("r-td3-robust", "rest", 10_501),
-                                               ("r-dqn-levels-realistic", "random", 10_004)])
+                                               ("r-dqn-levels-realistic", "random", 10_004),
+                                               ("r-td3-bank-robust", "random", 10_005)])
 def test_a_shipped_policy_holds_starts_it_was_never_judged_on(name, start, seed):
     import pendkit
     from pendkit.agents.pretrained import policy_env_options, policy_weights
@@ -117,7 +118,10 @@ def test_a_shipped_policy_holds_starts_it_was_never_judged_on(name, start, seed)
     agent.load_state_dict(state)
     outcome = evaluate_agent(env, agent, inputs, 1, seed, start)
     assert outcome.solved == [True], outcome
-    assert pendkit.make(**policy_env_options(name)).unwrapped.feature_source == env.unwrapped.feature_source
+    on_a_rig = pendkit.make(**policy_env_options(name)).unwrapped
+    assert on_a_rig.feature_source == env.unwrapped.feature_source
+    # what it meets on a rig nobody identified is what it was trained with (a bank-trained one: the bank)
+    assert type(on_a_rig._estimator) is type(env.unwrapped._estimator)
 
 
 def test_a_policy_of_target_levels_drives_a_plain_continuous_env_and_holds():
