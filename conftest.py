@@ -54,11 +54,11 @@ _kernels_on_unix_sockets()
 
 @pytest.hookimpl(optionalhook=True)
 def pytest_xdist_auto_num_workers(config):
-    """`-n auto`: three workers more than the cores (they wait on real time: with one more, 2 cores were
-    busy 1.2 of the time), at most 6 (memory: a worker with torch, MuJoCo and a notebook kernel holds about
-    1 GB). On 2 cores: 5 workers 436 s, 3 workers 478 s (idle machine, 2026-11-26); more workers became
-    possible once the kernels left TCP (`_kernels_on_unix_sockets`)."""
-    return min(6, (os.cpu_count() or 1) + 3)
+    """`-n auto`: a worker more than the cores (they wait on real time), at most 6 (memory: a worker with
+    torch, MuJoCo and a notebook kernel holds about 1 GB). Three more than the cores were faster on an idle
+    2-core machine (436 s against 478 s) but starved the virtual rigs of the notebooks under load (two
+    readings 0.5-0.7 s late in two CI runs beside a training), so the suite keeps one more."""
+    return min(6, (os.cpu_count() or 1) + 1)
 
 
 def pytest_collection_modifyitems(config, items):
