@@ -1,6 +1,7 @@
 """Learning and designs that carry to rigs they were not built for: the evidence for issue 23.
 
     python benchmarks/bench_transfer.py zero-shot [--starts 5]        # each controller x presets and random rigs
+    python benchmarks/bench_transfer.py zero-shot --policy r-td3-bank-robust --network none  # one policy, no network
     python benchmarks/bench_transfer.py ceiling [--starts 5]          # the classical designs as oracles
     python benchmarks/bench_transfer.py adapt [--rigs 6] [--seeds 0 1 2] [--jobs 2] [--policy r-dqn-robust]
                                               [--loop-episodes 3]
@@ -9,7 +10,9 @@
 
 zero-shot: the shipped policies and the classical controllers (energy swing-up + LQR, minimum-time swing-up),
 all designed or trained without the rig, on the five servo presets and the 10 held-out rigs
-(`pendkit.agents.rig_suite`, seed 2026), one episode from rest and `--starts` random starts each.
+(`pendkit.agents.rig_suite`, seed 2026), one episode from rest and `--starts` random starts each;
+`--policy` judges that shipped policy alone, `--network none` takes every rig's network away (what a
+policy run on the rig's device would meet, before any port to the firmware).
 
 ceiling: the same rigs, the classical controllers designed on each rig's true parameters and acting on the
 twin's true state, with the rig's network and without one: what the kit's model-based control reaches
@@ -45,7 +48,7 @@ ADAPT_RIG_SEED = 2027
 EVALUATION_EPISODES = 3
 
 
-def zero_shot(starts: int) -> None:
+def zero_shot(starts: int, only: str | None = None, network: str = "rig") -> None:
     from pendkit.adapt.routes import CLASSICAL, classical_on_env
     from pendkit.agents.pretrained import POLICIES, policy_weights
     from pendkit.agents.rig_suite import policy_on_rigs, preset_rigs, random_rigs, rig_env
@@ -55,15 +58,21 @@ def zero_shot(starts: int) -> None:
     from pendkit.sim.randomize import RandomRig
 
     rigs = {**preset_rigs(), **random_rigs()}
+    if network == "none":
+        import dataclasses
+
+        from pendkit.network import NetworkImpairment
+
+        rigs = {name: dataclasses.replace(rig, network=NetworkImpairment()) for name, rig in rigs.items()}
     starts_list = ["rest"] + ["random"] * starts
-    for name in POLICIES:
+    for name in [only] if only else POLICIES:
         try:
             spec, state = policy_weights(name)
         except ConfigError:
             print(f"zero-shot controller={name} missing (not built)")
             continue
-        _report(name, policy_on_rigs(spec, state, rigs, starts))
-    for controller in CLASSICAL:
+        _report(name if network == "rig" else f"{name}-network-none", policy_on_rigs(spec, state, rigs, starts))
+    for controller in () if only else CLASSICAL:
         design = rig_env(RandomRig(RigParams(), None, 0), action_mode="continuous", filter_coefficient=0.0)
         outcomes = {}
         for rig_name, rig in rigs.items():
@@ -71,7 +80,7 @@ def zero_shot(starts: int) -> None:
             outcomes[rig_name] = sum((classical_on_env(design, env, controller, 1, 10_000 + k, start)
                                       for k, start in enumerate(starts_list)), Evaluation([], [], [], []))
             env.close()
-        _report(controller, outcomes)
+        _report(controller if network == "rig" else f"{controller}-network-none", outcomes)
 
 
 def ceiling(starts: int) -> None:
@@ -238,11 +247,16 @@ def main() -> None:
     parser.add_argument("--policy", default=None, help="The shipped policy adaptation starts from.")
     parser.add_argument("--variants", nargs="+", default=None,
                         help="adapt's variants to run (full, identification-only, a learner afresh); default by mode")
+    parser.add_argument("--network", choices=["rig", "none"], default="rig",
+                        help="zero-shot: each rig's own network, or none (the conditions on the rig's device)")
     parser.add_argument("--loop-episodes", type=int, default=None,
                         help="Excitation episodes of small steps that show the servo's loop (default: adapt's).")
     args = parser.parse_args()
-    if args.mode in ("zero-shot", "ceiling"):
-        (zero_shot if args.mode == "zero-shot" else ceiling)(args.starts)
+    if args.mode == "zero-shot":
+        zero_shot(args.starts, args.policy, args.network)
+        return
+    if args.mode == "ceiling":
+        ceiling(args.starts)
         return
     if args.mode == "device":
         device_on_true_parameters(args.rigs)
