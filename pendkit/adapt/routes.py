@@ -111,13 +111,14 @@ def train_on_twin(identification: Identification, config, weights_path: Path,
 
 def policy_observer(spec: RunSpec, identification: Identification) -> RigParams | tuple[RigParams, ...]:
     """The rig a learned policy's observer is designed for on the way to the rig: the identified one for a
-    policy trained with observers told each rig (`spec.observer == "rig"`), the bank it was trained with
-    for `"bank"`, else the nominal rig it was trained with (a recurrent policy that reads the nominal
-    observer's errors to tell the rig)."""
+    policy trained with observers told each rig (`spec.observer == "rig"`); for `"bank"` the bank it was
+    trained with, the identified rig joining it as its first candidate (shown until the readings rank
+    them); else the nominal rig it was trained with (a recurrent policy that reads the nominal observer's
+    errors to tell the rig)."""
     if spec.observer == "bank":
         from pendkit.sim.randomize import observer_bank
 
-        return observer_bank()
+        return (identification.params, *observer_bank())
     return identification.params if spec.observer == "rig" else RigParams()
 
 
