@@ -161,7 +161,9 @@ def adapt_rigs(count: int):
 
 def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy: str | None = None,
               loop_episodes: int | None = None) -> str:
-    """One adaptation of one rig; `variant` is "full", "identification-only" or a learner trained afresh;
+    """One adaptation of one rig; `variant` is "full", "identification-only", "no-training" (identified, the
+    policy's weights as shipped: a bank-trained policy's bank joined by the identified rig) or a learner
+    trained afresh;
     `policy`: the shipped policy the first two start from (default: AdaptConfig's); `loop_episodes`: the
     excitation's episodes of small steps (default: AdaptConfig's)."""
     import torch
@@ -176,7 +178,9 @@ def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy
     start = {"policy": policy} if policy else {}
     if loop_episodes is not None:
         start["loop_episodes"] = loop_episodes
-    changes = {"full": start, "identification-only": {"episodes": AdaptConfig().excitation_episodes, **start}}
+    excitation_only = {"episodes": AdaptConfig().excitation_episodes, **start}
+    changes = {"full": start, "identification-only": excitation_only,
+               "no-training": {**excitation_only, "twin_episodes": 0}}
     config = AdaptConfig(seed=seed, evaluation_episodes=EVALUATION_EPISODES,
                          **changes.get(variant, {"policy": variant, "twin_episodes": 300}))
     report = adapt(twin_rig(rig.params, rig.network, rig.residual_offset_counts), out, config, say=lambda _: None)
@@ -224,12 +228,12 @@ def device_on_true_parameters(hidden: int) -> None:
               + " ".join(f"{c}_solved={totals[c]}/{EVALUATION_EPISODES * len(rigs)}" for c in CLASSICAL), flush=True)
 
 
-def randomisation_only(rig_name: str, rig) -> str:
+def randomisation_only(rig_name: str, rig, policy: str | None = None) -> str:
     from pendkit.adapt.session import AdaptConfig
     from pendkit.agents.pretrained import policy_weights
     from pendkit.agents.rig_suite import policy_on_rigs
 
-    name = AdaptConfig().policy
+    name = policy or AdaptConfig().policy
     spec, state = policy_weights(name)
     outcome = policy_on_rigs(spec, state, {rig_name: rig}, starts=EVALUATION_EPISODES - 1)[rig_name]
     return f"adapt rig={rig_name} variant=randomisation-only ({name}) policy: {outcome.summary()}"
@@ -246,7 +250,8 @@ def main() -> None:
     parser.add_argument("--out", default=None, help="Where the adaptations write (default: a temporary folder).")
     parser.add_argument("--policy", default=None, help="The shipped policy adaptation starts from.")
     parser.add_argument("--variants", nargs="+", default=None,
-                        help="adapt's variants to run (full, identification-only, a learner afresh); default by mode")
+                        help="adapt's variants to run (full, identification-only, no-training, randomisation-only, "
+                             "a learner afresh); default by mode")
     parser.add_argument("--network", choices=["rig", "none"], default="rig",
                         help="zero-shot: each rig's own network, or none (the conditions on the rig's device)")
     parser.add_argument("--loop-episodes", type=int, default=None,
@@ -264,11 +269,11 @@ def main() -> None:
     rigs = adapt_rigs(args.rigs)
     variants = args.variants or (["full"] if args.mode == "adapt" else ["identification-only", "full", "dqn+estimated"])
     out_root = args.out or tempfile.mkdtemp(prefix="bench-transfer-")
-    if args.mode == "ablations":
+    if args.mode == "ablations" or "randomisation-only" in variants:
         for rig_name, rig in rigs:
-            print(randomisation_only(rig_name, rig), flush=True)
+            print(randomisation_only(rig_name, rig, args.policy), flush=True)
     work = [(name, rig, seed, variant, out_root, args.policy, args.loop_episodes)
-            for variant in variants for seed in args.seeds for name, rig in rigs]
+            for variant in variants if variant != "randomisation-only" for seed in args.seeds for name, rig in rigs]
     for line in map_on_ray(adapt_one, work, args.address, args.jobs):  # the sweeps' Ray, one CPU per rig
         print(line, flush=True)
 
