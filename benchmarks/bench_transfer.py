@@ -57,13 +57,9 @@ def zero_shot(starts: int, only: str | None = None, network: str = "rig") -> Non
     from pendkit.rig import RigParams
     from pendkit.sim.randomize import RandomRig
 
-    rigs = {**preset_rigs(), **random_rigs()}
-    if network == "none":
-        import dataclasses
-
-        from pendkit.network import NetworkImpairment
-
-        rigs = {name: dataclasses.replace(rig, network=NetworkImpairment()) for name, rig in rigs.items()}
+    rigs = {name: rig if network == "rig" else without_network(rig)
+            for name, rig in {**preset_rigs(), **random_rigs()}.items()}
+    suffix = "" if network == "rig" else "-network-none"
     starts_list = ["rest"] + ["random"] * starts
     for name in [only] if only else POLICIES:
         try:
@@ -71,7 +67,7 @@ def zero_shot(starts: int, only: str | None = None, network: str = "rig") -> Non
         except ConfigError:
             print(f"zero-shot controller={name} missing (not built)")
             continue
-        _report(name if network == "rig" else f"{name}-network-none", policy_on_rigs(spec, state, rigs, starts))
+        _report(name + suffix, policy_on_rigs(spec, state, rigs, starts))
     for controller in () if only else CLASSICAL:
         design = rig_env(RandomRig(RigParams(), None, 0), action_mode="continuous", filter_coefficient=0.0)
         outcomes = {}
@@ -80,14 +76,22 @@ def zero_shot(starts: int, only: str | None = None, network: str = "rig") -> Non
             outcomes[rig_name] = sum((classical_on_env(design, env, controller, 1, 10_000 + k, start)
                                       for k, start in enumerate(starts_list)), Evaluation([], [], [], []))
             env.close()
-        _report(controller if network == "rig" else f"{controller}-network-none", outcomes)
+        _report(controller + suffix, outcomes)
+
+
+def without_network(rig):
+    """The same drawn rig with no network between it and the host (what running on its device removes)."""
+    import dataclasses
+
+    from pendkit.network import NetworkImpairment
+
+    return dataclasses.replace(rig, network=NetworkImpairment())
 
 
 def ceiling(starts: int) -> None:
     """The classical designs with everything the kit could know: each rig's true parameters, acting on the
     twin's true state (no estimate, no reading delay), with the rig's own network and with none. What they
     cannot solve is beyond the kit's model-based control on the laptop, a bound for any policy's goal."""
-    import dataclasses
     import math
 
     from pendkit.adapt.routes import CLASSICAL
@@ -96,7 +100,6 @@ def ceiling(starts: int) -> None:
     from pendkit.demo import CONTROLLERS
     from pendkit.episode import UNTIL_DONE, run_episode
     from pendkit.features import holds_upright, time_to_upright_s
-    from pendkit.network import NetworkImpairment
 
     def true_state(info):  # the twin's exact joint state, in place of what the host reads
         truth = info["true_state"]
@@ -124,7 +127,7 @@ def ceiling(starts: int) -> None:
         for controller in CLASSICAL:
             outcomes = {}
             for rig_name, rig in rigs.items():
-                rig = rig if network == "rig" else dataclasses.replace(rig, network=NetworkImpairment())
+                rig = rig if network == "rig" else without_network(rig)
                 env = rig_env(rig, action_mode="continuous", filter_coefficient=0.0)
                 design = rig_env(rig, action_mode="continuous", filter_coefficient=0.0)
                 policy = CONTROLLERS[controller](design)
@@ -274,7 +277,7 @@ def main() -> None:
             print(randomisation_only(rig_name, rig, args.policy), flush=True)
     work = [(name, rig, seed, variant, out_root, args.policy, args.loop_episodes)
             for variant in variants if variant != "randomisation-only" for seed in args.seeds for name, rig in rigs]
-    for line in map_on_ray(adapt_one, work, args.address, args.jobs):  # the sweeps' Ray, one CPU per rig
+    for line in map_on_ray(adapt_one, work, args.address, args.jobs) if work else ():  # one CPU per rig
         print(line, flush=True)
 
 
