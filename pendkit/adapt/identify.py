@@ -32,6 +32,7 @@ import numpy as np
 
 from pendkit.adapt.excitation import Recording
 from pendkit.adapt.replay import angle_error_rad2
+from pendkit.backend_contract import ServoCommand
 from pendkit.errors import ConfigError
 from pendkit.network import LatencyModel, NetworkImpairment
 from pendkit.rig import RigParams
@@ -161,10 +162,13 @@ def simulate(params: RigParams, latency_ms: float, recording: Recording) -> np.n
     limit = params.servo_range_rad
     arm_rad = max(-limit, min(limit, recording.start_servo_target_rad))
     env.reset(seed=0, options={"start": "rest", "arm_angle_rad": arm_rad})
+    # The backend stepped directly: the recorded targets are valid and unfiltered (filter 0), and nothing the
+    # env adds (its checks, observation, estimator) reaches the twin; a fifth of each step's time saved.
+    backend = env.unwrapped.backend
     angles = np.empty(len(recording.actions))
     for k, action in enumerate(recording.actions):
-        _, _, _, _, info = env.step(np.array([action], dtype=np.float32))
-        angles[k] = info["state"].pendulum_angle_rad
+        target = max(-1.0, min(1.0, float(np.float32(action))))
+        angles[k] = backend.step(ServoCommand("continuous", target_unit=target)).pendulum_angle_rad
     env.close()
     return angles + recording.start_pendulum_rad  # a pendulum at rest hangs plumb: what it read is the offset
 

@@ -63,12 +63,14 @@ def _spec(path: Path, max_episodes: int) -> Path:
 def test_a_killed_sweep_resumes_without_redoing_finished_trials(tmp_path):
     spec, out = _spec(tmp_path / "resume.yaml", 8), tmp_path / "resume"
     # two CPUs per trial on a two-CPU machine: one trial at a time, seed 0 then seed 1
-    sweep = subprocess.Popen([*PENDKIT, "sweep", str(spec), "--out", str(out), "--cpus-per-trial", "2"],
-                             cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    said = tmp_path / "first-run.txt"  # what the first run said, for a failure's message
+    with said.open("w") as to_file:
+        sweep = subprocess.Popen([*PENDKIT, "sweep", str(spec), "--out", str(out), "--cpus-per-trial", "2"],
+                                 cwd=ROOT, stdout=to_file, stderr=subprocess.STDOUT, start_new_session=True)
     first, second = out / "trials" / "dqn--ideal--seed0", out / "trials" / "dqn--ideal--seed1"
     deadline = time.monotonic() + 240
     while not ((first / "result.json").exists() and (second / "checks.csv").exists()):
-        assert sweep.poll() is None, "the sweep ended before it could be killed"
+        assert sweep.poll() is None, f"the sweep ended before it could be killed:\n{said.read_text()[-3000:]}"
         assert time.monotonic() < deadline, "the sweep never reached its second trial"
         time.sleep(0.2)
     os.killpg(sweep.pid, signal.SIGKILL)  # the driver and everything it started
