@@ -166,7 +166,8 @@ def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy
               loop_episodes: int | None = None) -> str:
     """One adaptation of one rig; `variant` is "full", "identification-only", "no-training" (identified, the
     policy's weights as shipped: a bank-trained policy's bank joined by the identified rig) or a learner
-    trained afresh;
+    trained afresh until the rule holds on the identified twin (at most 300 episodes; "LEARNER@excitation":
+    with the excitation's rig time alone, no fine-tuning on the rig);
     `policy`: the shipped policy the first two start from (default: AdaptConfig's); `loop_episodes`: the
     excitation's episodes of small steps (default: AdaptConfig's)."""
     import torch
@@ -184,8 +185,9 @@ def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy
     excitation_only = {"episodes": AdaptConfig().excitation_episodes, **start}
     changes = {"full": start, "identification-only": excitation_only,
                "no-training": {**excitation_only, "twin_episodes": 0}}
-    config = AdaptConfig(seed=seed, evaluation_episodes=EVALUATION_EPISODES,
-                         **changes.get(variant, {"policy": variant, "twin_episodes": 300}))
+    learner_name, _, budget = variant.partition("@")  # "LEARNER@excitation": afresh, no fine-tuning on the rig
+    afresh = {"twin_episodes": 300, **(excitation_only if budget == "excitation" else {}), "policy": learner_name}
+    config = AdaptConfig(seed=seed, evaluation_episodes=EVALUATION_EPISODES, **changes.get(variant, afresh))
     report = adapt(twin_rig(rig.params, rig.network, rig.residual_offset_counts), out, config, say=lambda _: None)
     found, true = report["identified"], rig.params
     speed = found["servo_speed_s_per_60deg"] / true.servo_speed_s_per_60deg - 1

@@ -34,8 +34,8 @@ def starting_weights(name: str) -> tuple[RunSpec, dict | None]:
     from pendkit.agents.pretrained import POLICIES, policy_weights
     from pendkit.errors import ConfigError
 
-    if name in LEARNER_NAMES:  # a learner rather than a policy: trained afresh on the twin
-        return RunSpec(name, "realistic"), None
+    if name in LEARNER_NAMES:  # a learner rather than a policy: trained afresh, its observer the identified rig's
+        return RunSpec(name, "realistic", observer="rig"), None
     try:
         return policy_weights(name)
     except ConfigError:
@@ -100,8 +100,14 @@ def train_on_twin(identification: Identification, config, weights_path: Path,
     _, agent, inputs = build_run(spec, env)
     if state is not None:
         agent.load_state_dict(state)
-    returns = train_sync(env, agent, config.twin_episodes, inputs, seed=config.seed, progress=False) \
-        if config.twin_episodes else []
+        returns = train_sync(env, agent, config.twin_episodes, inputs, seed=config.seed, progress=False) \
+            if config.twin_episodes else []
+    else:  # afresh: until the kit's rule holds on the identified twin, as any training from nothing stops
+        from pendkit.agents.policy_rule import train_until_solved
+
+        probe = learner(spec.learner).wrap(identified_twin(identification, **run_kwargs))
+        returns, _ = train_until_solved(env, agent, inputs, config.twin_episodes, probe=probe, seed=config.seed,
+                                        progress=False)
     save_weights(weights_path, agent, spec, {"identified_rig": identification.values(), "twin_episodes": len(returns)})
     drawn = " (a rig drawn from what the recordings allow each episode)" if spread else ""
     say(f"(c) {config.policy if state is not None else spec.learner + ' (afresh)'} trained "
