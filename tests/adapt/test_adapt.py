@@ -297,3 +297,27 @@ def test_a_learned_policy_keeps_the_observer_it_was_trained_with():
 
     bank = policy_observer(RunSpec("r-td3+both", "realistic", observer="bank"), identified)
     assert bank == (identified.params, *observer_bank())  # what identification found joins the bank, first
+
+
+def test_a_learner_afresh_trains_on_the_identified_twin_until_the_rule_holds_there(tmp_path, monkeypatch):
+    import pendkit.agents.policy_rule as rule
+    from pendkit.adapt.identify import Identification
+    from pendkit.adapt.routes import train_on_twin
+    from pendkit.adapt.session import AdaptConfig
+    from pendkit.agents.data_files import load_data
+
+    fit = Identification(dataclasses.replace(HIDDEN, arm_mass_kg=0.2), 25.0, 0.01, 0.1, 10, 1.0)
+    judged = []
+
+    def the_rule(probe, agent, inputs, seed, **options):  # what the check saw; says the policy holds
+        base = probe.unwrapped
+        judged.append((base.params, base._observer_design[0], base.backend.fidelity.network.latency.floor_ms))
+        return type("Verdict", (), {"solved": True})()
+
+    monkeypatch.setattr(rule, "judge_policy", the_rule)
+    said = []
+    run = train_on_twin(fit, AdaptConfig(policy="td3+estimated", twin_episodes=1), tmp_path / "policy.pt", said.append)
+    assert judged == [(fit.params, fit.params, 25.0)]  # the rule judged on the identified twin, its observer
+    assert run.observer_params == fit.params and "afresh" in said[0]
+    saved = load_data(tmp_path / "policy.pt")
+    assert saved["notes"]["twin_episodes"] == 1 and saved["spec"]["observer"] == "rig"
