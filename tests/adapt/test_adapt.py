@@ -311,6 +311,7 @@ def test_a_learner_afresh_trains_on_the_identified_twin_until_the_rule_holds_the
 
     def the_rule(probe, agent, inputs, seed, **options):  # what the check saw; says the policy holds
         base = probe.unwrapped
+        assert inputs.reset(probe.reset(seed=seed)[0]).shape == (inputs.dim,)  # inputs the probe's policy reads
         judged.append((base.params, base._observer_design[0], base.backend.fidelity.network.latency.floor_ms))
         return type("Verdict", (), {"solved": True})()
 
