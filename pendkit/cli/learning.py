@@ -316,7 +316,8 @@ def policies_build(names: tuple[str, ...]) -> None:
               help="Greedy episodes on the rig afterwards, for the policy and for the classical controllers.")
 @click.option("--policy", "policy_name", default="r-td3-robust", show_default=True,
               help="The shipped policy to start from (an observer it reads stays as it was trained: designed for "
-                   "the identified rig for td3-robust, for the nominal rig for r-td3-robust).")
+                   "the identified rig for td3-robust, for the nominal rig for r-td3-robust); a learner's name "
+                   "(e.g. td3+estimated) trains afresh until the rule holds on the identified twin.")
 @click.option("--device-trials/--no-device-trials", default=False, show_default=True,
               help="Try the device's designs for five servo loops on the rig first (3.5 minutes of its time); "
                    "without: the identified twin's minimum-time design, which did as well (docs/results/transfer.md).")
