@@ -106,8 +106,8 @@ def train_on_twin(identification: Identification, config, weights_path: Path,
         from pendkit.agents.policy_rule import train_until_solved
 
         probe = learner(spec.learner).wrap(identified_twin(identification, **run_kwargs))
-        returns, _ = train_until_solved(env, agent, inputs, config.twin_episodes, probe=probe,
-                                        probe_inputs=build_run(spec, probe)[2], seed=config.seed, progress=False)
+        returns, _ = train_until_solved(env, agent, inputs, config.twin_episodes, probe=probe, seed=config.seed,
+                                        progress=False)
     save_weights(weights_path, agent, spec, {"identified_rig": identification.values(), "twin_episodes": len(returns)})
     drawn = " (a rig drawn from what the recordings allow each episode)" if spread else ""
     say(f"(c) {config.policy if state is not None else spec.learner + ' (afresh)'} trained "

@@ -114,7 +114,8 @@ def train_until_solved(env, agent: Agent, inputs: StepInputs, max_episodes: int,
     counted from `spent_s` before a resume). Returns (every episode's return, the episodes it took, or None).
     `on_check(episodes, wall_s, verdict)` sees each check (a `PolicyVerdict`); `train_options` go to
     train_sync."""
-    probe, probe_inputs = (probe, probe_inputs or inputs) if probe is not None else (env, inputs)
+    probe = env if probe is None else probe
+    probe_inputs = inputs if probe_inputs is None else probe_inputs  # each episode resets them: sharing is safe
     started = time.perf_counter() - spent_s
     outcome = {"solved_at": None}
 
