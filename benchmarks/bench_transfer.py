@@ -163,11 +163,12 @@ def adapt_rigs(count: int):
 
 
 def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy: str | None = None,
-              loop_episodes: int | None = None) -> str:
+              loop_episodes: int | None = None, candidates: tuple[str, ...] = ()) -> str:
     """One adaptation of one rig; `variant` is "full", "identification-only", "no-training" (identified, the
     policy's weights as shipped: a bank-trained policy's bank joined by the identified rig) or a learner
     trained afresh until the rule holds on the identified twin (at most 300 episodes; "LEARNER@excitation":
-    with the excitation's rig time alone, no fine-tuning on the rig);
+    with the excitation's rig time alone, no fine-tuning on the rig), or "chosen" (the excitation alone; the
+    policy and each of `candidates`, as shipped and trained on the twin, judged there; the best to the rig);
     `policy`: the shipped policy the first two start from (default: AdaptConfig's); `loop_episodes`: the
     excitation's episodes of small steps (default: AdaptConfig's)."""
     import torch
@@ -184,7 +185,8 @@ def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy
         start["loop_episodes"] = loop_episodes
     excitation_only = {"episodes": AdaptConfig().excitation_episodes, **start}
     changes = {"full": start, "identification-only": excitation_only,
-               "no-training": {**excitation_only, "twin_episodes": 0}}
+               "no-training": {**excitation_only, "twin_episodes": 0},
+               "chosen": {**excitation_only, "candidates": tuple(candidates)}}
     learner_name, _, budget = variant.partition("@")  # "LEARNER@excitation": afresh, no fine-tuning on the rig
     afresh = {"twin_episodes": 300, **(excitation_only if budget == "excitation" else {}), "policy": learner_name}
     config = AdaptConfig(seed=seed, evaluation_episodes=EVALUATION_EPISODES, **changes.get(variant, afresh))
@@ -203,7 +205,12 @@ def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy
             f"energy={classical['energy']['summary']} "
             f"trajopt={classical['trajopt']['summary']} device_energy={device['energy']['summary']} "
             f"device_trajopt={device['trajopt']['summary']} device_tried={device.get('tried', {}).get('summary', '-')} "
-            f"tried_design={_chosen(report)} policy: {report['policy_on_rig']['summary']}")
+            f"tried_design={_chosen(report)} on_twin={_on_twin(report)} policy: {report['policy_on_rig']['summary']}")
+
+
+def _on_twin(report: dict) -> str:
+    rows = report.get("candidates_on_twin") or []
+    return ",".join(f"{row['policy']}/{row['stage'].replace(' ', '-')}:{row['held']}" for row in rows) or "-"
 
 
 def _chosen(report: dict) -> str:
@@ -255,8 +262,10 @@ def main() -> None:
     parser.add_argument("--out", default=None, help="Where the adaptations write (default: a temporary folder).")
     parser.add_argument("--policy", default=None, help="The shipped policy adaptation starts from.")
     parser.add_argument("--variants", nargs="+", default=None,
-                        help="adapt's variants to run (full, identification-only, no-training, randomisation-only, "
-                             "a learner afresh); default by mode")
+                        help="adapt's variants to run (full, identification-only, no-training, chosen, "
+                             "randomisation-only, a learner afresh); default by mode")
+    parser.add_argument("--candidates", nargs="*", default=["r-td3-bank-robust"],
+                        help="adapt's variant chosen: further shipped policies judged on the identified twin.")
     parser.add_argument("--network", choices=["rig", "none"], default="rig",
                         help="zero-shot: each rig's own network, or none (the conditions on the rig's device)")
     parser.add_argument("--loop-episodes", type=int, default=None,
@@ -277,7 +286,7 @@ def main() -> None:
     if args.mode == "ablations" or "randomisation-only" in variants:
         for rig_name, rig in rigs:
             print(randomisation_only(rig_name, rig, args.policy), flush=True)
-    work = [(name, rig, seed, variant, out_root, args.policy, args.loop_episodes)
+    work = [(name, rig, seed, variant, out_root, args.policy, args.loop_episodes, tuple(args.candidates))
             for variant in variants if variant != "randomisation-only" for seed in args.seeds for name, rig in rigs]
     for line in map_on_ray(adapt_one, work, args.address, args.jobs) if work else ():  # one CPU per rig
         print(line, flush=True)

@@ -80,6 +80,19 @@ def _as_report(outcome: Evaluation) -> dict:
     return {"solved": outcome.solved, "upright_s": outcome.upright_s, "summary": outcome.summary()}
 
 
+def _twin_env(spec: RunSpec, identification: Identification, observer, spread: dict | None, seed: int):
+    """The identified twin as `spec`'s learner acts on it; with `spread`, a rig drawn from it every episode."""
+    from pendkit.agents.learners import learner
+
+    kwargs = AgentRun(spec, None, None, observer).env_kwargs()
+    env = learner(spec.learner).wrap(identified_twin(identification, **kwargs))
+    if spread:
+        from pendkit.adapt.uncertainty import AroundTheFit
+
+        env = AroundTheFit(env, identification, spread, seed=seed, observer_params=observer)
+    return env
+
+
 def train_on_twin(identification: Identification, config, weights_path: Path,
                   say: Callable[[str], None], spread: dict | None = None) -> AgentRun:
     """(c): the starting policy trained further on the identified twin (laptop time); with `spread`
@@ -89,14 +102,7 @@ def train_on_twin(identification: Identification, config, weights_path: Path,
     spec, state = starting_weights(config.policy)
     spec = dataclasses.replace(spec, randomize="", seed=config.seed)
     observer = policy_observer(spec, identification)
-    from pendkit.agents.learners import learner
-
-    run_kwargs = AgentRun(spec, None, None, observer).env_kwargs()
-    env = learner(spec.learner).wrap(identified_twin(identification, **run_kwargs))
-    if spread:
-        from pendkit.adapt.uncertainty import AroundTheFit
-
-        env = AroundTheFit(env, identification, spread, seed=config.seed, observer_params=observer)
+    env = _twin_env(spec, identification, observer, spread, config.seed)
     _, agent, inputs = build_run(spec, env)
     if state is not None:
         agent.load_state_dict(state)
@@ -105,7 +111,7 @@ def train_on_twin(identification: Identification, config, weights_path: Path,
     else:  # afresh: until the kit's rule holds on the identified twin, as any training from nothing stops
         from pendkit.agents.policy_rule import train_until_solved
 
-        probe = learner(spec.learner).wrap(identified_twin(identification, **run_kwargs))
+        probe = _twin_env(spec, identification, observer, None, config.seed)
         returns, _ = train_until_solved(env, agent, inputs, config.twin_episodes, probe=probe, seed=config.seed,
                                         progress=False)
     save_weights(weights_path, agent, spec, {"identified_rig": identification.values(), "twin_episodes": len(returns)})
@@ -113,6 +119,60 @@ def train_on_twin(identification: Identification, config, weights_path: Path,
     say(f"(c) {config.policy if state is not None else spec.learner + ' (afresh)'} trained "
         f"{len(returns)} episodes on the identified twin{drawn}")
     return AgentRun(spec, agent, inputs, observer)
+
+
+JUDGE_TWIN_SEED_OFFSET = 1_000  # the twin's judge draws other rigs than its training
+
+
+def choose_on_twin(identification: Identification, config, weights_path: Path, say: Callable[[str], None],
+                   spread: dict | None = None) -> tuple[AgentRun, list[dict]]:
+    """(c) with candidates: `config.policy` and each of `config.candidates` (shipped policies), as shipped and
+    after `config.twin_episodes` on the identified twin, judged there by the kit's rule (its 10 starts, on
+    rigs drawn from `spread` when given); the one that holds most (then the highest mean return; as shipped
+    before trained, the first named before the others on a tie) goes on to the rig. Returns it and every
+    candidate's verdict."""
+    import copy
+
+    from pendkit.agents.policy_rule import REPORT_SEED, judge_policy
+    from pendkit.agents.train import train_sync
+    from pendkit.errors import ConfigError
+
+    starts = {name: starting_weights(name) for name in (config.policy, *config.candidates)}
+    for name, (_, state) in starts.items():
+        if state is None:
+            raise ConfigError(f"candidate {name!r} is not a shipped policy with weights here: candidates are judged "
+                              "as shipped and after the twin's training (pendkit policies list)")
+    judged = []
+    for name, (spec, state) in starts.items():
+        spec = dataclasses.replace(spec, randomize="", seed=config.seed)
+        observer = policy_observer(spec, identification)
+        env = _twin_env(spec, identification, observer, spread, config.seed)
+        judge = _twin_env(spec, identification, observer, spread, config.seed + JUDGE_TWIN_SEED_OFFSET)
+        _, agent, inputs = build_run(spec, env)
+        agent.load_state_dict(state)
+        for stage, episodes in (("as shipped", 0), ("trained", config.twin_episodes)):
+            if stage == "trained" and not episodes:
+                continue
+            if episodes:
+                train_sync(env, agent, episodes, inputs, seed=config.seed, progress=False)
+            verdict = judge_policy(judge, agent, inputs, seed=REPORT_SEED)
+            returns = verdict.evaluation.returns
+            judged.append({"policy": name, "stage": stage, "held": verdict.held, "episodes": len(verdict.starts),
+                           "mean_return": sum(returns) / len(returns), "spec": spec, "observer": observer,
+                           "state": copy.deepcopy(agent.state_dict())})
+            say(f"(c) {name} {stage} on the identified twin: {verdict.summary()}")
+        env.close()
+        judge.close()
+    best = max(judged, key=lambda row: (row["held"], row["mean_return"]))  # max keeps the first of equals
+    env = _twin_env(best["spec"], identification, best["observer"], None, config.seed)
+    _, agent, inputs = build_run(best["spec"], env)
+    agent.load_state_dict(best["state"])
+    env.close()
+    save_weights(weights_path, agent, best["spec"], {"identified_rig": identification.values(),
+                                                     "chosen_on_twin": f"{best['policy']} {best['stage']}"})
+    say(f"(c) chosen on the twin: {best['policy']} {best['stage']}")
+    rows = [{key: row[key] for key in ("policy", "stage", "held", "episodes", "mean_return")} for row in judged]
+    return AgentRun(best["spec"], agent, inputs, best["observer"]), rows
 
 
 def policy_observer(spec: RunSpec, identification: Identification) -> RigParams | tuple[RigParams, ...]:

@@ -26,7 +26,13 @@ import numpy as np
 from pendkit.adapt.excitation import EXCITATION_STREAM, Excitation, record, rest_offset_counts, schedule
 from pendkit.adapt.identify import PRIOR_LATENCY_MS, Identification, identify_best, refine_servo, rig_values
 from pendkit.adapt.plots import plot_identification
-from pendkit.adapt.routes import classical_on_device, classical_on_rig, fine_tune_on_rig, train_on_twin
+from pendkit.adapt.routes import (
+    choose_on_twin,
+    classical_on_device,
+    classical_on_rig,
+    fine_tune_on_rig,
+    train_on_twin,
+)
 from pendkit.adapt.trials import Design, identified_design, trial_steps, try_on_device
 from pendkit.adapt.uncertainty import fit_spread, spread_table
 from pendkit.control.names import SWING_UP_CONTROLLERS
@@ -79,6 +85,9 @@ class AdaptConfig:
     # at 3/3 against td3-robust's 2 (its observer designed for the identified rig) and r-dqn-realistic's 0
     # (docs/results/robust.md)
     policy: str = "r-td3-robust"
+    # further shipped policies to start from: each, and `policy`, as shipped and after the twin's training, judged
+    # on the identified twin by the kit's rule; the one that holds most goes to the rig (routes.choose_on_twin)
+    candidates: tuple[str, ...] = ()
     identification_evaluations: int = 1200
     identification_restarts: int = 3  # from the same recordings; the best match is kept (docs/results/transfer.md)
     refinement_evaluations: int = 300  # the servo refined over the loop episodes too, when there are any
@@ -146,7 +155,10 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
         report["uncertain"] = spread_table(identification, spread)
         say("(c) what the recordings allow: " + ", ".join(f"{name} {low:.3g}..{high:.3g}"
                                                           for name, (low, high) in spread.items()))
-    agent_run = train_on_twin(identification, config, out / "policy.pt", say, spread)
+    if config.candidates:
+        agent_run, report["candidates_on_twin"] = choose_on_twin(identification, config, out / "policy.pt", say, spread)
+    else:
+        agent_run = train_on_twin(identification, config, out / "policy.pt", say, spread)
     fine_tune_episodes = max(0, int((budget_s - rig.seconds()) // (EPISODE_STEPS * step_s)))
     fine_tune_on_rig(rig, agent_run, fine_tune_episodes, config, out / "policy.pt", say)
     report["rig_s_budget"] = budget_s
@@ -271,6 +283,16 @@ def refinement_markdown(report: dict) -> str:
             f"{before['servo_speed_s_per_60deg']:.3f} -> {after['servo_speed_s_per_60deg']:.3f} s/60 deg.\n\n")
 
 
+def candidates_markdown(report: dict) -> str:
+    rows = report.get("candidates_on_twin")
+    if not rows:
+        return ""
+    lines = "\n".join(f"| {row['policy']} | {row['stage']} | {row['held']}/{row['episodes']} | "
+                      f"{row['mean_return']:.0f} |" for row in rows)
+    return ("The starting policies judged on the identified twin by the kit's rule (the best went to the rig):\n\n"
+            "| policy | stage | held | mean return |\n|---|---|---|---|\n" + lines + "\n\n")
+
+
 def _allowed(row: dict | None) -> str:
     return "-" if row is None else f"{row['low']:.4g} .. {row['high']:.4g}"
 
@@ -294,6 +316,6 @@ def report_markdown(report: dict) -> str:
             f"{report['classical_on_rig']['trajopt']['summary']} (run from the laptop); the same designs run by the "
             f"rig's own device: {report['classical_on_device']['energy']['summary']} and "
             f"{report['classical_on_device']['trajopt']['summary']}.\n\n"
-            f"{trials_markdown(report)}"
+            f"{trials_markdown(report)}{candidates_markdown(report)}"
             f"Deploy: {report['recommended'] or 'none of them solved this rig'}.\n\n"
             "![recorded and simulated swings](identification.png)\n")

@@ -318,6 +318,10 @@ def policies_build(names: tuple[str, ...]) -> None:
               help="The shipped policy to start from (an observer it reads stays as it was trained: designed for "
                    "the identified rig for td3-robust, for the nominal rig for r-td3-robust); a learner's name "
                    "(e.g. td3+estimated) trains afresh until the rule holds on the identified twin.")
+@click.option("--candidate", "candidates", multiple=True,
+              help="A further shipped policy to start from (repeatable): each, and --policy, as shipped and after "
+                   "the twin's training, is judged on the identified twin by the kit's rule, and the one that holds "
+                   "most goes to the rig.")
 @click.option("--device-trials/--no-device-trials", default=False, show_default=True,
               help="Try the device's designs for five servo loops on the rig first (3.5 minutes of its time); "
                    "without: the identified twin's minimum-time design, which did as well (docs/results/transfer.md).")
@@ -330,8 +334,8 @@ def policies_build(names: tuple[str, ...]) -> None:
 @click.option("--seed", type=int, default=0, show_default=True)
 @broker_login_options
 def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, twin_episodes, twin_tolerance,
-          evaluation_episodes, policy_name, device_trials, loop_episodes, restarts, seed, username, password,
-          tls_ca) -> None:
+          evaluation_episodes, policy_name, candidates, device_trials, loop_episodes, restarts, seed, username,
+          password, tls_ca) -> None:
     """Fit the kit to one rig in a few of its episodes: excite it, identify its twin from the encoder, design
     the device's swing-up for it, train on that twin, fine-tune on the rig; report every route."""
     _torch_or_exit()
@@ -351,6 +355,7 @@ def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, t
         config = AdaptConfig(episodes=episodes, excitation_episodes=min(6, episodes), twin_episodes=twin_episodes,
                              twin_tolerance=twin_tolerance or None,
                              evaluation_episodes=evaluation_episodes, policy=policy_name,
+                             candidates=tuple(candidates),
                              device_trials=device_trials, identification_restarts=restarts, seed=seed,
                              **({} if loop_episodes is None else {"loop_episodes": loop_episodes}))
         report = run_adaptation(rig, out_dir, config, say=click.echo)

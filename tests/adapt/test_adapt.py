@@ -322,3 +322,27 @@ def test_a_learner_afresh_trains_on_the_identified_twin_until_the_rule_holds_the
     assert run.observer_params == fit.params and "afresh" in said[0]
     saved = load_data(tmp_path / "policy.pt")
     assert saved["notes"]["twin_episodes"] == 1 and saved["spec"]["observer"] == "rig"
+
+
+def test_of_several_starting_policies_the_one_that_holds_on_the_identified_twin_goes_to_the_rig(tmp_path):
+    """Judged by the kit's rule on the identified twin (here the default rig, exactly): dqn-ideal, trained
+    on a twin without delays, loses it; td3-realistic holds it and is chosen though named second."""
+    from pendkit.adapt.identify import Identification
+    from pendkit.adapt.routes import choose_on_twin
+    from pendkit.adapt.session import AdaptConfig, candidates_markdown
+    from pendkit.agents.data_files import load_data
+    from pendkit.agents.pretrained import policy_weights
+
+    fit = Identification(RigParams(), 10.0, 0.01, 0.1, 10, 1.0)
+    config = AdaptConfig(policy="dqn-ideal", candidates=("td3-realistic",), twin_episodes=0)
+    said = []
+    run, rows = choose_on_twin(fit, config, tmp_path / "policy.pt", said.append)
+    held = {row["policy"]: row["held"] for row in rows}
+    assert [row["stage"] for row in rows] == ["as shipped", "as shipped"] and all(r["episodes"] == 10 for r in rows)
+    assert held["td3-realistic"] >= 9 > held["dqn-ideal"], rows
+    assert run.spec.learner == policy_weights("td3-realistic")[0].learner and "td3-realistic" in said[-1]
+    saved = load_data(tmp_path / "policy.pt")
+    assert saved["notes"]["chosen_on_twin"] == "td3-realistic as shipped"
+    assert "| td3-realistic | as shipped |" in candidates_markdown({"candidates_on_twin": rows})
+    with pytest.raises(ConfigError, match="not a shipped policy"):
+        choose_on_twin(fit, AdaptConfig(candidates=("td3+estimated",)), tmp_path / "p.pt", said.append)
