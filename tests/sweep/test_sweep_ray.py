@@ -1,6 +1,7 @@
-"""`pendkit sweep` through Ray on this machine: the smoke spec, a killed sweep resumed, and a two-node cluster
-(`ray start --head` and a second `ray start --address`) whose trials land on both nodes. One file: the
-tests run one after another on one worker, so their Ray instances never meet."""
+"""`pendkit sweep` through Ray on this machine: a killed sweep resumed on the local Ray the sweep starts, and
+the smoke spec on a two-node cluster (`ray start --head` and a second `ray start --address`) whose trials
+land on both nodes, then reported. One file: the tests run one after another on one worker, so their Ray
+instances never meet; each Ray start costs about 18 s of CPU, so no test starts one it does not need."""
 
 import json
 import os
@@ -28,29 +29,6 @@ def pendkit(*args, env=None, timeout=300) -> subprocess.CompletedProcess:
 
 def rows(out: Path) -> dict[str, dict]:
     return {p.parent.name: json.loads(p.read_text()) for p in (out / "trials").glob("*/result.json")}
-
-
-def test_the_smoke_spec_runs_through_ray_and_reports_a_line_per_trial(tmp_path):
-    out = tmp_path / "smoke"
-    run = pendkit("sweep", str(SMOKE), "--out", str(out))
-    assert run.returncode == 0, run.stdout + run.stderr
-    assert "Ray up in" in run.stdout and "1 node(s)" in run.stdout
-    finished = rows(out)
-    assert sorted(finished) == ["dqn--ideal--seed0", "dqn--ideal--seed1"]
-    for row in finished.values():
-        assert row["episodes"] == 4 and row["solved"] is False and row["node_id"]
-        curve = (out / row["curve"]).read_text().splitlines()
-        assert curve[0] == "episode,return" and len(curve) == 1 + 4
-    report = pendkit("sweep", "report", str(out))
-    assert report.returncode == 0, report.stderr
-    trial_lines = [line for line in report.stdout.splitlines() if line.startswith("trial=")]
-    assert len(trial_lines) == 2 and all("solved=False" in line for line in trial_lines)
-    assert "algo=dqn fidelity=ideal solved=0/2" in report.stdout
-    table = (out / "table.csv").read_text().splitlines()
-    assert table[0].startswith("trial_id,learner,setting_name,seed,solved") and len(table) == 3
-    assert (out / "summary.png").stat().st_size > 1000
-    again = pendkit("sweep", str(SMOKE), "--out", str(out))
-    assert again.returncode != 0 and "--resume" in again.stderr  # never overwrites a sweep by accident
 
 
 def _spec(path: Path, max_episodes: int) -> Path:
@@ -81,6 +59,7 @@ def test_a_killed_sweep_resumes_without_redoing_finished_trials(tmp_path):
     resumed = pendkit("sweep", str(spec), "--out", str(out), "--resume")
     assert resumed.returncode == 0, resumed.stdout + resumed.stderr
     assert "1 of 2 trials already finished" in resumed.stdout
+    assert "Ray up in" in resumed.stdout and "1 node(s)" in resumed.stdout  # a local Ray, started by the sweep
     assert (first / "result.json").read_text() == finished_before
     assert (first / "result.json").stat().st_mtime_ns == stamp
     row = json.loads((second / "result.json").read_text())
@@ -114,11 +93,27 @@ def two_node_cluster():
         subprocess.run([RAY, "stop", "--force"], capture_output=True, env=env)
 
 
-def test_a_two_node_cluster_runs_trials_on_both_nodes(two_node_cluster, tmp_path):
+def test_the_smoke_spec_runs_on_a_two_node_cluster_with_trials_on_both_and_reports_a_line_per_trial(
+        two_node_cluster, tmp_path):
     address, env = two_node_cluster
-    out = tmp_path / "cluster"
+    out = tmp_path / "smoke"
     run = pendkit("sweep", str(SMOKE), "--out", str(out), "--address", address, env=env)
     assert run.returncode == 0, run.stdout + run.stderr
-    assert "2 node(s), 2 CPUs" in run.stdout
-    nodes = {row["node_id"] for row in rows(out).values()}
-    assert len(nodes) == 2, f"both trials ran on {nodes}"
+    assert "Ray up in" in run.stdout and "2 node(s), 2 CPUs" in run.stdout
+    finished = rows(out)
+    assert sorted(finished) == ["dqn--ideal--seed0", "dqn--ideal--seed1"]
+    assert len({row["node_id"] for row in finished.values()}) == 2, f"both trials ran on one node: {finished}"
+    for row in finished.values():
+        assert row["episodes"] == 4 and row["solved"] is False
+        curve = (out / row["curve"]).read_text().splitlines()
+        assert curve[0] == "episode,return" and len(curve) == 1 + 4
+    report = pendkit("sweep", "report", str(out))
+    assert report.returncode == 0, report.stderr
+    trial_lines = [line for line in report.stdout.splitlines() if line.startswith("trial=")]
+    assert len(trial_lines) == 2 and all("solved=False" in line for line in trial_lines)
+    assert "algo=dqn fidelity=ideal solved=0/2" in report.stdout
+    table = (out / "table.csv").read_text().splitlines()
+    assert table[0].startswith("trial_id,learner,setting_name,seed,solved") and len(table) == 3
+    assert (out / "summary.png").stat().st_size > 1000
+    again = pendkit("sweep", str(SMOKE), "--out", str(out), "--address", address, env=env)
+    assert again.returncode != 0 and "--resume" in again.stderr  # never overwrites a sweep by accident
