@@ -156,9 +156,8 @@ def choose_on_twin(identification: Identification, config, weights_path: Path, s
             if episodes:
                 train_sync(env, agent, episodes, inputs, seed=config.seed, progress=False)
             verdict = judge_policy(judge, agent, inputs, seed=REPORT_SEED)
-            returns = verdict.evaluation.returns
             judged.append({"policy": name, "stage": stage, "held": verdict.held, "episodes": len(verdict.starts),
-                           "mean_return": sum(returns) / len(returns), "spec": spec, "observer": observer,
+                           "mean_return": verdict.evaluation.mean_return, "spec": spec, "observer": observer,
                            "state": copy.deepcopy(agent.state_dict())})
             say(f"(c) {name} {stage} on the identified twin: {verdict.summary()}")
         env.close()
