@@ -170,7 +170,8 @@ def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy
     with the excitation's rig time alone, no fine-tuning on the rig), or "chosen" (the excitation alone; the
     policy and each of `candidates`, as shipped and trained on the twin, judged there; the best to the rig);
     `policy`: the shipped policy the first two start from (default: AdaptConfig's); `loop_episodes`: the
-    excitation's episodes of small steps (default: AdaptConfig's)."""
+    excitation's episodes of small steps (default: AdaptConfig's). A variant ending in "+network" runs the
+    identified twin behind the network the excitation logs show (`AdaptConfig.measured_network`)."""
     import torch
 
     torch.set_num_threads(1)
@@ -187,9 +188,11 @@ def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy
     changes = {"full": start, "identification-only": excitation_only,
                "no-training": {**excitation_only, "twin_episodes": 0},
                "chosen": {**excitation_only, "candidates": tuple(candidates)}}
-    learner_name, _, budget = variant.partition("@")  # "LEARNER@excitation": afresh, no fine-tuning on the rig
+    base, measured = variant.removesuffix("+network"), variant.endswith("+network")  # the twin behind the logs' network
+    learner_name, _, budget = base.partition("@")  # "LEARNER@excitation": afresh, no fine-tuning on the rig
     afresh = {"twin_episodes": 300, **(excitation_only if budget == "excitation" else {}), "policy": learner_name}
-    config = AdaptConfig(seed=seed, evaluation_episodes=EVALUATION_EPISODES, **changes.get(variant, afresh))
+    config = AdaptConfig(seed=seed, evaluation_episodes=EVALUATION_EPISODES, measured_network=measured,
+                         **changes.get(base, afresh))
     report = adapt(twin_rig(rig.params, rig.network, rig.residual_offset_counts), out, config, say=lambda _: None)
     found, true = report["identified"], rig.params
     speed = found["servo_speed_s_per_60deg"] / true.servo_speed_s_per_60deg - 1
@@ -268,6 +271,7 @@ def main() -> None:
                         help="adapt's variant chosen: further shipped policies judged on the identified twin.")
     parser.add_argument("--network", choices=["rig", "none"], default="rig",
                         help="zero-shot: each rig's own network, or none (the conditions on the rig's device)")
+    parser.add_argument("--only", nargs="+", default=None, help="adapt: only these of the hidden rigs (hidden-05 ...)")
     parser.add_argument("--loop-episodes", type=int, default=None,
                         help="Excitation episodes of small steps that show the servo's loop (default: adapt's).")
     args = parser.parse_args()
@@ -280,7 +284,7 @@ def main() -> None:
     if args.mode == "device":
         device_on_true_parameters(args.rigs)
         return
-    rigs = adapt_rigs(args.rigs)
+    rigs = [(name, rig) for name, rig in adapt_rigs(args.rigs) if args.only is None or name in args.only]
     variants = args.variants or (["full"] if args.mode == "adapt" else ["identification-only", "full", "dqn+estimated"])
     out_root = args.out or tempfile.mkdtemp(prefix="bench-transfer-")
     if args.mode == "ablations" or "randomisation-only" in variants:

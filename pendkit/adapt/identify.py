@@ -67,6 +67,8 @@ class Identification:
     evaluations: int
     seconds: float
     pwm_phase_ms: float | None = None  # matched on the device's clock (None: on the host's steps)
+    # the rig's network as the recordings showed it (pendkit.adapt.network_fit); None: a fixed latency, no loss
+    network: NetworkImpairment | None = None
 
     def values(self) -> dict[str, float]:
         return rig_values(self.params, self.latency_ms)

@@ -29,21 +29,23 @@ class DeviceTrace:
     is the one the episode started from, at rest), the pendulum's calibrated angle (rad from hanging,
     unwrapped) and the servo counts applied;
     `loops_ms`: for each change of the target, the time from its send to the first reading that shows it
-    (the host's clock; empty when the changes cannot be told apart)."""
+    (the host's clock; empty when the changes cannot be told apart); `host_ms`: when each reading arrived
+    (the host's clock, ms; empty in recordings made before it was kept)."""
 
     ms: tuple[float, ...]
     pendulum_rad: tuple[float, ...]
     servo_counts: tuple[int, ...]
     loops_ms: tuple[float, ...] = ()
+    host_ms: tuple[float, ...] = ()
 
     def as_dict(self) -> dict:
         return {"ms": list(self.ms), "pendulum_rad": list(self.pendulum_rad), "servo_counts": list(self.servo_counts),
-                "loops_ms": list(self.loops_ms)}
+                "loops_ms": list(self.loops_ms), "host_ms": list(self.host_ms)}
 
     @classmethod
     def from_dict(cls, record: dict) -> DeviceTrace:
         return cls(tuple(record["ms"]), tuple(record["pendulum_rad"]), tuple(int(c) for c in record["servo_counts"]),
-                   tuple(record["loops_ms"]))
+                   tuple(record["loops_ms"]), tuple(record.get("host_ms", ())))
 
     def changes(self) -> list[tuple[float, int]]:
         """(ms, counts) of each change of the servo target, placed midway between the readings around it."""
@@ -66,7 +68,8 @@ def trace_from_log(records: list[LogRecord], start: int, encoder_counts: int = 1
         return None
     angles = np.unwrap(positions * (2 * np.pi / encoder_counts))
     return DeviceTrace(tuple(float(m) for m in millis[kept]), tuple(float(a) for a in angles),
-                       tuple(int(c) for c in counts), loops_ms(targets_sent(records, start), host_s, counts))
+                       tuple(int(c) for c in counts), loops_ms(targets_sent(records, start), host_s, counts),
+                       tuple(float(t * 1000) for t in host_s))
 
 
 def targets_sent(records: list[LogRecord], start: int) -> list[tuple[float, float]]:

@@ -19,10 +19,11 @@ from pendkit.sim.fidelity import FIDELITY_PRESETS
 
 
 def identified_twin(identification: Identification, **env_kwargs):
-    """The realistic twin of the identified rig (its latency as a fixed floor, no loss)."""
+    """The realistic twin of the identified rig behind the network measured with it, or else its latency as
+    a fixed floor, no loss."""
     import pendkit
 
-    network = NetworkImpairment(LatencyModel(floor_ms=identification.latency_ms))
+    network = identification.network or NetworkImpairment(LatencyModel(floor_ms=identification.latency_ms))
     fidelity = FIDELITY_PRESETS["realistic"].replace(name="identified", network=network)
     return pendkit.make(fidelity=fidelity, params=identification.params, **env_kwargs)
 

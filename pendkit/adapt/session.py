@@ -25,6 +25,7 @@ import numpy as np
 
 from pendkit.adapt.excitation import EXCITATION_STREAM, Excitation, record, rest_offset_counts, schedule
 from pendkit.adapt.identify import PRIOR_LATENCY_MS, Identification, identify_best, refine_servo, rig_values
+from pendkit.adapt.network_fit import described, measured_network
 from pendkit.adapt.plots import plot_identification
 from pendkit.adapt.routes import (
     choose_on_twin,
@@ -88,6 +89,9 @@ class AdaptConfig:
     # further shipped policies to start from: each, and `policy`, as shipped and after the twin's training, judged
     # on the identified twin by the kit's rule; the one that holds most goes to the rig (routes.choose_on_twin)
     candidates: tuple[str, ...] = ()
+    # the twin behind the network the excitation logs show (delays and losses: pendkit.adapt.network_fit) rather
+    # than a fixed latency (and, for the twin's training, networks from the class's ranges)
+    measured_network: bool = False
     identification_evaluations: int = 1200
     identification_restarts: int = 3  # from the same recordings; the best match is kept (docs/results/transfer.md)
     refinement_evaluations: int = 300  # the servo refined over the loop episodes too, when there are any
@@ -134,6 +138,8 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
         report["servo_refined"] = {"loop_episodes": len(recordings) - len(jumps),
                                    "before": rig_values(before.params, before.latency_ms)}
     identification = recalibrated(rig, recordings, identification, report, say)
+    if config.measured_network:
+        identification = with_measured_network(identification, recordings, report, say)
     identification.params.save(out / "rig.json")
     report["identified"] = identification.values()
     report["prior"] = rig_values(prior, PRIOR_LATENCY_MS)
@@ -181,6 +187,15 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     (out / "report.json").write_text(json.dumps(report, indent=1, default=float))
     (out / "report.md").write_text(report_markdown(report))
     return report
+
+
+def with_measured_network(identification: Identification, recordings, report: dict,
+                          say: Callable[[str], None]) -> Identification:
+    """The identification with the network its recordings show (unchanged when they do not carry both clocks)."""
+    network = measured_network(recordings, identification.latency_ms)
+    report["network"] = described(network) if network is not None else "not measured: no device clock"
+    say(f"(b) the rig's network, from the excitation logs: {report['network']}")
+    return identification if network is None else dataclasses.replace(identification, network=network)
 
 
 def recalibrated(rig: Rig, recordings, identification: Identification, report: dict,
@@ -297,6 +312,10 @@ def _allowed(row: dict | None) -> str:
     return "-" if row is None else f"{row['low']:.4g} .. {row['high']:.4g}"
 
 
+def network_markdown(report: dict) -> str:
+    return f" The twin ran behind the network the logs show: {report['network']}." if "network" in report else ""
+
+
 def report_markdown(report: dict) -> str:
     uncertain = report.get("uncertain", {})
     rows = "\n".join(f"| {name} | {report['prior'].get(name, float('nan')):.4g} | {value:.4g} | "
@@ -310,7 +329,8 @@ def report_markdown(report: dict) -> str:
             f"Matching cost (mean squared angle error, rad^2): prior {report['matching_cost']['prior']:.4f}, "
             f"identified {report['matching_cost']['identified']:.4f}. Encoder: the hanging pendulum read "
             f"{report.get('encoder_recalibrated_counts', 0):+d} counts"
-            f"{'' if not report.get('encoder_recalibrated_counts') else '; its zero was moved by as much'}.\n\n"
+            f"{'' if not report.get('encoder_recalibrated_counts') else '; its zero was moved by as much'}."
+            f"{network_markdown(report)}\n\n"
             f"On the rig: the adapted policy {report['policy_on_rig']['summary']}; designed on the identified twin, "
             f"energy swing-up + LQR {report['classical_on_rig']['energy']['summary']}, minimum-time swing-up "
             f"{report['classical_on_rig']['trajopt']['summary']} (run from the laptop); the same designs run by the "

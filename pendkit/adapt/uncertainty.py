@@ -93,7 +93,8 @@ def spread_table(fit: Identification, spread: dict[str, Interval]) -> dict[str, 
 
 class AroundTheFit(gym.Wrapper):
     """Before every reset, a rig drawn from `spread` about `fit` (log-uniformly; latency uniformly, as the
-    network's floor) behind a network from the kit's training ranges. A policy reading the observer's
+    network's floor) behind a network from the kit's training ranges, or behind the network measured with the
+    recordings when the fit has one (`Identification.network`). A policy reading the observer's
     estimate keeps its observer designed for `observer_params` (default the fit: what the laptop knows of the
     rig)."""
 
@@ -119,6 +120,8 @@ class AroundTheFit(gym.Wrapper):
                 low, high = self.spread[name]
                 params = with_field(params, name, math.exp(self.rng.uniform(math.log(low), math.log(high))))
         floor_ms = float(self.rng.uniform(*self.spread.get("latency_ms", (self.fit.latency_ms,) * 2)))
+        if self.fit.network is not None:  # measured with the recordings: the rig's own, not the class's ranges
+            return params, self.fit.network
         ranges = TRAINING_RANGES
         latency = LatencyModel(floor_ms=floor_ms, median_ms=float(self.rng.uniform(*ranges.latency_median_ms)),
                                spread=float(self.rng.uniform(*ranges.latency_spread)))

@@ -322,6 +322,9 @@ def policies_build(names: tuple[str, ...]) -> None:
               help="A further shipped policy to start from (repeatable): each, and --policy, as shipped and after "
                    "the twin's training, is judged on the identified twin by the kit's rule, and the one that holds "
                    "most goes to the rig.")
+@click.option("--measured-network/--fixed-latency", default=False, show_default=True,
+              help="Run the identified twin behind the network the excitation logs show (the readings' delays "
+                   "and losses) rather than a fixed latency with no loss.")
 @click.option("--device-trials/--no-device-trials", default=False, show_default=True,
               help="Try the device's designs for five servo loops on the rig first (3.5 minutes of its time); "
                    "without: the identified twin's minimum-time design, which did as well (docs/results/transfer.md).")
@@ -334,8 +337,8 @@ def policies_build(names: tuple[str, ...]) -> None:
 @click.option("--seed", type=int, default=0, show_default=True)
 @broker_login_options
 def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, twin_episodes, twin_tolerance,
-          evaluation_episodes, policy_name, candidates, device_trials, loop_episodes, restarts, seed, username,
-          password, tls_ca) -> None:
+          evaluation_episodes, policy_name, candidates, measured_network, device_trials, loop_episodes, restarts, seed,
+          username, password, tls_ca) -> None:
     """Fit the kit to one rig in a few of its episodes: excite it, identify its twin from the encoder, design
     the device's swing-up for it, train on that twin, fine-tune on the rig; report every route."""
     _torch_or_exit()
@@ -355,7 +358,7 @@ def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, t
         config = AdaptConfig(episodes=episodes, excitation_episodes=min(6, episodes), twin_episodes=twin_episodes,
                              twin_tolerance=twin_tolerance or None,
                              evaluation_episodes=evaluation_episodes, policy=policy_name,
-                             candidates=tuple(candidates),
+                             candidates=tuple(candidates), measured_network=measured_network,
                              device_trials=device_trials, identification_restarts=restarts, seed=seed,
                              **({} if loop_episodes is None else {"loop_episodes": loop_episodes}))
         report = run_adaptation(rig, out_dir, config, say=click.echo)

@@ -92,9 +92,11 @@ def test_free_swings_read_a_shorter_pendulums_higher_frequency():
     assert ratio == pytest.approx(expected, rel=0.05)
 
 
-@pytest.mark.parametrize("loop_episodes, policy", [(None, "r-dqn-realistic"), (1, "r-dqn-levels-realistic")],
-                         ids=["default", "loop-episode-and-target-levels"])
-def test_an_adaptation_session_writes_rig_policy_and_report_within_its_rig_time(tmp_path, loop_episodes, policy):
+@pytest.mark.parametrize("loop_episodes, policy, measured", [(None, "r-dqn-realistic", False),
+                                                              (1, "r-dqn-levels-realistic", True)],
+                         ids=["default", "loop-episode-target-levels-and-measured-network"])
+def test_an_adaptation_session_writes_rig_policy_and_report_within_its_rig_time(tmp_path, loop_episodes, policy,
+                                                                                 measured):
     pytest.importorskip("torch")
     from pendkit.adapt.session import AdaptConfig, adapt
     from pendkit.deploy.swingup_design import design_swing_up
@@ -103,7 +105,7 @@ def test_an_adaptation_session_writes_rig_policy_and_report_within_its_rig_time(
     rig = twin_rig(HIDDEN, "none")
     looped = {} if loop_episodes is None else {"loop_episodes": loop_episodes, "refinement_evaluations": 12}
     config = AdaptConfig(episodes=2, excitation_episodes=2, twin_episodes=1, evaluation_episodes=1,
-                         policy=policy, identification_evaluations=30, **looped)
+                         policy=policy, identification_evaluations=30, measured_network=measured, **looped)
     report = adapt(rig, tmp_path, config, say=lambda text: None)
     identified = RigParams.load(tmp_path / "rig.json")
     assert identified != RigParams()  # something was identified
@@ -133,6 +135,9 @@ def test_an_adaptation_session_writes_rig_policy_and_report_within_its_rig_time(
     assert all(row["low"] < row["fit"] < row["high"] for name, row in saved["uncertain"].items()
                if name != "latency_ms")
     assert "the recordings allow" in text
+    # asked for, the twin ran behind the network the excitation logs show (this rig's: a clean link)
+    assert ("network" in saved) == measured and ("network the logs show" in text) == measured
+    assert not measured or "0.0% lost" in saved["network"]
     # with loop episodes the servo is refined over them too, and the report says from what to what
     assert ("servo_refined" in saved) == bool(config.loop_episodes)
     if config.loop_episodes:
