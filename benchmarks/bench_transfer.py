@@ -168,7 +168,8 @@ def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy
     policy's weights as shipped: a bank-trained policy's bank joined by the identified rig) or a learner
     trained afresh until the rule holds on the identified twin (at most 300 episodes; "LEARNER@excitation":
     with the excitation's rig time alone, no fine-tuning on the rig), or "chosen" (the excitation alone; the
-    policy and each of `candidates`, as shipped and trained on the twin, judged there; the best to the rig);
+    policy and each of `candidates`, as shipped and trained on the twin, judged there; the best to the rig;
+    "chosen-full": the same, then fine-tuned on the rig in the rest of the budget);
     `policy`: the shipped policy the first two start from (default: AdaptConfig's); `loop_episodes`: the
     excitation's episodes of small steps (default: AdaptConfig's). A variant ending in "+network" runs the
     identified twin behind the network the excitation logs show (`AdaptConfig.measured_network`)."""
@@ -187,7 +188,8 @@ def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy
     excitation_only = {"episodes": AdaptConfig().excitation_episodes, **start}
     changes = {"full": start, "identification-only": excitation_only,
                "no-training": {**excitation_only, "twin_episodes": 0},
-               "chosen": {**excitation_only, "candidates": tuple(candidates)}}
+               "chosen": {**excitation_only, "candidates": tuple(candidates)},
+               "chosen-full": {**start, "candidates": tuple(candidates)}}
     base, measured = variant.removesuffix("+network"), variant.endswith("+network")  # the twin behind the logs' network
     learner_name, _, budget = base.partition("@")  # "LEARNER@excitation": afresh, no fine-tuning on the rig
     afresh = {"twin_episodes": 300, **(excitation_only if budget == "excitation" else {}), "policy": learner_name}
@@ -265,8 +267,9 @@ def main() -> None:
     parser.add_argument("--out", default=None, help="Where the adaptations write (default: a temporary folder).")
     parser.add_argument("--policy", default=None, help="The shipped policy adaptation starts from.")
     parser.add_argument("--variants", nargs="+", default=None,
-                        help="adapt's variants to run (full, identification-only, no-training, chosen, "
-                             "randomisation-only, a learner afresh); default by mode")
+                        help="adapt's variants to run (full, identification-only, no-training, chosen, chosen-full, "
+                             "randomisation-only, a learner afresh; +network: the twin behind the logs' network); "
+                             "default by mode")
     parser.add_argument("--candidates", nargs="*", default=["r-td3-bank-robust"],
                         help="adapt's variant chosen: further shipped policies judged on the identified twin.")
     parser.add_argument("--network", choices=["rig", "none"], default="rig",
