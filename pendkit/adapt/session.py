@@ -193,9 +193,12 @@ def with_measured_network(identification: Identification, recordings, report: di
                           say: Callable[[str], None]) -> Identification:
     """The identification with the network its recordings show (unchanged when they do not carry both clocks)."""
     network = measured_network(recordings, identification.latency_ms)
-    report["network"] = described(network) if network is not None else "not measured: no device clock"
+    if network is None:
+        say("(b) the rig's network was not measured: the recordings carry no device clock (a fixed latency instead)")
+        return identification
+    report["network"] = described(network)
     say(f"(b) the rig's network, from the excitation logs: {report['network']}")
-    return identification if network is None else dataclasses.replace(identification, network=network)
+    return dataclasses.replace(identification, network=network)
 
 
 def recalibrated(rig: Rig, recordings, identification: Identification, report: dict,

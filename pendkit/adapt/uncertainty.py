@@ -120,7 +120,9 @@ class AroundTheFit(gym.Wrapper):
                 low, high = self.spread[name]
                 params = with_field(params, name, math.exp(self.rng.uniform(math.log(low), math.log(high))))
         floor_ms = float(self.rng.uniform(*self.spread.get("latency_ms", (self.fit.latency_ms,) * 2)))
-        if self.fit.network is not None:  # measured with the recordings: the rig's own, not the class's ranges
+        # measured with the recordings: the rig's own, not the class's ranges (the floor drawn above all the same,
+        # so that the rigs drawn are those drawn without it)
+        if self.fit.network is not None:
             return params, self.fit.network
         ranges = TRAINING_RANGES
         latency = LatencyModel(floor_ms=floor_ms, median_ms=float(self.rng.uniform(*ranges.latency_median_ms)),
