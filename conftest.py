@@ -54,12 +54,11 @@ _kernels_on_unix_sockets()
 
 @pytest.hookimpl(optionalhook=True)
 def pytest_xdist_auto_num_workers(config):
-    """`-n auto`: two workers more than the cores (they wait on real time), at most 6 (memory: a worker with
-    torch, MuJoCo and a notebook kernel holds about 1 GB). On an idle 2-core machine (2026-11-27) one more
-    than the cores left the cores idle 138 s of the run's 429 s (the real-time labs, Ray, brokers); two more
-    took the run to 408-410 s with 57-59 s idle. Three more starved the virtual rigs of the notebooks under
-    load (two readings 0.5-0.7 s late in two CI runs beside a training)."""
-    return min(6, (os.cpu_count() or 1) + 2)
+    """`-n auto`: a worker more than the cores (they wait on real time), at most 6 (memory: a worker with
+    torch, MuJoCo and a notebook kernel holds about 1 GB). Three more than the cores were faster on an idle
+    2-core machine (436 s against 478 s) but starved the virtual rigs of the notebooks under load (two
+    readings 0.5-0.7 s late in two CI runs beside a training), so the suite keeps one more."""
+    return min(6, (os.cpu_count() or 1) + 1)
 
 
 def pytest_collection_modifyitems(config, items):
