@@ -164,8 +164,10 @@ def adapt_rigs(count: int):
 
 def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy: str | None = None,
               loop_episodes: int | None = None, candidates: tuple[str, ...] = ()) -> str:
-    """One adaptation of one rig; `variant` is "full", "identification-only", "no-training" (identified, the
-    policy's weights as shipped: a bank-trained policy's bank joined by the identified rig) or a learner
+    """One adaptation of one rig; `variant` is "default" (`pendkit adapt` as shipped), "full" (one policy, the
+    10-episode budget, a fixed-latency twin: the route as first measured), "identification-only",
+    "no-training" (identified, the policy's weights as shipped: a bank-trained policy's bank joined by the
+    identified rig) or a learner
     trained afresh until the rule holds on the identified twin (at most 300 episodes; "LEARNER@excitation":
     with the excitation's rig time alone, no fine-tuning on the rig), or "chosen" (the excitation alone; the
     policy and each of `candidates`, as shipped and trained on the twin, judged there; the best to the rig;
@@ -182,19 +184,24 @@ def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy
     out = Path(out_root) / f"{rig_name}-{variant}-s{seed}"
     out.mkdir(parents=True, exist_ok=True)
     rig.params.save(out / "hidden-rig.json")
-    start = {"policy": policy} if policy else {}
+    chosen = {"policy": policy} if policy else {}
     if loop_episodes is not None:
-        start["loop_episodes"] = loop_episodes
-    excitation_only = {"episodes": AdaptConfig().excitation_episodes, **start}
+        chosen["loop_episodes"] = loop_episodes
+    # the variants as first measured: one starting policy, the full 10-episode budget, a fixed-latency twin
+    start = {"episodes": 10, "candidates": (), **chosen}
+    excitation_only = {**start, "episodes": AdaptConfig().excitation_episodes}
     changes = {"full": start, "identification-only": excitation_only,
                "no-training": {**excitation_only, "twin_episodes": 0},
                "chosen": {**excitation_only, "candidates": tuple(candidates)},
                "chosen-full": {**start, "candidates": tuple(candidates)}}
     base, measured = variant.removesuffix("+network"), variant.endswith("+network")  # the twin behind the logs' network
     learner_name, _, budget = base.partition("@")  # "LEARNER@excitation": afresh, no fine-tuning on the rig
-    afresh = {"twin_episodes": 300, **(excitation_only if budget == "excitation" else {}), "policy": learner_name}
-    config = AdaptConfig(seed=seed, evaluation_episodes=EVALUATION_EPISODES, measured_network=measured,
-                         **changes.get(base, afresh))
+    afresh = {**(excitation_only if budget == "excitation" else start), "twin_episodes": 300, "policy": learner_name}
+    if base == "default":  # pendkit adapt as it is shipped, --policy aside
+        config = AdaptConfig(seed=seed, evaluation_episodes=EVALUATION_EPISODES, **chosen)
+    else:
+        config = AdaptConfig(seed=seed, evaluation_episodes=EVALUATION_EPISODES, measured_network=measured,
+                             **changes.get(base, afresh))
     report = adapt(twin_rig(rig.params, rig.network, rig.residual_offset_counts), out, config, say=lambda _: None)
     found, true = report["identified"], rig.params
     speed = found["servo_speed_s_per_60deg"] / true.servo_speed_s_per_60deg - 1
@@ -267,7 +274,8 @@ def main() -> None:
     parser.add_argument("--out", default=None, help="Where the adaptations write (default: a temporary folder).")
     parser.add_argument("--policy", default=None, help="The shipped policy adaptation starts from.")
     parser.add_argument("--variants", nargs="+", default=None,
-                        help="adapt's variants to run (full, identification-only, no-training, chosen, chosen-full, "
+                        help="adapt's variants to run (default: pendkit adapt's defaults; full, identification-only, "
+                             "no-training, chosen, chosen-full, "
                              "randomisation-only, a learner afresh; +network: the twin behind the logs' network); "
                              "default by mode")
     parser.add_argument("--candidates", nargs="*", default=["r-td3-bank-robust"],
@@ -288,7 +296,8 @@ def main() -> None:
         device_on_true_parameters(args.rigs)
         return
     rigs = [(name, rig) for name, rig in adapt_rigs(args.rigs) if args.only is None or name in args.only]
-    variants = args.variants or (["full"] if args.mode == "adapt" else ["identification-only", "full", "dqn+estimated"])
+    variants = args.variants or (["default"] if args.mode == "adapt"
+                                 else ["identification-only", "full", "dqn+estimated"])
     out_root = args.out or tempfile.mkdtemp(prefix="bench-transfer-")
     if args.mode == "ablations" or "randomisation-only" in variants:
         for rig_name, rig in rigs:

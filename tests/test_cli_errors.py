@@ -47,6 +47,7 @@ MORE_BAD = [
     (["sweep", "no-such-spec.yaml", "--out", "s"], "no sweep spec at"),
     (["sweep", "report", "not-a-run"], "not a sweep folder"),
     (["adapt", "--backend", "sim", "--out", "o", "--loop-episodes", "-1"], "not in the range"),
+    (["adapt", "--backend", "sim", "--out", "o", "--candidate", "r-td3-bank-robst"], "not a shipped policy"),
 ]
 
 

@@ -304,9 +304,10 @@ def policies_build(names: tuple[str, ...]) -> None:
 @click.option("--impairment", type=click.Choice(("none", "classroom-wifi", "poor-wifi")), default="classroom-wifi",
               show_default=True, help="With --backend sim: the hidden rig's network.")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), required=True)
-@click.option("--episodes", type=click.IntRange(1, 100), default=10, show_default=True,
+@click.option("--episodes", type=click.IntRange(1, 100), default=6, show_default=True,
               help="The rig's time adaptation may use, in episodes of 500 steps (30 s each: 10 is 5 minutes): "
-                   "excitation, device trials if asked for, fine-tuning in the whole episodes left.")
+                   "excitation (6 short ones, 160 s), device trials if asked for, fine-tuning in the whole episodes "
+                   "left (none by default: it lost rigs the twin's choice held, docs/results/robust.md).")
 @click.option("--twin-episodes", type=click.IntRange(0), default=60, show_default=True,
               help="Training episodes on the identified twin (laptop time).")
 @click.option("--twin-tolerance", type=click.FloatRange(0), default=1.0, show_default=True,
@@ -319,10 +320,11 @@ def policies_build(names: tuple[str, ...]) -> None:
                    "the identified rig for td3-robust, for the nominal rig for r-td3-robust); a learner's name "
                    "(e.g. td3+estimated) trains afresh until the rule holds on the identified twin.")
 @click.option("--candidate", "candidates", multiple=True,
-              help="A further shipped policy to start from (repeatable): each, and --policy, as shipped and after "
-                   "the twin's training, is judged on the identified twin by the kit's rule, and the one that holds "
-                   "most goes to the rig.")
-@click.option("--measured-network/--fixed-latency", default=False, show_default=True,
+              help="A further shipped policy to start from (repeatable; default r-td3-bank-robust; none: --policy "
+                   "alone): each, and --policy, "
+                   "as shipped and after the twin's training, is judged on the identified twin by the kit's rule, "
+                   "and the one that holds most goes to the rig.")
+@click.option("--measured-network/--fixed-latency", default=True, show_default=True,
               help="Run the identified twin behind the network the excitation logs show (the readings' delays "
                    "and losses) rather than a fixed latency with no loss.")
 @click.option("--device-trials/--no-device-trials", default=False, show_default=True,
@@ -348,25 +350,32 @@ def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, t
     from pendkit.errors import ConfigError
     from pendkit.rig import RigParams
 
-    try:
+    try:  # the settings checked before the rig is reached
+        config = AdaptConfig(episodes=episodes, excitation_episodes=min(6, episodes), twin_episodes=twin_episodes,
+                             twin_tolerance=twin_tolerance or None,
+                             evaluation_episodes=evaluation_episodes, policy=policy_name,
+                             candidates=chosen_candidates(candidates), measured_network=measured_network,
+                             device_trials=device_trials, identification_restarts=restarts, seed=seed,
+                             **({} if loop_episodes is None else {"loop_episodes": loop_episodes}))
         if backend == "sim":
             if params_path is None:
                 raise click.UsageError("--backend sim needs --params RIG.json (the hidden rig)")
             rig = twin_rig(RigParams.load(params_path), impairment)
         else:
             rig = mqtt_rig(rig_id, broker, login_from(username, password, tls_ca))
-        config = AdaptConfig(episodes=episodes, excitation_episodes=min(6, episodes), twin_episodes=twin_episodes,
-                             twin_tolerance=twin_tolerance or None,
-                             evaluation_episodes=evaluation_episodes, policy=policy_name,
-                             candidates=tuple(candidates), measured_network=measured_network,
-                             device_trials=device_trials, identification_restarts=restarts, seed=seed,
-                             **({} if loop_episodes is None else {"loop_episodes": loop_episodes}))
         report = run_adaptation(rig, out_dir, config, say=click.echo)
     except ConfigError as error:
         raise click.ClickException(str(error)) from None
     click.echo(f"rig time {report['rig_s_adaptation']:.0f} s to adapt, wall clock {report['wall_s_adaptation']:.0f} s; "
                f"report in {out_dir / 'report.md'}")
     click.echo(f"policy: {report['policy_on_rig']['summary']}")
+
+
+def chosen_candidates(given: tuple[str, ...]) -> tuple[str, ...]:
+    """--candidate as given ("none" for no candidate), or AdaptConfig's when it was not given."""
+    from pendkit.adapt.session import AdaptConfig
+
+    return tuple(name for name in given if name != "none") if given else AdaptConfig.candidates
 
 
 COMMANDS = (train, evaluate, plot, policies, adapt)

@@ -104,7 +104,7 @@ def test_an_adaptation_session_writes_rig_policy_and_report_within_its_rig_time(
 
     rig = twin_rig(HIDDEN, "none")
     looped = {} if loop_episodes is None else {"loop_episodes": loop_episodes, "refinement_evaluations": 12}
-    config = AdaptConfig(episodes=2, excitation_episodes=2, twin_episodes=1, evaluation_episodes=1,
+    config = AdaptConfig(episodes=2, excitation_episodes=2, twin_episodes=1, evaluation_episodes=1, candidates=(),
                          policy=policy, identification_evaluations=30, measured_network=measured, **looped)
     report = adapt(rig, tmp_path, config, say=lambda text: None)
     identified = RigParams.load(tmp_path / "rig.json")
