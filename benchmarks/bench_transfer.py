@@ -7,6 +7,7 @@
                                               [--loop-episodes 3]
     python benchmarks/bench_transfer.py ablations [--rigs 6] [--jobs 2]
     python benchmarks/bench_transfer.py device [--rigs 6]             # device designs on true parameters
+    python benchmarks/bench_transfer.py device-policy [--policy r-td3-bank-robust]  # a policy run on each device
 
 zero-shot: the shipped policies and the classical controllers (energy swing-up + LQR, minimum-time swing-up),
 all designed or trained without the rig, on the five servo presets and the 10 held-out rigs
@@ -77,6 +78,37 @@ def zero_shot(starts: int, only: str | None = None, network: str = "rig") -> Non
                                       for k, start in enumerate(starts_list)), Evaluation([], [], [], []))
             env.close()
         _report(controller + suffix, outcomes)
+
+
+def policy_on_device(starts: int, policy: str) -> None:
+    """`policy` exported as its rig's device blob (`pendkit.deploy.learned_blob`: a bank policy keeps its bank,
+    designed for the device's timing), uploaded to each preset's and held-out rig's device and run there from
+    rest and `starts` random starts (the laptop's episodes' seeds): no network between the readings and the
+    targets; heartbeats still cross the rig's own."""
+    from pendkit.agents.pretrained import policy_weights
+    from pendkit.agents.rig_suite import preset_rigs, random_rigs, rig_env
+    from pendkit.agents.runs import SOLVED_TAIL_STEPS, Evaluation, held_fraction
+    from pendkit.deploy.learned_blob import learned_policy_blob
+    from pendkit.deploy.on_twin import onboard_episode, upload_to_twin
+    from pendkit.device.controller_blob import pack
+    from pendkit.features import holds_upright, time_to_upright_s
+
+    spec, state = policy_weights(policy)
+    blob = pack(learned_policy_blob(spec, state))
+    outcomes = {}
+    for name, rig in {**preset_rigs(), **random_rigs()}.items():
+        env = rig_env(rig, action_mode="continuous")
+        upload_to_twin(env, blob)
+        step_s = rig.params.control_step_ms / 1000
+        outcome = Evaluation([], [], [], [])
+        for k, start in enumerate(["rest"] + ["random"] * starts):
+            angles = onboard_episode(env, seed=10_000 + k, start=start, steps=500)
+            outcome += Evaluation([holds_upright(angles, SOLVED_TAIL_STEPS)], [time_to_upright_s(angles, step_s)],
+                                  [0.0], [held_fraction(angles)])
+        env.close()
+        outcomes[name] = outcome
+        print(f"device-policy controller={policy} rig={name} {outcome.summary()}", flush=True)
+    _report(policy, outcomes, mode="device-policy")
 
 
 def without_network(rig):
@@ -217,7 +249,9 @@ def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy
             f"energy={classical['energy']['summary']} "
             f"trajopt={classical['trajopt']['summary']} device_energy={device['energy']['summary']} "
             f"device_trajopt={device['trajopt']['summary']} device_tried={device.get('tried', {}).get('summary', '-')} "
-            f"tried_design={_chosen(report)} on_twin={_on_twin(report)} policy: {report['policy_on_rig']['summary']}")
+            f"tried_design={_chosen(report)} on_twin={_on_twin(report)} "
+            f"policy_device={report['policy_on_device']['summary'].replace(' ', '_')} "
+            f"policy: {report['policy_on_rig']['summary']}")
 
 
 def _on_twin(report: dict) -> str:
@@ -265,7 +299,7 @@ def randomisation_only(rig_name: str, rig, policy: str | None = None) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("mode", choices=["zero-shot", "ceiling", "adapt", "ablations", "device"])
+    parser.add_argument("mode", choices=["zero-shot", "ceiling", "adapt", "ablations", "device", "device-policy"])
     parser.add_argument("--starts", type=int, default=5)
     parser.add_argument("--rigs", type=int, default=6)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0])
@@ -294,6 +328,9 @@ def main() -> None:
         return
     if args.mode == "device":
         device_on_true_parameters(args.rigs)
+        return
+    if args.mode == "device-policy":
+        policy_on_device(args.starts, args.policy or "r-td3-bank-robust")
         return
     rigs = [(name, rig) for name, rig in adapt_rigs(args.rigs) if args.only is None or name in args.only]
     variants = args.variants or (["default"] if args.mode == "adapt"

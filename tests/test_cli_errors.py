@@ -38,7 +38,7 @@ MORE_BAD = [
     (["grade", "class", "--hidden", "/nonexistent"], "not a folder of hidden tests"),
     (["eval", "not-a-run"], "no weights"),
     (["plot", "not-a-run"], "not a training run"),
-    (["export", "--policy", "dqn-ideal", "--out", "x.pkcb"], "R-DQN policies so far"),
+    (["export", "--policy", "dqn-ideal", "--out", "x.pkcb"], "the device runs r-dqn and r-td3+both policies"),
     (["virtual-rig", "--rig", "+"], "not a rig's name"),
     (["deploy", "--rig", "+", "--controller", "energy"], "not a rig's name"),
     (["export", "--controller", "energy", "--policy", "r-dqn-realistic", "--out", "x.pkcb"], "give one of"),

@@ -233,12 +233,11 @@ def classical_on_device(rig, identification: Identification, episodes: int, trie
     two already made (an untried `Design` on the identified parameters), not designed again."""
     if episodes == 0 or rig.run_on_device is None:
         return {name: {"summary": "not evaluated"} for name in CLASSICAL}
-    from pendkit.agents.runs import SOLVED_TAIL_STEPS
     from pendkit.deploy.swingup_design import design_swing_up
     from pendkit.device.controller_blob import pack
-    from pendkit.features import holds_upright, time_to_upright_s
 
     step_s = identification.params.control_step_ms / 1000
+
     def blob(name: str) -> bytes:
         if made is not None and made.controller == name and made.params == identification.params:
             return made.blob
@@ -247,15 +246,38 @@ def classical_on_device(rig, identification: Identification, episodes: int, trie
     blobs = {name: blob(name) for name in CLASSICAL}
     if tried is not None:
         blobs["tried"] = tried.blob
-    outcomes = {}
-    for name, blob in blobs.items():
-        runs = rig.run_on_device(blob, episodes)
-        outcome = Evaluation([], [], [], [])
-        for angles in runs:
-            outcome += Evaluation([holds_upright(angles, SOLVED_TAIL_STEPS)], [time_to_upright_s(angles, step_s)],
-                                  [0.0], [held_fraction(angles)])
-        outcomes[name] = _as_report(outcome)
-    return outcomes
+    return {name: _as_report(judged(rig.run_on_device(blob, episodes), step_s)) for name, blob in blobs.items()}
+
+
+def judged(runs: list[list[float]], step_s: float) -> Evaluation:
+    """Episodes run by a rig's device (each its angles from upright) judged as the laptop's are."""
+    from pendkit.agents.runs import SOLVED_TAIL_STEPS
+    from pendkit.features import holds_upright, time_to_upright_s
+
+    outcome = Evaluation([], [], [], [])
+    for angles in runs:
+        outcome += Evaluation([holds_upright(angles, SOLVED_TAIL_STEPS)], [time_to_upright_s(angles, step_s)],
+                              [0.0], [held_fraction(angles)])
+    return outcome
+
+
+def policy_on_device(rig, run: AgentRun, identification: Identification, episodes: int,
+                     blob_path: Path | None = None) -> dict:
+    """The adapted policy as the rig's device runs it (`pendkit.deploy.learned_blob`: its observers designed as
+    on the way to the rig, on the identified twin's delays for a single one, the device's for a bank),
+    uploaded and run from rest as the classical designs are there; written to `blob_path` for `pendkit deploy
+    --blob`. Not evaluated for a learner the device does not run."""
+    from pendkit.deploy.learned_blob import DEVICE_LEARNERS, learned_policy_blob
+    from pendkit.device.controller_blob import pack
+
+    if episodes == 0 or rig.run_on_device is None or run.spec.learner not in DEVICE_LEARNERS:
+        return {"summary": "not evaluated"}
+    twin = identified_twin(identification, **run.env_kwargs())
+    blob = pack(learned_policy_blob(run.spec, None, identification.params, run.observer_params, twin.unwrapped.timing,
+                                    run=(twin, run.agent, run.inputs)))
+    if blob_path is not None:
+        blob_path.write_bytes(blob)
+    return _as_report(judged(rig.run_on_device(blob, episodes), identification.params.control_step_ms / 1000))
 
 
 def classical_on_rig(rig, identification: Identification, episodes: int) -> dict:

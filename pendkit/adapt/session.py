@@ -32,6 +32,7 @@ from pendkit.adapt.routes import (
     classical_on_device,
     classical_on_rig,
     fine_tune_on_rig,
+    policy_on_device,
     train_on_twin,
 )
 from pendkit.adapt.trials import Design, identified_design, trial_steps, try_on_device
@@ -180,6 +181,10 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     report["rig_s_adaptation"] = rig.seconds()
     report["wall_s_adaptation"] = time.perf_counter() - started
     report["policy_on_rig"] = agent_run.evaluate(rig, config.evaluation_episodes)
+    report["policy_on_device"] = policy_on_device(rig, agent_run, identification, config.evaluation_episodes,
+                                                  out / DEVICE_POLICY_BLOB)
+    if "solved" in report["policy_on_device"]:
+        report["device_policy_blob"] = DEVICE_POLICY_BLOB
     report["classical_on_rig"] = classical_on_rig(rig, identification, config.evaluation_episodes)
     tried = chosen if chosen is not None and chosen.trials else None  # untried: the identified twin's own, run below
     report["classical_on_device"] = classical_on_device(rig, identification, config.evaluation_episodes, tried,
@@ -187,7 +192,8 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     report["rig_s_total"] = rig.seconds()
     report["recommended"] = recommended_route(report)
     classical, device = report["classical_on_rig"], report["classical_on_device"]
-    say(f"(d) on the rig: policy {report['policy_on_rig']['summary']}; from the laptop, energy swing-up "
+    say(f"(d) on the rig: policy {report['policy_on_rig']['summary']} from the laptop, "
+        f"{report['policy_on_device']['summary']} on the rig's device; from the laptop, energy swing-up "
         f"{classical['energy']['summary']}, minimum-time {classical['trajopt']['summary']}; on the rig's device, "
         f"energy swing-up {device['energy']['summary']}, minimum-time {device['trajopt']['summary']}")
     say(f"deploy: {report['recommended'] or 'nothing solved this rig (docs/rl.md: what a class should expect)'}")
@@ -264,10 +270,12 @@ def save_device_design(chosen: Design, out: Path, report: dict) -> None:
 
 
 DEVICE_BLOB = "device-controller.pkcb"
+DEVICE_POLICY_BLOB = "device-policy.pkcb"
 SWING_UPS = SWING_UP_CONTROLLERS  # the controllers' names in prose
 ROUTES = {"the device design chosen by the trials": ("classical_on_device", "tried"),
           "energy swing-up + LQR on the rig's device": ("classical_on_device", "energy"),
           "minimum-time swing-up on the rig's device": ("classical_on_device", "trajopt"),
+          "the adapted policy on the rig's device": ("policy_on_device", None),
           "the adapted policy (laptop)": ("policy_on_rig", None),
           "energy swing-up + LQR (laptop)": ("classical_on_rig", "energy"),
           "minimum-time swing-up (laptop)": ("classical_on_rig", "trajopt")}  # in the order ties go
@@ -278,12 +286,17 @@ def recommended_route(report: dict) -> str | None:
     which a busy room's WiFi does not reach); None when none solved any."""
     scored = []
     for order, (route, (section, name)) in enumerate(ROUTES.items()):
-        result = report[section] if name is None else report[section].get(name, {})
+        result = report.get(section, {}) if name is None else report[section].get(name, {})
         solved = result.get("solved", [])
         times = [t for t, ok in zip(result.get("upright_s", []), solved) if ok and t is not None]
         if any(solved):
             scored.append((-sum(solved), float(np.median(times)) if times else math.inf, order, route))
     return min(scored)[3] if scored else None
+
+
+def device_policy_markdown(report: dict) -> str:
+    blob = report.get("device_policy_blob")
+    return f" (`pendkit deploy --blob {blob} --rig ID`)" if blob else ""
 
 
 def trials_markdown(report: dict) -> str:
@@ -343,7 +356,9 @@ def report_markdown(report: dict) -> str:
             f"{report.get('encoder_recalibrated_counts', 0):+d} counts"
             f"{'' if not report.get('encoder_recalibrated_counts') else '; its zero was moved by as much'}."
             f"{network_markdown(report)}\n\n"
-            f"On the rig: the adapted policy {report['policy_on_rig']['summary']}; designed on the identified twin, "
+            f"On the rig: the adapted policy {report['policy_on_rig']['summary']} from the laptop and "
+            f"{report.get('policy_on_device', {}).get('summary', 'not evaluated')} run by the rig's own device"
+            f"{device_policy_markdown(report)}; designed on the identified twin, "
             f"energy swing-up + LQR {report['classical_on_rig']['energy']['summary']}, minimum-time swing-up "
             f"{report['classical_on_rig']['trajopt']['summary']} (run from the laptop); the same designs run by the "
             f"rig's own device: {report['classical_on_device']['energy']['summary']} and "

@@ -19,10 +19,11 @@ def _rig_params(params_path: Path | None):
     return RigParams() if params_path is None else RigParams.load(params_path)
 
 
-def _learned_blob(run_dir: Path | None, policy_name: str | None):
-    """A trained R-DQN as a policy the device runs, from RUN_DIR or a shipped policy."""
-    from pendkit.agents.runs import build_run, load_weights
-    from pendkit.deploy.export import policy_blob
+def _learned_blob(run_dir: Path | None, policy_name: str | None, params_path: Path | None):
+    """A trained policy as the device runs it, from RUN_DIR or a shipped policy."""
+    from pendkit.agents.runs import load_weights
+    from pendkit.deploy.learned_blob import learned_policy_blob
+    from pendkit.errors import ConfigError
 
     if policy_name is not None:
         from pendkit.agents.pretrained import policy_weights
@@ -34,20 +35,17 @@ def _learned_blob(run_dir: Path | None, policy_name: str | None):
             raise click.ClickException(f"no weights in {run_dir} (final.pt or checkpoint.pt): train one with "
                                        "`pendkit train --algo r-dqn`")
         spec, state = load_weights(weights)
-    if spec.learner != "r-dqn":
-        raise click.ClickException(f"the device runs R-DQN policies so far; this is a {spec.learner} run "
-                                   "(docs/on-device.md says what exists)")
-    env, agent, _ = build_run(spec)
-    env.close()
-    agent.load_policy(state)
-    return policy_blob(agent, env.unwrapped.params)
+    try:
+        return learned_policy_blob(spec, state, None if params_path is None else _rig_params(params_path))
+    except ConfigError as error:
+        raise click.ClickException(str(error)) from None
 
 
 def _blob(run_dir: Path | None, policy_name: str | None, controller: str | None, params_path: Path | None):
     if sum(x is not None for x in (run_dir, policy_name, controller)) != 1:
         raise click.UsageError("give one of RUN_DIR, --policy NAME or --controller energy|trajopt")
     if controller is None:
-        return _learned_blob(run_dir, policy_name)
+        return _learned_blob(run_dir, policy_name, params_path)
     from pendkit.deploy.swingup_design import design_swing_up
 
     blob = design_swing_up(_rig_params(params_path), controller)
@@ -60,7 +58,9 @@ def _describe(blob) -> str:
     if blob.kind == "policy":
         network = blob.network
         layers = " x ".join(str(layer.weight.shape[0]) for layer in network.layers)
-        return f"a policy: {network.input_dim} inputs made on the device, GRU {network.gru_size}, layers {layers}"
+        observers = f", {blob.observers.candidates} observer(s)" if blob.observers is not None else ""
+        return (f"a policy: {network.input_dim} inputs made on the device{observers}, GRU {network.gru_size}, "
+                f"layers {layers}")
     plan = f", a plan of {blob.plan_steps} steps from rest" if blob.plan_steps else ""
     return f"swing-up (energy pumping, LQR hand-over{plan})"
 
@@ -71,7 +71,8 @@ _SOURCE_OPTIONS = (
     click.option("--controller", type=click.Choice(CONTROLLER_CHOICES), default=None,
                  help="A classical controller designed for the rig: energy swing-up + LQR, or the minimum-time plan."),
     click.option("--params", "params_path", type=click.Path(exists=True, dir_okay=False, path_type=Path),
-                 default=None, help="The rig's parameters (RigParams.save) for --controller; default: the kit's rig."),
+                 default=None, help="The rig's parameters (RigParams.save) for --controller, or the rig a policy "
+                                   "runs on; default: the kit's rig."),
 )
 
 

@@ -46,6 +46,66 @@ def policy_blob(agent, params):
                       int(agent.q.head[-1].weight.shape[0]))
 
 
+def actor_network_blob(agent) -> NetworkBlob:
+    """The actor of a recurrent TD3 agent (`pendkit.agents.recurrent_td3`): its GRU, then [input, GRU state]
+    through the actor's layers to the tanh-bounded target."""
+    from pendkit.agents.normalizer import CLIP_STD
+
+    gru = agent.net.trunk.gru
+    weights = tuple(p.detach().numpy().astype(np.float32) for p in (gru.weight_ih_l0, gru.weight_hh_l0,
+                                                                      gru.bias_ih_l0, gru.bias_hh_l0))
+    modules = [m for m in agent.net.actor.modules() if not list(m.children())]  # Linear, ReLU, ..., Tanh
+    layers = []
+    for k, module in enumerate(modules):
+        if hasattr(module, "weight"):
+            follows = type(modules[k + 1]).__name__ if k + 1 < len(modules) else ""
+            layers.append(DenseLayer(module.weight.detach().numpy().astype(np.float32),
+                                     module.bias.detach().numpy().astype(np.float32),
+                                     {"ReLU": "relu", "Tanh": "tanh", "Sigmoid": "sigmoid"}.get(follows, "none")))
+    normalizer = agent.normalizer
+    return NetworkBlob(normalizer.mean.astype(np.float32), normalizer.std.astype(np.float32), CLIP_STD, layers,
+                       weights, "continuous")
+
+
+def device_timing(params):
+    """The delays an observer on the device designs for: a target set on an acting tick reaches the servo on
+    the next PWM frame (half a frame on average), and a reading is the device's own (its age aside, none)."""
+    from pendkit.backend_contract import BackendTiming
+
+    return BackendTiming(params.control_step_ms / 1000.0, params.pwm_period_ms / 2000.0, 0.0, firmware_readings=True)
+
+
+def observer_section(candidates, params, filter_coefficient: float, actions_seen: int = 1, timing=None):
+    """The observers of a layout-2 policy blob: each candidate rig's model and Kalman gain, designed for
+    `timing` (default the device's own, `device_timing`)."""
+    from pendkit.control.model import FurutaModel
+    from pendkit.control.observer import DelayedAngleObserver
+    from pendkit.control.observer_bank import DEFAULT_MEMORY_S
+    from pendkit.device.observer_blob import MODEL_FIELDS, ObserverSection
+
+    timing, period_s = timing or device_timing(params), params.control_step_ms / 1000.0
+    models, gains = [], []
+    for rig in candidates:
+        model = FurutaModel.from_rig(rig)
+        observer = DelayedAngleObserver(model, period_s, timing.command_delay_s, timing.reading_delay_s)
+        models.append([getattr(model, name) for name in MODEL_FIELDS])
+        gains.append(observer.gain)
+    return ObserverSection(np.array(models, np.float32), np.array(gains, np.float32), timing.command_delay_s,
+                           timing.reading_delay_s, min(1.0, period_s / DEFAULT_MEMORY_S), filter_coefficient,
+                           actions_seen)
+
+
+def observed_policy_blob(agent, inputs, params, candidates, filter_coefficient: float, timing=None):
+    """A trained R-TD3 reading the observers' estimate and the readings (`features="estimated+measured"`) as a
+    policy the device runs itself (layout 2), its observers designed for `candidates` (RigParams: the rig,
+    or a bank of them) on `timing` (default the device's); `params`: the rig it runs on."""
+    from pendkit.device.policy_blob import PolicyBlob
+
+    candidates = candidates if isinstance(candidates, (tuple, list)) else (candidates,)
+    return PolicyBlob(actor_network_blob(agent), params.control_step_ms / 1000.0, params.acting_period_ms / 1000.0,
+                      1, 2, observer_section(candidates, params, filter_coefficient, inputs.actions_seen, timing))
+
+
 def state_feedback_blob(gain, reference, output_limit: float) -> StateFeedbackBlob:
     return StateFeedbackBlob(np.asarray(gain, dtype=np.float32).ravel(),
                              np.asarray(reference, dtype=np.float32).ravel(), float(output_limit))

@@ -132,15 +132,20 @@ class McuLogic:
             # the host's command from before k1 (a stale target, or a policy's last ramp to the arm's limit)
             self.command = STOP
         self._onboard_was_running = self.onboard.running
-        if self.onboard.running and self.onboard.runs_a_policy:
+        policy_runs = self.onboard.running and self.onboard.runs_a_policy
+        if policy_runs:
             action = self.onboard.runtime.tick(self.last_observation, now_ms)
-            if action is not None:  # as a host's action command would, without feeding the watchdog
+            if action is None:
+                pass
+            elif self.onboard.runtime.continuous:  # a target, already through its own filter
+                self.command = ServoCommand("continuous", target_unit=action)
+            else:  # as a host's action command would, without feeding the watchdog
                 self.command = discrete_command(action, p)
         if self.onboard.running and raw_counts is not None and not self.onboard.runs_a_policy:
             target_rad = self.onboard.tick(self.pendulum_rad(raw_counts), p.servo_counts_to_rad(self.servo_counts))
             wanted = round_half_up(p.servo_centre_counts + target_rad / p.servo_rad_per_count)
         elif self.command.mode == "continuous":
-            c = self.device_filter
+            c = 0.0 if policy_runs else self.device_filter
             self._filtered_unit = c * self._filtered_unit + (1 - c) * self.command.target_unit
             wanted = round_half_up(p.servo_centre_counts + self._filtered_unit * p.servo_span_counts / 2)
         else:

@@ -90,10 +90,11 @@ class OnboardController:
             self._refuse(f"a {blob.kind} controller: this device runs {', '.join(RUNNABLE_KINDS)}")
             return
         if blob.kind == "policy":
+            from pendkit.device.observed_policy import ObservedDevicePolicy
             from pendkit.device.policy_runtime import DevicePolicy
             from pendkit.rig import RigParams
 
-            runtime = DevicePolicy(blob, self.params or RigParams())
+            runtime = (ObservedDevicePolicy if blob.layout == 2 else DevicePolicy)(blob, self.params or RigParams())
         else:
             from pendkit.device.swingup_runtime import SwingUpRuntime
 

@@ -1,11 +1,15 @@
 """A learned policy the device runs itself (blob kind 4): a network, and which inputs the device makes for
 it from its own readings.
 
-    input layout u16 | actions u16 | padding u32 | control step s f32 | acting tick s f32 | network payload
+    input layout u16 | actions u16 | padding u32 | control step s f32 | acting tick s f32 |
+    (layout 2: the observers, `pendkit.device.observer_blob`) | network payload
 
 Layout 1 is the kit's "paper" observation (pendulum angle from upright, arm angle, pendulum rate and
 acceleration, arm rate, time since the action, the reading's age) followed by the last action one-hot:
-what `pendkit.agents.inputs.StepInputs` gives an R-DQN agent on the realistic twin.
+what `pendkit.agents.inputs.StepInputs` gives an R-DQN agent on the realistic twin. Layout 2 is a continuous
+policy (one output, the servo's target through a first-order filter) reading the paper's features of its
+observers' estimate, then of the reading, then its last actions (`features="estimated+measured"`, R-TD3 or
+TD3); `actions` is then 1.
 """
 
 from __future__ import annotations
@@ -14,9 +18,11 @@ import struct
 from dataclasses import dataclass, field
 
 from pendkit.device.blob_parts import BlobError, NetworkBlob, network_payload, parse_network
+from pendkit.device.observer_blob import ObserverSection, pack_observers, parse_observers
 
 HEADER = struct.Struct("<HHIff")
-LAYOUTS = {1: "paper features + the last action one-hot"}
+LAYOUTS = {1: "paper features + the last action one-hot",
+           2: "observers' estimate and the reading, paper features each, + the last actions; a continuous target"}
 PAPER_INPUTS = 7
 
 
@@ -27,6 +33,7 @@ class PolicyBlob:
     acting_period_s: float
     actions: int = 5
     layout: int = 1
+    observers: ObserverSection | None = None  # layout 2
     kind: str = field(default="policy", init=False)
 
     @property
@@ -35,19 +42,22 @@ class PolicyBlob:
 
 
 def pack_payload(blob: PolicyBlob) -> bytes:
-    return HEADER.pack(blob.layout, blob.actions, 0, blob.period_s, blob.acting_period_s) + \
+    observers = pack_observers(blob.observers) if blob.layout == 2 else b""
+    return HEADER.pack(blob.layout, blob.actions, 0, blob.period_s, blob.acting_period_s) + observers + \
         network_payload(blob.network)
 
 
 def parse_payload(reader) -> PolicyBlob:
     layout, actions, _, period_s, acting_s = reader.take(HEADER.format)
-    if layout not in LAYOUTS or not 2 <= actions <= 16:
+    if layout not in LAYOUTS or not (2 <= actions <= 16 if layout == 1 else actions == 1):
         raise BlobError(f"input layout {layout} with {actions} actions")
     if not (0 < acting_s <= period_s < 10):
         raise BlobError(f"a control step of {period_s} s on acting ticks of {acting_s} s")
+    observers = parse_observers(reader) if layout == 2 else None
     network = parse_network(reader)
-    if network.input_dim != PAPER_INPUTS + actions or network.output != "argmax" or \
-            network.layers[-1].weight.shape[0] != actions:
+    inputs, output = (PAPER_INPUTS + actions, "argmax") if layout == 1 else \
+        (2 * PAPER_INPUTS + observers.actions_seen, "continuous")
+    if network.input_dim != inputs or network.output != output or network.layers[-1].weight.shape[0] != actions:
         raise BlobError(f"a network of {network.input_dim} inputs and {network.layers[-1].weight.shape[0]} outputs for "
-                    f"layout {layout} with {actions} actions")
-    return PolicyBlob(network, float(period_s), float(acting_s), actions, layout)
+                        f"layout {layout} with {actions} actions")
+    return PolicyBlob(network, float(period_s), float(acting_s), actions, layout, observers)

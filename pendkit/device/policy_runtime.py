@@ -81,6 +81,8 @@ class DevicePolicy:
     network's inputs from its newest reading, as the host's env would from the same reading arriving at
     once, and returns the action (None between steps: the last action goes on, as a host's would)."""
 
+    continuous = False  # an action index (layout 1); `pendkit.device.observed_policy` gives a target
+
     def __init__(self, blob, params) -> None:
         from pendkit.features import resolve_features
 

@@ -21,6 +21,7 @@ from pendkit.adapt.excitation import (
 )
 from pendkit.adapt.identify import identify, identify_best, matching_cost, swing_estimates
 from pendkit.adapt.rigs import twin_rig
+from pendkit.device.controller_blob import parse
 from pendkit.encoder import wrapped_rad
 from pendkit.errors import ConfigError
 from pendkit.rig import RigParams
@@ -126,6 +127,12 @@ def test_an_adaptation_session_writes_rig_policy_and_report_within_its_rig_time(
     assert set(report["classical_on_device"]) == {"energy", "trajopt"}
     assert all(len(o["solved"]) == 1 for o in report["classical_on_device"].values())
     assert saved["chosen_design"]["controller"] == "trajopt" and saved["chosen_design"]["trials"] == 0
+    # the adapted policy run by the rig's device too, when the device runs its learner (R-DQN: layout 1)
+    if policy == "r-dqn-realistic":
+        assert len(report["policy_on_device"]["solved"]) == 1 and saved["device_policy_blob"] == "device-policy.pkcb"
+        assert parse((tmp_path / "device-policy.pkcb").read_bytes()).kind == "policy"
+    else:
+        assert report["policy_on_device"] == {"summary": "not evaluated"}
     assert (tmp_path / saved["device_blob"]).read_bytes() == pack(design_swing_up(identified, "trajopt"))
     text = (tmp_path / "report.md").read_text()
     assert "| servo_speed_s_per_60deg |" in text and "run by the rig's own device" in text
