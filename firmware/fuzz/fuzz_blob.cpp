@@ -1,6 +1,6 @@
 // libFuzzer target: arbitrary bytes as a controller blob (and, when they load, one step on inputs taken from
 // the same bytes), and the same bytes uploaded in chunks to the device's onboard controller (a swing-up
-// that loads runs a few ticks). Any crash or sanitizer report is a bug; so is a refused blob that changed
+// or a policy that loads runs a few ticks). Any crash or sanitizer report is a bug; so is a refused blob that changed
 // the active one.
 #include <cstddef>
 #include <cstdint>
@@ -44,7 +44,17 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       onboard.chunk(chunk, pend::kChunkHeaderBytes + bytes);
     }
     if (onboard.start(static_cast<float>(data[0]) / 40.0f, 0.0f)) {
-      for (int k = 0; k < 12; ++k) onboard.tick(static_cast<float>(data[k % size]) / 40.0f, 0.0f);
+      if (onboard.runs_policy()) {  // readings made of the same bytes: the observers and network on them
+        pend::PolicyDecision decision;
+        for (uint32_t k = 0; k < 24; ++k) {
+          const pend::Observation reading{k * 10, data[k % size] * 4, 150 + data[(k + 1) % size],
+                                          data[(k + 2) % size] / 16.0 - 8.0, data[(k + 3) % size] - 128.0,
+                                          data[(k + 4) % size] * 2.0 - 256.0, 0};
+          onboard.policy_tick(&reading, k * 10 + data[(k + 5) % size] % 30, decision);
+        }
+      } else {
+        for (int k = 0; k < 12; ++k) onboard.tick(static_cast<float>(data[k % size]) / 40.0f, 0.0f);
+      }
       onboard.stop();
     }
   }

@@ -131,3 +131,77 @@ TEST_CASE("the device's policy makes the Python device's inputs and takes torch'
   CHECK(static_cast<double>(same_action) >= 0.999 * static_cast<double>(decisions));
   CHECK(worst_input <= 1e-5);
 }
+
+TEST_CASE("the device's observed policy makes the Python device's inputs and targets (layout 2)") {
+  const std::vector<uint8_t> blob = read_vector_file("r-td3-bank-robust-policy.pkcb");
+  onboard = pend::Onboard();
+  for (size_t offset = 0; offset < blob.size(); offset += pend::kMaxChunkBytes) {
+    const size_t bytes = std::min(pend::kMaxChunkBytes, blob.size() - offset);
+    std::vector<uint8_t> chunk = {'P', 'K', 'U', 'P'};
+    for (int i = 0; i < 4; ++i) chunk.push_back(static_cast<uint8_t>(offset >> (8 * i)));
+    for (int i = 0; i < 4; ++i) chunk.push_back(static_cast<uint8_t>(blob.size() >> (8 * i)));
+    chunk.insert(chunk.end(), blob.begin() + static_cast<long>(offset), blob.begin() + static_cast<long>(offset + bytes));
+    onboard.chunk(chunk.data(), chunk.size());
+  }
+  REQUIRE(onboard.runs_policy());
+  REQUIRE(onboard.observers().count() == 13);
+  const std::vector<uint8_t> text = read_vector_file("observed-policy-device.json");
+  const json vectors = json::parse(text.begin(), text.end());
+  size_t decisions = 0, same_observer = 0;
+  double worst_input = 0.0, worst_target = 0.0;
+  for (const json& row : vectors["decisions"]) {
+    if (row.contains("start")) {
+      REQUIRE(onboard.start(0.0f, 0.0f));
+      continue;
+    }
+    const json& r = row["reading"];
+    const pend::Observation reading{r[0].get<uint32_t>(), r[1].get<int32_t>(), r[2].get<int32_t>(), r[3].get<double>(),
+                                    r[4].get<double>(), r[5].get<double>(), 0};
+    const uint32_t now = row["now_ms"].get<uint32_t>();
+    pend::PolicyDecision decision;
+    bool decided = false;
+    for (int k = 0; k < 64 && !decided; ++k) decided = onboard.policy_tick(&reading, now, decision);
+    REQUIRE(decided);
+    REQUIRE(decision.continuous);
+    size_t count = 0;
+    const float* inputs = onboard.last_inputs(count);
+    REQUIRE(count == row["inputs"].size());
+    for (size_t i = 0; i < count; ++i) {
+      const double want = row["inputs"][i].get<double>();
+      worst_input = std::fmax(worst_input, std::fabs(inputs[i] - want) / std::fmax(1.0, std::fabs(want)));
+    }
+    worst_target = std::fmax(worst_target, std::fabs(decision.target_unit - row["target_unit"].get<double>()));
+    onboard.follow(row["action"].get<float>(), row["target_unit"].get<double>());
+    ++decisions;
+    same_observer += onboard.observers().chosen() == row["observer"].get<int>();
+  }
+  MESSAGE("observed policy: " << decisions << " decisions, largest relative input difference " << worst_input
+                              << ", largest target difference " << worst_target << ", the same observer shown in "
+                              << same_observer);
+  CHECK(decisions > 500);
+  CHECK(same_observer == decisions);
+  CHECK(worst_input <= 1e-5);
+  CHECK(worst_target <= 1e-5);
+}
+
+TEST_CASE("a layout-2 policy with a damaged observer section is refused and changes nothing") {
+  std::vector<uint8_t> blob = read_vector_file("r-td3-bank-robust-policy.pkcb");
+  onboard = pend::Onboard();
+  // the first candidate's arm inertia (just after the 12-byte envelope, the 16-byte policy header and the
+  // 20-byte observer header) made negative, the CRC made good again: only the section's own check can refuse it
+  blob[12 + 16 + 20 + 3] ^= 0x80;
+  const uint32_t crc = pend::crc32(blob.data(), blob.size() - 4);
+  for (int i = 0; i < 4; ++i) blob[blob.size() - 4 + i] = static_cast<uint8_t>(crc >> (8 * i));
+  for (size_t offset = 0; offset < blob.size(); offset += pend::kMaxChunkBytes) {
+    const size_t bytes = std::min(pend::kMaxChunkBytes, blob.size() - offset);
+    std::vector<uint8_t> chunk = {'P', 'K', 'U', 'P'};
+    for (int i = 0; i < 4; ++i) chunk.push_back(static_cast<uint8_t>(offset >> (8 * i)));
+    for (int i = 0; i < 4; ++i) chunk.push_back(static_cast<uint8_t>(blob.size() >> (8 * i)));
+    chunk.insert(chunk.end(), blob.begin() + static_cast<long>(offset), blob.begin() + static_cast<long>(offset + bytes));
+    onboard.chunk(chunk.data(), chunk.size());
+  }
+  CHECK_FALSE(onboard.runs_policy());
+  char buffer[512];
+  REQUIRE(onboard.status_json(buffer, sizeof buffer) > 0);
+  CHECK(json::parse(buffer)["refused"] == 1);
+}

@@ -6,12 +6,15 @@ behind, is the servo's target."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from pendkit.device.observer_runtime import DeviceObserverBank
 from pendkit.device.policy_runtime import NetworkRuntime
 
 F32 = np.float32
+FLT_MAX = float(np.finfo(np.float32).max)
 
 
 class ObservedDevicePolicy:
@@ -36,6 +39,8 @@ class ObservedDevicePolicy:
         self.started = False
         self.recent = [0.0] * self.blob.observers.actions_seen  # the newest first, as the host's StepInputs
         self.target_unit = 0.0
+        self.network_inputs = None  # what the last decision was made from
+        self.action = 0.0  # the network's last output, before the filter
 
     def inputs(self, observation, now_ms: float) -> np.ndarray:
         from pendkit.device.observation import observation_to_state
@@ -49,16 +54,27 @@ class ObservedDevicePolicy:
         else:
             shown = self.bank.update(self.target_unit, state)
         values = [min(max(f.read(s), f.low), f.high) for s in (shown, state) for f in self.features]
-        return np.array(values + self.recent, dtype=F32)
+        return np.clip(np.array(values + self.recent), -FLT_MAX, FLT_MAX).astype(F32)  # as the C++ core narrows
+
+    def follow(self, action: float, target_unit: float) -> None:
+        """Take `action` and `target_unit` as the last decision's: a replay of recorded decisions (the shared
+        vectors) keeps both sides on the recording, since a float's last bit, fed back through the observers
+        and the GRU, grows over an episode."""
+        self.recent = [action, *self.recent[1:]]
+        self.target_unit = target_unit
 
     def tick(self, observation, now_ms: float) -> float | None:
         self.tick_count += 1
         if self.tick_count < self.ticks_per_step or observation is None:
             return None
         self.tick_count = 0
-        _, action = self.network.step(self.inputs(observation, now_ms))
+        self.network_inputs = self.inputs(observation, now_ms)
+        _, action = self.network.step(self.network_inputs)
+        if not math.isfinite(action):  # diverged observers: the servo holds its target, as in the C++ core
+            return None
         action = min(max(float(action), -1.0), 1.0)
         self.recent = [action, *self.recent[:-1]]
+        self.action = action
         c = self.blob.observers.filter_coefficient
         self.target_unit = c * self.target_unit + (1 - c) * action
         return self.target_unit

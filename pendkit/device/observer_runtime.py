@@ -13,6 +13,7 @@ from pendkit.backend_contract import RigState
 from pendkit.device.observer_blob import ObserverSection
 
 SUBSTEP_S = 0.005
+MAX_SUBSTEPS = 64  # a control step of at most 0.32 s: each observer keeps a prediction per substep
 
 
 class CandidateObserver:
@@ -23,8 +24,8 @@ class CandidateObserver:
          self.kv, self.stall, self.range_rad) = (float(v) for v in model)
         self.extra = self.j_pend - self.i_long
         self.gain = [float(g) for g in gain]
-        self.steps = max(1, round(period_s / SUBSTEP_S))
-        self.switch = round(actuation_delay_s / SUBSTEP_S)
+        self.steps = max(1, math.floor(period_s / SUBSTEP_S + 0.5))  # halves up, as the C++ core rounds
+        self.switch = math.floor(actuation_delay_s / SUBSTEP_S + 0.5)
         self.reading_latency_s = reading_latency_s
         self.x = [0.0, 0.0, 0.0, 0.0]
         self.target_rad = 0.0

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 from pendkit.device.blob_parts import BlobError, NetworkBlob, network_payload, parse_network
 from pendkit.device.observer_blob import ObserverSection, pack_observers, parse_observers
+from pendkit.device.observer_runtime import MAX_SUBSTEPS, SUBSTEP_S
 
 HEADER = struct.Struct("<HHIff")
 LAYOUTS = {1: "paper features + the last action one-hot",
@@ -53,6 +54,9 @@ def parse_payload(reader) -> PolicyBlob:
         raise BlobError(f"input layout {layout} with {actions} actions")
     if not (0 < acting_s <= period_s < 10):
         raise BlobError(f"a control step of {period_s} s on acting ticks of {acting_s} s")
+    if layout == 2 and not period_s / SUBSTEP_S < MAX_SUBSTEPS + 0.5:
+        raise BlobError(f"a control step of {period_s} s: an observed policy's is at most "
+                        f"{MAX_SUBSTEPS * SUBSTEP_S:g} s")
     observers = parse_observers(reader) if layout == 2 else None
     network = parse_network(reader)
     inputs, output = (PAPER_INPUTS + actions, "argmax") if layout == 1 else \

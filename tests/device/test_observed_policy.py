@@ -91,3 +91,35 @@ def test_the_shipped_bank_policy_run_by_the_twins_device_holds_and_a_reversed_on
                          for k, start in enumerate(("rest", "random", "random"))]
     env.close()
     assert results == {"shipped": [True] * 3, "reversed": [False] * 3}, results
+
+
+def test_python_observed_policy_reproduces_the_shared_vectors():
+    """tests/vectors/observed-policy-device.json, which the firmware's C++ core replays too."""
+    import json
+    from pathlib import Path
+
+    from pendkit.device.observation import McuObservation
+    from pendkit.device.observed_policy import ObservedDevicePolicy
+
+    vectors = Path(__file__).resolve().parents[1] / "vectors"
+    blob = parse((vectors / "r-td3-bank-robust-policy.pkcb").read_bytes())
+    policy = ObservedDevicePolicy(blob, RigParams())
+    decisions = worst_input = worst_target = 0.0
+    observers = set()
+    for row in json.loads((vectors / "observed-policy-device.json").read_text())["decisions"]:
+        if "start" in row:
+            policy.reset()
+            continue
+        reading = McuObservation(*row["reading"], frozenset())
+        target = None
+        while target is None:
+            target = policy.tick(reading, row["now_ms"])
+        want = np.array(row["inputs"])
+        relative = np.abs(policy.network_inputs - want) / np.maximum(1, np.abs(want))
+        worst_input = max(worst_input, float(np.max(relative)))
+        worst_target = max(worst_target, abs(target - row["target_unit"]))
+        policy.follow(row["action"], row["target_unit"])  # what the other side will replay
+        observers.add(policy.bank.chosen)
+        decisions += 1
+    assert decisions > 500 and worst_input <= 1e-5 and worst_target <= 1e-5, (worst_input, worst_target)
+    assert len(observers) > 1  # the bank's choice moved during the recorded episodes

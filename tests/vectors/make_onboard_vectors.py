@@ -6,9 +6,13 @@
 - uploads.json: upload scenarios (chunks as hex) and the device's controller status after each chunk;
 - r-dqn-realistic-policy.pkcb: the shipped R-DQN as a policy the device runs (kind 4); policy-device.json:
   every decision while it drove the twin's device on poor WiFi: the newest reading, the time, the inputs
-  the device made from it and the action the network chose.
+  the device made from it and the action the network chose;
+- r-td3-bank-robust-policy.pkcb: the shipped R-TD3 with its bank of 13 observers (policy layout 2);
+  observed-policy-device.json: every decision while it drove the twin's device: the newest reading, the
+  time, the inputs the device made (its observers' estimate, the reading, its last action) and the target.
 
-Run `python -m tests.vectors.make_onboard_vectors` (from the repository root) after a deliberate change.
+Run `python -m tests.vectors.make_onboard_vectors` (from the repository root) after a deliberate change;
+`... make_onboard_vectors observed` remakes the layout-2 policy's alone.
 """
 
 from __future__ import annotations
@@ -111,6 +115,56 @@ def record_policy(decisions: int = 1000, seed: int = 0) -> tuple[bytes, list[dic
     return blob, rows[:decisions]
 
 
+def record_observed_policy(decisions: int = 600, seed: int = 0) -> tuple[bytes, list[dict]]:
+    import pendkit
+    from pendkit.agents.pretrained import policy_weights
+    from pendkit.deploy.learned_blob import learned_policy_blob
+    from pendkit.deploy.on_twin import onboard_episode, upload_to_twin
+
+    blob = pack(learned_policy_blob(*policy_weights("r-td3-bank-robust")))
+    env = pendkit.make(fidelity="realistic", action_mode="continuous")
+    upload_to_twin(env, blob)
+    runtime = env.unwrapped.backend.device.mcu.onboard.runtime
+    rows: list[dict] = []
+    decide, make_inputs, reset = runtime.tick, runtime.inputs, runtime.reset
+    made = {}
+
+    def recording_inputs(observation, now_ms):
+        made["inputs"] = make_inputs(observation, now_ms)
+        return made["inputs"]
+
+    def recording_tick(observation, now_ms):
+        target = decide(observation, now_ms)
+        if target is not None:
+            rows.append({"reading": [observation.millis, observation.position_counts, observation.servo_counts,
+                                     observation.omega_rev_s, observation.acceleration_rev_s2,
+                                     observation.arm_velocity_counts_s], "now_ms": int(now_ms),
+                         "inputs": [float(v) for v in made["inputs"]], "action": runtime.action,
+                         "target_unit": target,
+                         "observer": runtime.bank.chosen})
+        return target
+
+    def recording_reset(*args):
+        reset(*args)
+        rows.append({"start": True})
+
+    runtime.tick, runtime.inputs, runtime.reset = recording_tick, recording_inputs, recording_reset
+    episode = 0
+    while len(rows) < decisions:
+        onboard_episode(env, seed=seed + episode, start="random" if episode % 2 else "rest", steps=200)
+        episode += 1
+    env.close()
+    return blob, rows[:decisions]
+
+
+def write_observed_policy() -> None:
+    blob, rows = record_observed_policy()
+    (HERE / "r-td3-bank-robust-policy.pkcb").write_bytes(blob)
+    (HERE / "observed-policy-device.json").write_text(json.dumps({"description": "see make_onboard_vectors.py",
+                                                                  "decisions": rows}) + "\n")
+    print(f"wrote the observed policy: {len(blob)} bytes, {len(rows)} decisions")
+
+
 def upload_scenarios() -> list[dict]:
     blob = pack(design_swing_up(None, "trajopt"))
     chunks = blob_chunks(blob, chunk_bytes=256)
@@ -158,7 +212,10 @@ def main() -> None:
     (HERE / "uploads.json").write_text(json.dumps({"description": __doc__.split("\n\n")[0],
                                                    "scenarios": upload_scenarios()}, indent=1) + "\n")
     print("wrote uploads.json")
+    write_observed_policy()
 
 
 if __name__ == "__main__":
-    main()
+    import sys
+
+    write_observed_policy() if sys.argv[1:] == ["observed"] else main()

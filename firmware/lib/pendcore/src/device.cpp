@@ -106,17 +106,21 @@ int32_t Device::act(uint32_t now_ms, int32_t raw_counts) {
   }
   onboard_was_running_ = onboard_.running();
   int32_t wanted;
-  int action = 0;
-  if (onboard_.running() && onboard_.runs_policy() &&
-      onboard_.policy_tick(has_observation_ ? &last_observation_ : nullptr, now_ms, action)) {
-    discrete_ = true;  // as a host's action command would, without feeding the watchdog
-    increment_counts_ = increment_for(action);
+  PolicyDecision decision;
+  const bool policy_runs = onboard_.running() && onboard_.runs_policy();
+  if (policy_runs && onboard_.policy_tick(has_observation_ ? &last_observation_ : nullptr, now_ms, decision)) {
+    discrete_ = !decision.continuous;  // as a host's command would, without feeding the watchdog
+    if (decision.continuous) {
+      target_unit_ = decision.target_unit;  // through the policy's own filter
+    } else {
+      increment_counts_ = increment_for(decision.action);
+    }
   }
   if (onboard_.running() && !onboard_.runs_policy() && raw_counts >= 0) {
     const float target_rad = onboard_.tick(pendulum_rad(raw_counts), servo_rad(servo_counts_));
     wanted = round_half_up(kServoCentreCounts + static_cast<double>(target_rad) * kServoSpanCounts / (2 * kServoRangeRad));
   } else if (!discrete_) {
-    const double c = device_filter_;
+    const double c = policy_runs ? 0.0 : device_filter_;
     filtered_unit_ = c * filtered_unit_ + (1 - c) * target_unit_;
     wanted = round_half_up(kServoCentreCounts + filtered_unit_ * kServoSpanCounts / 2);
   } else {

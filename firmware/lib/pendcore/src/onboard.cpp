@@ -1,5 +1,6 @@
 #include "onboard.h"
 
+#include <cfloat>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -107,21 +108,82 @@ BlobStatus Onboard::install_policy(const uint8_t* payload, size_t length) {
   if (length < kPolicyHeaderBytes) return BlobStatus::kBadLength;
   const uint16_t layout = read_u16(payload), actions = read_u16(payload + 2);
   const float period = read_f32(payload + 8), acting = read_f32(payload + 12);
-  if (layout != 1 || actions < 2 || actions > 16 || !(acting > 0 && acting <= period && period < 10)) {
-    return BlobStatus::kBadShape;
-  }
+  const bool shape_ok = layout == 1 ? (actions >= 2 && actions <= 16) : (layout == 2 && actions == 1);
+  if (!shape_ok || !(acting > 0 && acting <= period && period < 10)) return BlobStatus::kBadShape;
+  size_t observer_bytes = 0;
+  uint16_t seen = 0;
   NetworkShape expected;
-  expected.inputs = kPaperInputs + actions;
-  expected.outputs = actions;
-  expected.argmax = true;
-  const BlobStatus status = policy_.load_payload(payload + kPolicyHeaderBytes, length - kPolicyHeaderBytes,
+  if (layout == 1) {
+    expected.inputs = kPaperInputs + actions;
+    expected.outputs = actions;
+    expected.argmax = true;
+  } else {
+    if (!(period / kSubstepS < kMaxSubsteps + 0.5)) return BlobStatus::kBadShape;
+    observer_bytes = ObserverBank::check(payload + kPolicyHeaderBytes, length - kPolicyHeaderBytes, seen);
+    if (observer_bytes == 0) return BlobStatus::kBadShape;
+    expected.inputs = 2 * kPaperInputs + seen;
+    expected.outputs = 1;
+    expected.argmax = false;
+  }
+  const size_t network_at = kPolicyHeaderBytes + observer_bytes;
+  const BlobStatus status = policy_.load_payload(payload + network_at, length - network_at,
                                                  static_cast<uint16_t>(ControllerKind::kNetwork), &expected);
   if (status != BlobStatus::kOk) return status;
+  if (layout == 2) bank_.load(payload + kPolicyHeaderBytes, period);
+  layout_ = layout;
   actions_ = actions;
   period_s_ = period;
   const long ticks = std::lround(period / acting);
   ticks_per_step_ = ticks < 1 ? 1 : static_cast<int>(ticks);
   return BlobStatus::kOk;
+}
+
+namespace {
+
+// A double as the nearest float, a finite one beyond float's range as float's largest (NaN stays NaN).
+float narrow(double value) {
+  return value > FLT_MAX ? FLT_MAX : (value < -FLT_MAX ? -FLT_MAX : static_cast<float>(value));
+}
+
+// The kit's "paper" features of a state (pendkit.features.PAPER_FEATURES), each clipped to its bounds.
+void paper_features(const ObservedState& s, float* out) {
+  double from_upright = std::fmod(s.pendulum_rad, kTwoPi);
+  from_upright = (from_upright < 0 ? from_upright + kTwoPi : from_upright) - kTwoPi / 2;
+  out[0] = narrow(clip(from_upright, -kTwoPi / 2, kTwoPi / 2));
+  out[1] = narrow(clip(s.arm_rad, -kTwoPi / 4, kTwoPi / 4));
+  out[2] = narrow(s.pendulum_rate);
+  out[3] = narrow(s.pendulum_accel);
+  out[4] = narrow(s.arm_rate);
+  out[5] = narrow(clip(s.since_action_s, 0.0, 1e30));
+  out[6] = narrow(clip(s.age_s, 0.0, 1e30));
+}
+
+}  // namespace
+
+size_t Onboard::observed_inputs(const Observation& newest, uint32_t now_ms, float* out) {
+  const double rad_per_count = 2 * kServoRangeRad / kServoSpanCounts;
+  ObservedState measured;
+  measured.pendulum_rad = newest.position_counts * (kTwoPi / kEncoderCounts);
+  measured.arm_rad = (newest.servo_counts - kServoCentreCounts) * rad_per_count;
+  measured.pendulum_rate = newest.omega_rev_s * kTwoPi;
+  measured.pendulum_accel = newest.accel_rev_s2 * kTwoPi;
+  measured.arm_rate = newest.arm_velocity_counts_s * rad_per_count;
+  measured.target_rad = measured.arm_rad;  // a hobby servo reports no position: the arm is its command
+  measured.age_s = static_cast<double>(static_cast<int64_t>(now_ms) - static_cast<int64_t>(newest.millis)) / 1000.0;
+  measured.since_action_s = static_cast<double>(period_s_);
+  ObservedState shown;
+  if (!started_) {
+    shown = bank_.reset(measured);
+    started_ = true;
+    target_unit_ = measured.target_rad / kServoRangeRad;
+  } else {
+    shown = bank_.update(target_unit_, measured);
+  }
+  paper_features(shown, out);
+  paper_features(measured, out + kPaperInputs);
+  const size_t seen = bank_.actions_seen();
+  for (size_t i = 0; i < seen; ++i) out[2 * kPaperInputs + i] = recent_[i];
+  return 2 * kPaperInputs + seen;
 }
 
 size_t Onboard::policy_inputs(const Observation& newest, uint32_t now_ms, float* out, size_t capacity) const {
@@ -144,15 +206,35 @@ size_t Onboard::policy_inputs(const Observation& newest, uint32_t now_ms, float*
   return count;
 }
 
-bool Onboard::policy_tick(const Observation* newest, uint32_t now_ms, int& action) {
+bool Onboard::policy_tick(const Observation* newest, uint32_t now_ms, PolicyDecision& decision) {
   if (++tick_count_ < ticks_per_step_ || newest == nullptr) return false;
   tick_count_ = 0;
-  float inputs[kPaperInputs + 16];
-  const size_t count = policy_inputs(*newest, now_ms, inputs, sizeof inputs / sizeof inputs[0]);
-  const StepResult result = policy_.step(inputs, count);
-  if (!result.ok || result.action < 0) return false;
+  last_input_count_ = layout_ == 2 ? observed_inputs(*newest, now_ms, last_inputs_)
+                                   : policy_inputs(*newest, now_ms, last_inputs_, kMaxPolicyInputs);
+  const StepResult result = policy_.step(last_inputs_, last_input_count_);
+  if (!result.ok) return false;
+  if (layout_ == 2) {
+    if (!std::isfinite(result.value)) return false;  // diverged observers: the servo holds its target
+    const double action = clip(static_cast<double>(result.value), -1.0, 1.0);
+    for (size_t i = bank_.actions_seen() - 1; i > 0; --i) recent_[i] = recent_[i - 1];
+    recent_[0] = static_cast<float>(action);
+    const double c = bank_.filter_coefficient();
+    target_unit_ = c * target_unit_ + (1 - c) * action;
+    decision.continuous = true;
+    decision.target_unit = static_cast<float>(target_unit_);
+    return true;
+  }
+  if (result.action < 0) return false;
   last_action_ = result.action;
-  action = result.action;
+  decision.continuous = false;
+  decision.action = result.action;
+  return true;
+}
+
+bool Onboard::policy_tick(const Observation* newest, uint32_t now_ms, int& action) {
+  PolicyDecision decision;
+  if (!policy_tick(newest, now_ms, decision) || decision.continuous) return false;
+  action = decision.action;
   return true;
 }
 
@@ -162,6 +244,9 @@ bool Onboard::start(float pendulum_rad, float target_rad) {
     policy_.reset();
     last_action_ = 0;
     tick_count_ = ticks_per_step_ - 1;  // the first tick decides
+    started_ = false;
+    target_unit_ = 0.0;
+    for (float& value : recent_) value = 0.0f;
   } else {
     runtime_.reset(pendulum_rad, target_rad);
   }
