@@ -85,17 +85,26 @@ void CandidateObserver::rk4(double* x, double target) const {
   for (int i = 0; i < 4; ++i) x[i] = x[i] + dt / 6 * (k[0][i] + 2 * k[1][i] + 2 * k[2][i] + k[3][i]);
 }
 
-void CandidateObserver::predict(double target_unit) {
-  const double limit = range_, new_target = target_unit * limit;
-  double target = target_;
+void CandidateObserver::begin(double target_unit) {
+  new_target_ = target_unit * range_;
+  step_target_ = target_;
+  substep_ = 0;
   history_count_ = 0;
-  for (int k = 0; k < steps_; ++k) {
-    if (k == switch_) target = new_target;
-    rk4(x_, target);
-    target = target < -limit ? -limit : (target > limit ? limit : target);
+}
+
+void CandidateObserver::advance(int substeps) {
+  const double limit = range_;
+  for (int done = 0; done < substeps && substep_ < steps_; ++done, ++substep_) {
+    if (substep_ == switch_) step_target_ = new_target_;
+    rk4(x_, step_target_);
+    step_target_ = step_target_ < -limit ? -limit : (step_target_ > limit ? limit : step_target_);
     history_[history_count_++] = x_[1];
   }
-  target_ = switch_ >= steps_ ? new_target : target;
+}
+
+void CandidateObserver::finish() {
+  advance(steps_ - substep_);
+  target_ = switch_ >= steps_ ? new_target_ : step_target_;
 }
 
 void CandidateObserver::correct(const ObservedState& state) {
@@ -169,6 +178,8 @@ void ObserverBank::load(const uint8_t* data, double period_s) {
     for (size_t i = 0; i < 4; ++i) gain[i] = read_f32(at + 4 * (kObserverModelFields + i));
     observers_[c].load(model, gain, period_s, actuation, reading);
   }
+  const int steps = round_half_up(period_s / kSubstepS);
+  substeps_ = steps < 1 ? 1 : (steps > static_cast<int>(kMaxSubsteps) ? static_cast<int>(kMaxSubsteps) : steps);
   chosen_ = 0;
 }
 
@@ -181,10 +192,18 @@ ObservedState ObserverBank::reset(const ObservedState& state) {
   return observers_[0].shown(state);
 }
 
-ObservedState ObserverBank::update(double target_unit, const ObservedState& state) {
+void ObserverBank::begin(double target_unit) {
+  for (size_t c = 0; c < count_; ++c) observers_[c].begin(target_unit);
+}
+
+void ObserverBank::advance(int substeps) {
+  for (size_t c = 0; c < count_; ++c) observers_[c].advance(substeps);
+}
+
+ObservedState ObserverBank::update(const ObservedState& state) {
   chosen_ = 0;
   for (size_t c = 0; c < count_; ++c) {
-    observers_[c].predict(target_unit);
+    observers_[c].finish();
     observers_[c].correct(state);
     const double squared = observers_[c].innovation() * observers_[c].innovation();
     misses_[c] += forgetting_ * (squared - misses_[c]);

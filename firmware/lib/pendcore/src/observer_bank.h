@@ -31,7 +31,16 @@ class CandidateObserver {
   void load(const float* model, const float* gain, double period_s, double actuation_delay_s,
             double reading_latency_s);
   void reset(const ObservedState& state);
-  void predict(double target_unit);
+  // A control step's prediction in pieces, so that it can run alongside the step in real time: `begin` with
+  // the step's target (a unit of the servo's range), `advance` some substeps (an acting tick's share),
+  // `finish` the rest; `predict` is the three at once.
+  void begin(double target_unit);
+  void advance(int substeps);
+  void finish();
+  void predict(double target_unit) {
+    begin(target_unit);
+    finish();
+  }
   void correct(const ObservedState& state);
   ObservedState shown(const ObservedState& state) const;
   double innovation() const { return innovation_; }
@@ -47,6 +56,8 @@ class CandidateObserver {
   double reading_latency_s_ = 0;
   double x_[4] = {};
   double target_ = 0, innovation_ = 0;
+  double step_target_ = 0, new_target_ = 0;  // the step under way: the target in force, the one arriving
+  int substep_ = 0;                          // substeps of it done
   double history_[kMaxSubsteps] = {};
   int history_count_ = 0;
 };
@@ -59,8 +70,16 @@ class ObserverBank {
   // Loads a checked section for a control step of `period_s` (at most kMaxSubsteps substeps).
   void load(const uint8_t* data, double period_s);
   ObservedState reset(const ObservedState& state);
-  ObservedState update(double target_unit, const ObservedState& state);
+  // The step that `begin` started finished (its rest of the prediction), then corrected with `state`.
+  ObservedState update(const ObservedState& state);
+  void begin(double target_unit);  // a control step under way with this target
+  void advance(int substeps);      // an acting tick's share of it
+  ObservedState update(double target_unit, const ObservedState& state) {  // the step at once
+    begin(target_unit);
+    return update(state);
+  }
   size_t count() const { return count_; }
+  int substeps() const { return substeps_; }  // per control step
   int chosen() const { return chosen_; }
   double filter_coefficient() const { return filter_; }
   uint16_t actions_seen() const { return actions_seen_; }
@@ -69,7 +88,7 @@ class ObserverBank {
   CandidateObserver observers_[kMaxObservers];
   double misses_[kMaxObservers] = {};
   size_t count_ = 0;
-  int chosen_ = 0;
+  int chosen_ = 0, substeps_ = 1;
   double forgetting_ = 1, filter_ = 0;
   uint16_t actions_seen_ = 1;
 };

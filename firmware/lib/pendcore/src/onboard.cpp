@@ -135,6 +135,7 @@ BlobStatus Onboard::install_policy(const uint8_t* payload, size_t length) {
   period_s_ = period;
   const long ticks = std::lround(period / acting);
   ticks_per_step_ = ticks < 1 ? 1 : static_cast<int>(ticks);
+  substeps_per_tick_ = (bank_.substeps() + ticks_per_step_ - 1) / ticks_per_step_;
   return BlobStatus::kOk;
 }
 
@@ -177,7 +178,7 @@ size_t Onboard::observed_inputs(const Observation& newest, uint32_t now_ms, floa
     started_ = true;
     target_unit_ = measured.target_rad / kServoRangeRad;
   } else {
-    shown = bank_.update(target_unit_, measured);
+    shown = bank_.update(measured);  // the step's prediction, begun at the last decision, finished
   }
   paper_features(shown, out);
   paper_features(measured, out + kPaperInputs);
@@ -207,19 +208,26 @@ size_t Onboard::policy_inputs(const Observation& newest, uint32_t now_ms, float*
 }
 
 bool Onboard::policy_tick(const Observation* newest, uint32_t now_ms, PolicyDecision& decision) {
-  if (++tick_count_ < ticks_per_step_ || newest == nullptr) return false;
+  if (++tick_count_ < ticks_per_step_ || newest == nullptr) {
+    if (layout_ == 2 && started_) bank_.advance(substeps_per_tick_);  // a share of the step's prediction
+    return false;
+  }
   tick_count_ = 0;
   last_input_count_ = layout_ == 2 ? observed_inputs(*newest, now_ms, last_inputs_)
                                    : policy_inputs(*newest, now_ms, last_inputs_, kMaxPolicyInputs);
   const StepResult result = policy_.step(last_inputs_, last_input_count_);
+  if (layout_ == 2 && !(result.ok && std::isfinite(result.value))) {
+    bank_.begin(target_unit_);  // diverged observers: the servo holds its target, the prediction goes on
+    return false;
+  }
   if (!result.ok) return false;
   if (layout_ == 2) {
-    if (!std::isfinite(result.value)) return false;  // diverged observers: the servo holds its target
     const double action = clip(static_cast<double>(result.value), -1.0, 1.0);
     for (size_t i = bank_.actions_seen() - 1; i > 0; --i) recent_[i] = recent_[i - 1];
     recent_[0] = static_cast<float>(action);
     const double c = bank_.filter_coefficient();
     target_unit_ = c * target_unit_ + (1 - c) * action;
+    bank_.begin(target_unit_);  // the coming step's prediction, run a share each acting tick
     decision.continuous = true;
     decision.target_unit = static_cast<float>(target_unit_);
     return true;

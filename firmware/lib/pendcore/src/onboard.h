@@ -56,6 +56,7 @@ class Onboard {
   void follow(float action, double target_unit) {
     recent_[0] = action;
     target_unit_ = target_unit;
+    bank_.begin(target_unit);  // the step's prediction starts again with it
   }
   const SwingUp& runtime() const { return runtime_; }
   // The status's "controller" object as JSON; 0 if it does not fit.
@@ -81,6 +82,7 @@ class Onboard {
   size_t last_input_count_ = 0;
   float period_s_ = 0.06f;
   int ticks_per_step_ = 6, tick_count_ = 0, last_action_ = 0;
+  int substeps_per_tick_ = 2;  // layout 2: the observers' prediction runs alongside the step, a share a tick
   ControllerKind kind_ = ControllerKind::kNone;
   bool has_controller_ = false, running_ = false;
   uint32_t active_bytes_ = 0, active_crc_ = 0, accepted_ = 0, refused_ = 0, ignored_ = 0;
