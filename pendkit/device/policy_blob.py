@@ -25,6 +25,7 @@ HEADER = struct.Struct("<HHIff")
 LAYOUTS = {1: "paper features + the last action one-hot",
            2: "observers' estimate and the reading, paper features each, + the last actions; a continuous target"}
 PAPER_INPUTS = 7
+MAX_TICKS_PER_STEP = 1000
 
 
 @dataclass
@@ -52,7 +53,7 @@ def parse_payload(reader) -> PolicyBlob:
     layout, actions, _, period_s, acting_s = reader.take(HEADER.format)
     if layout not in LAYOUTS or not (2 <= actions <= 16 if layout == 1 else actions == 1):
         raise BlobError(f"input layout {layout} with {actions} actions")
-    if not (0 < acting_s <= period_s < 10):
+    if not (0 < acting_s <= period_s < 10 and period_s / acting_s <= MAX_TICKS_PER_STEP):
         raise BlobError(f"a control step of {period_s} s on acting ticks of {acting_s} s")
     if layout == 2 and not period_s / SUBSTEP_S < MAX_SUBSTEPS + 0.5:
         raise BlobError(f"a control step of {period_s} s: an observed policy's is at most "

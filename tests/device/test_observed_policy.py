@@ -69,6 +69,8 @@ def test_a_layout_2_blob_survives_its_bytes_and_a_damaged_one_is_refused():
     with pytest.raises(BlobError, match="NaN"):
         nan_gains = dataclasses.replace(blob.observers, gains=blob.observers.gains * np.nan)
         pack(dataclasses.replace(blob, observers=nan_gains))
+    with pytest.raises(BlobError, match="acting ticks"):  # a million ticks a step (found by the C++ fuzzer)
+        parse(pack(dataclasses.replace(blob, acting_period_s=1e-7)))
     seen_twice = dataclasses.replace(blob, observers=dataclasses.replace(blob.observers, actions_seen=2))
     with pytest.raises(BlobError, match="inputs"):
         parse(pack(seen_twice))  # the network reads one last action, not two

@@ -13,6 +13,7 @@ namespace {
 
 constexpr size_t kPolicyHeaderBytes = 16;  // layout u16, actions u16, padding u32, step s f32, tick s f32
 constexpr size_t kPaperInputs = 7;
+constexpr double kMaxTicksPerStep = 1000;  // pendkit.device.policy_blob.MAX_TICKS_PER_STEP
 constexpr double kTwoPi = 6.283185307179586;
 
 uint16_t read_u16(const uint8_t* p) { return static_cast<uint16_t>(p[0] | p[1] << 8); }
@@ -109,7 +110,9 @@ BlobStatus Onboard::install_policy(const uint8_t* payload, size_t length) {
   const uint16_t layout = read_u16(payload), actions = read_u16(payload + 2);
   const float period = read_f32(payload + 8), acting = read_f32(payload + 12);
   const bool shape_ok = layout == 1 ? (actions >= 2 && actions <= 16) : (layout == 2 && actions == 1);
-  if (!shape_ok || !(acting > 0 && acting <= period && period < 10)) return BlobStatus::kBadShape;
+  if (!shape_ok || !(acting > 0 && acting <= period && period < 10 && period / acting <= kMaxTicksPerStep)) {
+    return BlobStatus::kBadShape;
+  }
   size_t observer_bytes = 0;
   uint16_t seen = 0;
   NetworkShape expected;
