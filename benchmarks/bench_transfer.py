@@ -219,8 +219,9 @@ def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy
     chosen = {"policy": policy} if policy else {}
     if loop_episodes is not None:
         chosen["loop_episodes"] = loop_episodes
-    # the variants as first measured: one starting policy, the full 10-episode budget, a fixed-latency twin
-    start = {"episodes": 10, "candidates": (), **chosen}
+    # the variants as first measured: one starting policy, the full 10-episode budget fine-tuned, a fixed-latency
+    # twin; "excitation only" was a 6-episode budget: the excitation (1.3 episodes) and 4 of fine-tuning
+    start = {"episodes": 10, "candidates": (), "fine_tune": True, **chosen}
     excitation_only = {**start, "episodes": AdaptConfig().excitation_episodes}
     changes = {"full": start, "identification-only": excitation_only,
                "no-training": {**excitation_only, "twin_episodes": 0},

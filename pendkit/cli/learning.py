@@ -304,10 +304,13 @@ def policies_build(names: tuple[str, ...]) -> None:
 @click.option("--impairment", type=click.Choice(("none", "classroom-wifi", "poor-wifi")), default="classroom-wifi",
               show_default=True, help="With --backend sim: the hidden rig's network.")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), required=True)
-@click.option("--episodes", type=click.IntRange(1, 100), default=6, show_default=True,
+@click.option("--episodes", type=click.IntRange(1, 100), default=10, show_default=True,
               help="The rig's time adaptation may use, in episodes of 500 steps (30 s each: 10 is 5 minutes): "
-                   "excitation (6 short ones, 160 s), device trials if asked for, fine-tuning in the whole episodes "
-                   "left (none by default: it lost rigs the twin's choice held, docs/results/robust.md).")
+                   "excitation (6 short ones, about 40 s), device trials if asked for, fine-tuning (--fine-tune) "
+                   "in the whole episodes left.")
+@click.option("--fine-tune/--no-fine-tune", default=False, show_default=True,
+              help="Fine-tune the policy on the rig in what the budget leaves; without: the excitation alone "
+                   "(fine-tuning lost rigs the twin's choice held, docs/results/robust.md).")
 @click.option("--twin-episodes", type=click.IntRange(0), default=60, show_default=True,
               help="Training episodes on the identified twin (laptop time).")
 @click.option("--twin-tolerance", type=click.FloatRange(0), default=1.0, show_default=True,
@@ -338,7 +341,7 @@ def policies_build(names: tuple[str, ...]) -> None:
                    "and keep the twin that matches them best.")
 @click.option("--seed", type=int, default=0, show_default=True)
 @broker_login_options
-def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, twin_episodes, twin_tolerance,
+def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, fine_tune, twin_episodes, twin_tolerance,
           evaluation_episodes, policy_name, candidates, measured_network, device_trials, loop_episodes, restarts, seed,
           username, password, tls_ca) -> None:
     """Fit the kit to one rig in a few of its episodes: excite it, identify its twin from the encoder, design
@@ -351,7 +354,8 @@ def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, t
     from pendkit.rig import RigParams
 
     try:  # the settings checked before the rig is reached
-        config = AdaptConfig(episodes=episodes, excitation_episodes=min(6, episodes), twin_episodes=twin_episodes,
+        config = AdaptConfig(episodes=episodes, excitation_episodes=min(6, episodes), fine_tune=fine_tune,
+                             twin_episodes=twin_episodes,
                              twin_tolerance=twin_tolerance or None,
                              evaluation_episodes=evaluation_episodes, policy=policy_name,
                              candidates=chosen_candidates(candidates), measured_network=measured_network,

@@ -93,11 +93,11 @@ def test_free_swings_read_a_shorter_pendulums_higher_frequency():
     assert ratio == pytest.approx(expected, rel=0.05)
 
 
-@pytest.mark.parametrize("loop_episodes, policy, measured", [(None, "r-dqn-realistic", False),
-                                                              (1, "r-dqn-levels-realistic", True)],
-                         ids=["default", "loop-episode-target-levels-and-measured-network"])
+@pytest.mark.parametrize("loop_episodes, policy, measured, fine_tune", [
+    (None, "r-dqn-realistic", False, True), (1, "r-dqn-levels-realistic", True, False)],
+    ids=["fine-tuned", "loop-episode-target-levels-measured-network-excitation-alone"])
 def test_an_adaptation_session_writes_rig_policy_and_report_within_its_rig_time(tmp_path, loop_episodes, policy,
-                                                                                 measured):
+                                                                                 measured, fine_tune):
     pytest.importorskip("torch")
     from pendkit.adapt.session import AdaptConfig, adapt
     from pendkit.deploy.swingup_design import design_swing_up
@@ -106,7 +106,8 @@ def test_an_adaptation_session_writes_rig_policy_and_report_within_its_rig_time(
     rig = twin_rig(HIDDEN, "none")
     looped = {} if loop_episodes is None else {"loop_episodes": loop_episodes, "refinement_evaluations": 12}
     config = AdaptConfig(episodes=2, excitation_episodes=2, twin_episodes=1, evaluation_episodes=1, candidates=(),
-                         policy=policy, identification_evaluations=30, measured_network=measured, **looped)
+                         policy=policy, identification_evaluations=30, measured_network=measured,
+                         fine_tune=fine_tune, **looped)
     report = adapt(rig, tmp_path, config, say=lambda text: None)
     identified = RigParams.load(tmp_path / "rig.json")
     assert identified != RigParams()  # something was identified
@@ -114,11 +115,12 @@ def test_an_adaptation_session_writes_rig_policy_and_report_within_its_rig_time(
     saved = json.loads((tmp_path / "report.json").read_text())
     # rig time as the rig counted it, within 2 episodes of 500 steps (60 s): 2 excitation episodes of 102 steps
     # and `loop_episodes` of the loop's small steps (60 each; none by default), each after the 7 steps that
-    # find the pendulum still, no device trials (the default), and the one whole fine-tuning episode of 500
+    # find the pendulum still, no device trials (the default), and, fine-tuned, the one whole episode of 500
     # steps that fits in what is left
     assert saved["rig_s_trials"] == 0.0 and saved["device_trials"] == []
     loop_steps = LOOP_DRIVE_STEPS + LOOP_FREE_STEPS
-    expected_steps = 2 * (REST_STEPS - 1 + 102) + config.loop_episodes * (REST_STEPS - 1 + loop_steps) + 500
+    expected_steps = 2 * (REST_STEPS - 1 + 102) + config.loop_episodes * (REST_STEPS - 1 + loop_steps) + \
+        (500 if fine_tune else 0)
     assert saved["rig_s_adaptation"] == pytest.approx(expected_steps * 0.06)
     assert saved["rig_s_adaptation"] <= saved["rig_s_budget"] == pytest.approx(2 * 500 * 0.06)
     assert saved["rig_s_total"] > saved["rig_s_adaptation"]  # the evaluation came after, on the same rig
