@@ -1,6 +1,6 @@
 """A shipped or trained policy as the blob its rig's device runs: an R-DQN on the paper's readings (layout 1),
-or an R-TD3 reading its observers' estimate beside the readings (layout 2, its observers designed for the
-device's timing)."""
+or an R-TD3 reading its observers' estimate beside the readings (layout 2, its observers' delays as
+`observer_timing` chooses)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,8 @@ def learned_policy_blob(spec, state: dict | None, params=None, observer=None, tr
     learner's own twin). Layout 2: `observer`, the rig or the bank of rigs its observers are designed for
     (default what the laptop would give it on a rig nobody identified, `pendkit.agents.rig_suite`), on the
     delays `observer_timing` chooses; `trained_timing`: the `BackendTiming` its observers had in training
-    (default its own twin's). `run`: (env, agent, inputs) already built and loaded, in place of `state`."""
+    (default its own twin's). `run`: (env, agent, inputs) already built and loaded, in place of `state` (the
+env is closed here)."""
     from pendkit.agents.rig_suite import unknown_rig_observer
     from pendkit.agents.runs import build_run
     from pendkit.deploy.export import observed_policy_blob, policy_blob
