@@ -125,3 +125,19 @@ def test_python_observed_policy_reproduces_the_shared_vectors():
         decisions += 1
     assert decisions > 500 and worst_input <= 1e-5 and worst_target <= 1e-5, (worst_input, worst_target)
     assert len(observers) > 1  # the bank's choice moved during the recorded episodes
+
+
+def test_a_bank_is_designed_for_the_devices_delays_and_a_single_observer_keeps_its_trainings():
+    pytest.importorskip("torch")
+    from pendkit.agents.pretrained import policy_weights
+    from pendkit.deploy.learned_blob import learned_policy_blob
+
+    bank = learned_policy_blob(*policy_weights("r-td3-bank-robust")).observers
+    single = learned_policy_blob(*policy_weights("r-td3-robust")).observers
+    trained = pendkit.make(fidelity="realistic").unwrapped.timing
+    assert bank.candidates == 13 and bank.reading_latency_s == 0.0
+    assert bank.actuation_delay_s == pytest.approx(RigParams().pwm_period_ms / 2000)  # half a PWM frame
+    assert single.candidates == 1
+    assert (single.actuation_delay_s, single.reading_latency_s) == pytest.approx(
+        (trained.command_delay_s, trained.reading_delay_s))
+    assert single.actuation_delay_s > bank.actuation_delay_s  # the laptop's network and acting tick on top
