@@ -257,7 +257,9 @@ def adapt_one(rig_name: str, rig, seed: int, variant: str, out_root: str, policy
 
 def _on_twin(report: dict) -> str:
     rows = report.get("candidates_on_twin") or []
-    return ",".join(f"{row['policy']}/{row['stage'].replace(' ', '-')}:{row['held']}" for row in rows) or "-"
+    return ",".join(f"{row['policy']}/{row['stage'].replace(' ', '-')}:{row['held']}"
+                    f"{'' if row.get('held_on_device') is None else '/' + str(row['held_on_device'])}"
+                    for row in rows) or "-"
 
 
 def _chosen(report: dict) -> str:

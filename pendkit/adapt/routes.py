@@ -126,12 +126,13 @@ JUDGE_TWIN_SEED_OFFSET = 1_000  # the twin's judge draws other rigs than its tra
 
 
 def choose_on_twin(identification: Identification, config, weights_path: Path, say: Callable[[str], None],
-                   spread: dict | None = None) -> tuple[AgentRun, list[dict]]:
+                   spread: dict | None = None) -> tuple[AgentRun, list[dict], AgentRun | None]:
     """(c) with candidates: `config.policy` and each of `config.candidates` (shipped policies), as shipped and
     after `config.twin_episodes` on the identified twin, judged there by the kit's rule (its 10 starts, on
     rigs drawn from `spread` when given); the one that holds most (then the highest mean return; as shipped
-    before trained, the first named before the others on a tie) goes on to the rig. Returns it and every
-    candidate's verdict."""
+    before trained, the first named before the others on a tie) goes on to the rig. Each is also judged as the
+    rig's device would run it (`held_on_device`), and the one that holds most there is the device's. Returns
+    the laptop's, every candidate's verdicts, and the device's (None when the device runs none of them)."""
     import copy
 
     from pendkit.agents.policy_rule import REPORT_SEED, judge_policy
@@ -157,22 +158,68 @@ def choose_on_twin(identification: Identification, config, weights_path: Path, s
             if episodes:
                 train_sync(env, agent, episodes, inputs, seed=config.seed, progress=False)
             verdict = judge_policy(judge, agent, inputs, seed=REPORT_SEED)
+            device = held_on_device(identification, spec, agent, inputs, observer, REPORT_SEED)
             judged.append({"policy": name, "stage": stage, "held": verdict.held, "episodes": len(verdict.starts),
-                           "mean_return": verdict.evaluation.mean_return, "spec": spec, "observer": observer,
-                           "state": copy.deepcopy(agent.state_dict())})
-            say(f"(c) {name} {stage} on the identified twin: {verdict.summary()}")
+                           "mean_return": verdict.evaluation.mean_return, "held_on_device": device, "spec": spec,
+                           "observer": observer, "state": copy.deepcopy(agent.state_dict())})
+            on_device = "" if device is None else f"; run by its device, {device} of 10 held"
+            say(f"(c) {name} {stage} on the identified twin: {verdict.summary()}{on_device}")
         env.close()
         judge.close()
     best = max(judged, key=lambda row: (row["held"], row["mean_return"]))  # max keeps the first of equals
-    env = _twin_env(best["spec"], identification, best["observer"], None, config.seed)
-    _, agent, inputs = build_run(best["spec"], env)
-    agent.load_state_dict(best["state"])
-    env.close()
-    save_weights(weights_path, agent, best["spec"], {"identified_rig": identification.values(),
-                                                     "chosen_on_twin": f"{best['policy']} {best['stage']}"})
+    run = _run_of(best, identification, config)
+    save_weights(weights_path, run.agent, best["spec"], {"identified_rig": identification.values(),
+                                                         "chosen_on_twin": f"{best['policy']} {best['stage']}"})
     say(f"(c) chosen on the twin: {best['policy']} {best['stage']}")
-    rows = [{key: row[key] for key in ("policy", "stage", "held", "episodes", "mean_return")} for row in judged]
-    return AgentRun(best["spec"], agent, inputs, best["observer"]), rows
+    runnable = [row for row in judged if row["held_on_device"] is not None]
+    device_best = max(runnable, key=lambda row: (row["held_on_device"], row["held"], row["mean_return"]), default=None)
+    device_run = run if device_best is best else (None if device_best is None else
+                                                 _run_of(device_best, identification, config))
+    if device_best is not None:
+        say(f"(c) chosen for the rig's device: {device_best['policy']} {device_best['stage']}")
+    keys = ("policy", "stage", "held", "episodes", "mean_return", "held_on_device")
+    return run, [{key: row[key] for key in keys} for row in judged], device_run
+
+
+def _run_of(row: dict, identification: Identification, config) -> AgentRun:
+    env = _twin_env(row["spec"], identification, row["observer"], None, config.seed)
+    _, agent, inputs = build_run(row["spec"], env)
+    agent.load_state_dict(row["state"])
+    env.close()
+    return AgentRun(row["spec"], agent, inputs, row["observer"])
+
+
+def held_on_device(identification: Identification, spec: RunSpec, agent, inputs, observer, seed: int) -> int | None:
+    """Of the kit's rule's 10 starts, how many hold with the policy run by the identified rig's own device (its
+    blob as `policy_on_device` makes it; no network between the readings and the targets, what the device's
+    route meets); None for a learner the device does not run."""
+    from pendkit.agents.policy_rule import RULE_STARTS
+    from pendkit.agents.runs import SOLVED_TAIL_STEPS
+    from pendkit.deploy.learned_blob import DEVICE_LEARNERS
+    from pendkit.deploy.on_twin import onboard_episode, upload_to_twin
+    from pendkit.env_name import EPISODE_STEPS
+    from pendkit.features import holds_upright
+
+    if spec.learner not in DEVICE_LEARNERS:
+        return None
+    device = identified_twin(dataclasses.replace(identification, network=NetworkImpairment()),
+                             action_mode="continuous")
+    upload_to_twin(device, device_blob(AgentRun(spec, agent, inputs, observer), identification))
+    held = sum(holds_upright(onboard_episode(device, seed=seed + k, start=start, steps=EPISODE_STEPS),
+                             SOLVED_TAIL_STEPS) for k, start in enumerate(RULE_STARTS))
+    device.close()
+    return held
+
+
+def device_blob(run: AgentRun, identification: Identification) -> bytes:
+    """`run`'s policy as the rig's device runs it (`pendkit.deploy.learned_blob`): its observers designed as on
+    the way to the rig, a single one on the delays of the identified twin it was trained on."""
+    from pendkit.deploy.learned_blob import learned_policy_blob
+    from pendkit.device.controller_blob import pack
+
+    twin = identified_twin(identification, **run.env_kwargs())
+    return pack(learned_policy_blob(run.spec, None, identification.params, run.observer_params, twin.unwrapped.timing,
+                                    run=(twin, run.agent, run.inputs)))
 
 
 def policy_observer(spec: RunSpec, identification: Identification) -> RigParams | tuple[RigParams, ...]:
@@ -261,20 +308,17 @@ def judged(runs: list[list[float]], step_s: float) -> Evaluation:
     return outcome
 
 
-def policy_on_device(rig, run: AgentRun, identification: Identification, episodes: int,
+def policy_on_device(rig, run: AgentRun | None, identification: Identification, episodes: int,
                      blob_path: Path | None = None) -> dict:
     """The adapted policy as the rig's device runs it (`pendkit.deploy.learned_blob`: its observers designed as
     on the way to the rig, on the identified twin's delays for a single one, the device's for a bank),
     uploaded and run from rest as the classical designs are there; written to `blob_path` for `pendkit deploy
     --blob`. Not evaluated for a learner the device does not run."""
-    from pendkit.deploy.learned_blob import DEVICE_LEARNERS, learned_policy_blob
-    from pendkit.device.controller_blob import pack
+    from pendkit.deploy.learned_blob import DEVICE_LEARNERS
 
-    if episodes == 0 or rig.run_on_device is None or run.spec.learner not in DEVICE_LEARNERS:
+    if episodes == 0 or rig.run_on_device is None or run is None or run.spec.learner not in DEVICE_LEARNERS:
         return {"summary": "not evaluated"}
-    twin = identified_twin(identification, **run.env_kwargs())
-    blob = pack(learned_policy_blob(run.spec, None, identification.params, run.observer_params, twin.unwrapped.timing,
-                                    run=(twin, run.agent, run.inputs)))
+    blob = device_blob(run, identification)
     if blob_path is not None:
         blob_path.write_bytes(blob)
     return _as_report(judged(rig.run_on_device(blob, episodes), identification.params.control_step_ms / 1000))

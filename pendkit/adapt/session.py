@@ -174,9 +174,10 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
         say("(c) what the recordings allow: " + ", ".join(f"{name} {low:.3g}..{high:.3g}"
                                                           for name, (low, high) in spread.items()))
     if config.candidates:
-        agent_run, report["candidates_on_twin"] = choose_on_twin(identification, config, out / "policy.pt", say, spread)
+        agent_run, report["candidates_on_twin"], device_run = choose_on_twin(identification, config, out / "policy.pt",
+                                                                             say, spread)
     else:
-        agent_run = train_on_twin(identification, config, out / "policy.pt", say, spread)
+        agent_run = device_run = train_on_twin(identification, config, out / "policy.pt", say, spread)
     left_episodes = max(0, int((budget_s - rig.seconds()) // (EPISODE_STEPS * step_s)))
     fine_tune_episodes = left_episodes if config.fine_tune else 0
     fine_tune_on_rig(rig, agent_run, fine_tune_episodes, config, out / "policy.pt", say)
@@ -184,7 +185,7 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     report["rig_s_adaptation"] = rig.seconds()
     report["wall_s_adaptation"] = time.perf_counter() - started
     report["policy_on_rig"] = agent_run.evaluate(rig, config.evaluation_episodes)
-    report["policy_on_device"] = policy_on_device(rig, agent_run, identification, config.evaluation_episodes,
+    report["policy_on_device"] = policy_on_device(rig, device_run, identification, config.evaluation_episodes,
                                                   out / DEVICE_POLICY_BLOB)
     if "solved" in report["policy_on_device"]:
         report["device_policy_blob"] = DEVICE_POLICY_BLOB
@@ -330,10 +331,16 @@ def candidates_markdown(report: dict) -> str:
     rows = report.get("candidates_on_twin")
     if not rows:
         return ""
+    def on_device(row: dict) -> str:
+        held = row.get("held_on_device")
+        return "-" if held is None else f"{held}/{row['episodes']}"
+
     lines = "\n".join(f"| {row['policy']} | {row['stage']} | {row['held']}/{row['episodes']} | "
-                      f"{row['mean_return']:.0f} |" for row in rows)
-    return ("The starting policies judged on the identified twin by the kit's rule (the best went to the rig):\n\n"
-            "| policy | stage | held | mean return |\n|---|---|---|---|\n" + lines + "\n\n")
+                      f"{row['mean_return']:.0f} | {on_device(row)} |" for row in rows)
+    return ("The starting policies judged on the identified twin by the kit's rule (the best from the laptop went "
+            "to the rig; the best run by the rig's device, on its twin with no network, to the device):\n\n"
+            "| policy | stage | held | mean return | held, run by the device |\n|---|---|---|---|---|\n" + lines
+            + "\n\n")
 
 
 def _allowed(row: dict | None) -> str:

@@ -350,7 +350,7 @@ def test_of_several_starting_policies_the_one_that_holds_on_the_identified_twin_
     fit = Identification(RigParams(), 10.0, 0.01, 0.1, 10, 1.0)
     config = AdaptConfig(policy="dqn-ideal", candidates=("td3-realistic",), twin_episodes=0)
     said = []
-    run, rows = choose_on_twin(fit, config, tmp_path / "policy.pt", said.append)
+    run, rows, device_run = choose_on_twin(fit, config, tmp_path / "policy.pt", said.append)
     held = {row["policy"]: row["held"] for row in rows}
     assert [row["stage"] for row in rows] == ["as shipped", "as shipped"] and all(r["episodes"] == 10 for r in rows)
     assert held["td3-realistic"] >= 9 > held["dqn-ideal"], rows
@@ -358,5 +358,24 @@ def test_of_several_starting_policies_the_one_that_holds_on_the_identified_twin_
     saved = load_data(tmp_path / "policy.pt")
     assert saved["notes"]["chosen_on_twin"] == "td3-realistic as shipped"
     assert "| td3-realistic | as shipped |" in candidates_markdown({"candidates_on_twin": rows})
+    assert device_run is None and all(row["held_on_device"] is None for row in rows)  # the device runs neither
     with pytest.raises(ConfigError, match="not a shipped policy"):
         choose_on_twin(fit, AdaptConfig(candidates=("td3+estimated",)), tmp_path / "p.pt", said.append)
+
+
+def test_the_rigs_device_gets_the_candidate_it_runs_even_when_the_laptop_chose_another(tmp_path):
+    """td3-realistic holds the identified twin from the laptop, but the device does not run TD3; the R-DQN it
+    runs is judged there (the rule's 10 starts, its blob on the identified twin's device) and goes to it."""
+    from pendkit.adapt.identify import Identification
+    from pendkit.adapt.routes import choose_on_twin
+    from pendkit.adapt.session import AdaptConfig, candidates_markdown
+
+    fit = Identification(RigParams(), 10.0, 0.01, 0.1, 10, 1.0)
+    config = AdaptConfig(policy="r-dqn-realistic", candidates=("td3-realistic",), twin_episodes=0)
+    said = []
+    run, rows, device_run = choose_on_twin(fit, config, tmp_path / "policy.pt", said.append)
+    on_device = {row["policy"]: row["held_on_device"] for row in rows}
+    assert run.spec.learner == "td3+estimated" and device_run.spec.learner == "r-dqn"
+    assert on_device["td3-realistic"] is None and 0 <= on_device["r-dqn-realistic"] <= 10
+    assert "chosen for the rig's device: r-dqn-realistic as shipped" in said[-1]
+    assert f"| {on_device['r-dqn-realistic']}/10 |" in candidates_markdown({"candidates_on_twin": rows})
