@@ -32,6 +32,18 @@ pend::Onboard onboard;  // 82 KB: static, as on the device
 pend::SwingUpParams params;
 pend::SwingUp runtime;
 
+// A blob sent to `onboard` as the laptop does: PKUP chunks of at most kMaxChunkBytes, offset and total size.
+void upload(const std::vector<uint8_t>& blob) {
+  for (size_t offset = 0; offset < blob.size(); offset += pend::kMaxChunkBytes) {
+    const size_t bytes = std::min(pend::kMaxChunkBytes, blob.size() - offset);
+    std::vector<uint8_t> chunk = {'P', 'K', 'U', 'P'};
+    for (int i = 0; i < 4; ++i) chunk.push_back(static_cast<uint8_t>(offset >> (8 * i)));
+    for (int i = 0; i < 4; ++i) chunk.push_back(static_cast<uint8_t>(blob.size() >> (8 * i)));
+    chunk.insert(chunk.end(), blob.begin() + static_cast<long>(offset), blob.begin() + static_cast<long>(offset + bytes));
+    onboard.chunk(chunk.data(), chunk.size());
+  }
+}
+
 void replay(const std::string& name) {
   const std::vector<uint8_t> blob = read_vector_file("swing-up-" + name + ".pkcb");
   uint16_t kind = 0;
@@ -92,14 +104,7 @@ TEST_CASE("uploads: the controller status after every chunk") {
 TEST_CASE("the device's policy makes the Python device's inputs and takes torch's actions") {
   const std::vector<uint8_t> blob = read_vector_file("r-dqn-realistic-policy.pkcb");
   onboard = pend::Onboard();
-  for (size_t offset = 0; offset < blob.size(); offset += pend::kMaxChunkBytes) {
-    const size_t bytes = std::min(pend::kMaxChunkBytes, blob.size() - offset);
-    std::vector<uint8_t> chunk = {'P', 'K', 'U', 'P'};
-    for (int i = 0; i < 4; ++i) chunk.push_back(static_cast<uint8_t>(offset >> (8 * i)));
-    for (int i = 0; i < 4; ++i) chunk.push_back(static_cast<uint8_t>(blob.size() >> (8 * i)));
-    chunk.insert(chunk.end(), blob.begin() + static_cast<long>(offset), blob.begin() + static_cast<long>(offset + bytes));
-    onboard.chunk(chunk.data(), chunk.size());
-  }
+  upload(blob);
   REQUIRE(onboard.runs_policy());
   const std::vector<uint8_t> text = read_vector_file("policy-device.json");
   const json vectors = json::parse(text.begin(), text.end());
@@ -135,14 +140,7 @@ TEST_CASE("the device's policy makes the Python device's inputs and takes torch'
 TEST_CASE("the device's observed policy makes the Python device's inputs and targets (layout 2)") {
   const std::vector<uint8_t> blob = read_vector_file("r-td3-bank-robust-policy.pkcb");
   onboard = pend::Onboard();
-  for (size_t offset = 0; offset < blob.size(); offset += pend::kMaxChunkBytes) {
-    const size_t bytes = std::min(pend::kMaxChunkBytes, blob.size() - offset);
-    std::vector<uint8_t> chunk = {'P', 'K', 'U', 'P'};
-    for (int i = 0; i < 4; ++i) chunk.push_back(static_cast<uint8_t>(offset >> (8 * i)));
-    for (int i = 0; i < 4; ++i) chunk.push_back(static_cast<uint8_t>(blob.size() >> (8 * i)));
-    chunk.insert(chunk.end(), blob.begin() + static_cast<long>(offset), blob.begin() + static_cast<long>(offset + bytes));
-    onboard.chunk(chunk.data(), chunk.size());
-  }
+  upload(blob);
   REQUIRE(onboard.runs_policy());
   REQUIRE(onboard.observers().count() == 13);
   const std::vector<uint8_t> text = read_vector_file("observed-policy-device.json");
@@ -192,14 +190,7 @@ TEST_CASE("a layout-2 policy with a damaged observer section is refused and chan
   blob[12 + 16 + 20 + 3] ^= 0x80;
   const uint32_t crc = pend::crc32(blob.data(), blob.size() - 4);
   for (int i = 0; i < 4; ++i) blob[blob.size() - 4 + i] = static_cast<uint8_t>(crc >> (8 * i));
-  for (size_t offset = 0; offset < blob.size(); offset += pend::kMaxChunkBytes) {
-    const size_t bytes = std::min(pend::kMaxChunkBytes, blob.size() - offset);
-    std::vector<uint8_t> chunk = {'P', 'K', 'U', 'P'};
-    for (int i = 0; i < 4; ++i) chunk.push_back(static_cast<uint8_t>(offset >> (8 * i)));
-    for (int i = 0; i < 4; ++i) chunk.push_back(static_cast<uint8_t>(blob.size() >> (8 * i)));
-    chunk.insert(chunk.end(), blob.begin() + static_cast<long>(offset), blob.begin() + static_cast<long>(offset + bytes));
-    onboard.chunk(chunk.data(), chunk.size());
-  }
+  upload(blob);
   CHECK_FALSE(onboard.runs_policy());
   char buffer[512];
   REQUIRE(onboard.status_json(buffer, sizeof buffer) > 0);

@@ -18,24 +18,27 @@ VECTORS_MAGIC = b"PKTV"
 VECTOR_HEADER = struct.Struct("<4sIHH")  # magic, steps, input size, output size
 
 
-def network_blob(agent) -> NetworkBlob:
-    """The greedy network of a recurrent DQN agent (`pendkit.agents.recurrent_dqn`)."""
+def _recurrent_network(gru, modules, normalizer, output: str) -> NetworkBlob:
+    """A GRU, then [input, GRU state] through `modules` (Linear, activation, ...) as a device network."""
     from pendkit.agents.normalizer import CLIP_STD
 
-    gru = agent.q.trunk.gru
     weights = tuple(p.detach().numpy().astype(np.float32) for p in (gru.weight_ih_l0, gru.weight_hh_l0,
                                                                       gru.bias_ih_l0, gru.bias_hh_l0))
-    modules = list(agent.q.head)
+    activations = {"ReLU": "relu", "Tanh": "tanh", "Sigmoid": "sigmoid"}
     layers = []
     for k, module in enumerate(modules):
         if hasattr(module, "weight"):
             follows = type(modules[k + 1]).__name__ if k + 1 < len(modules) else ""
             layers.append(DenseLayer(module.weight.detach().numpy().astype(np.float32),
                                      module.bias.detach().numpy().astype(np.float32),
-                                     {"ReLU": "relu", "Tanh": "tanh", "Sigmoid": "sigmoid"}.get(follows, "none")))
-    normalizer = agent.normalizer
+                                     activations.get(follows, "none")))
     return NetworkBlob(normalizer.mean.astype(np.float32), normalizer.std.astype(np.float32), CLIP_STD, layers,
-                       weights, "argmax")
+                       weights, output)
+
+
+def network_blob(agent) -> NetworkBlob:
+    """The greedy network of a recurrent DQN agent (`pendkit.agents.recurrent_dqn`)."""
+    return _recurrent_network(agent.q.trunk.gru, list(agent.q.head), agent.normalizer, "argmax")
 
 
 def policy_blob(agent, params):
@@ -49,22 +52,8 @@ def policy_blob(agent, params):
 def actor_network_blob(agent) -> NetworkBlob:
     """The actor of a recurrent TD3 agent (`pendkit.agents.recurrent_td3`): its GRU, then [input, GRU state]
     through the actor's layers to the tanh-bounded target."""
-    from pendkit.agents.normalizer import CLIP_STD
-
-    gru = agent.net.trunk.gru
-    weights = tuple(p.detach().numpy().astype(np.float32) for p in (gru.weight_ih_l0, gru.weight_hh_l0,
-                                                                      gru.bias_ih_l0, gru.bias_hh_l0))
     modules = [m for m in agent.net.actor.modules() if not list(m.children())]  # Linear, ReLU, ..., Tanh
-    layers = []
-    for k, module in enumerate(modules):
-        if hasattr(module, "weight"):
-            follows = type(modules[k + 1]).__name__ if k + 1 < len(modules) else ""
-            layers.append(DenseLayer(module.weight.detach().numpy().astype(np.float32),
-                                     module.bias.detach().numpy().astype(np.float32),
-                                     {"ReLU": "relu", "Tanh": "tanh", "Sigmoid": "sigmoid"}.get(follows, "none")))
-    normalizer = agent.normalizer
-    return NetworkBlob(normalizer.mean.astype(np.float32), normalizer.std.astype(np.float32), CLIP_STD, layers,
-                       weights, "continuous")
+    return _recurrent_network(agent.net.trunk.gru, modules, agent.normalizer, "continuous")
 
 
 def device_timing(params):

@@ -71,12 +71,35 @@ def record_swing_up(controller: str, ticks: int = TICKS, seed: int = 0) -> tuple
     return blob, np.array(rows[:ticks], dtype=np.float32)
 
 
+def _reading(observation) -> list:
+    return [observation.millis, observation.position_counts, observation.servo_counts, observation.omega_rev_s,
+            observation.acceleration_rev_s2, observation.arm_velocity_counts_s]
+
+
+def _record_episodes(env, runtime, rows: list, decisions: int, seed: int, steps: int) -> None:
+    """Run the uploaded policy's episodes (rest, random, ...) until `rows` holds `decisions`, marking each start."""
+    from pendkit.deploy.on_twin import onboard_episode
+
+    reset = runtime.reset
+
+    def recording_reset(*args):
+        reset(*args)
+        rows.append({"start": True})
+
+    runtime.reset = recording_reset
+    episode = 0
+    while len(rows) < decisions:
+        onboard_episode(env, seed=seed + episode, start="random" if episode % 2 else "rest", steps=steps)
+        episode += 1
+    env.close()
+
+
 def record_policy(decisions: int = 1000, seed: int = 0) -> tuple[bytes, list[dict]]:
     import pendkit
     from pendkit.agents.pretrained import policy_weights
     from pendkit.agents.runs import build_run
     from pendkit.deploy.export import policy_blob
-    from pendkit.deploy.on_twin import onboard_episode, upload_to_twin
+    from pendkit.deploy.on_twin import upload_to_twin
     from pendkit.network import IMPAIRMENTS
     from pendkit.sim.fidelity import FIDELITY_PRESETS
 
@@ -89,29 +112,19 @@ def record_policy(decisions: int = 1000, seed: int = 0) -> tuple[bytes, list[dic
     upload_to_twin(env, blob)
     runtime = env.unwrapped.backend.device.mcu.onboard.runtime
     rows: list[dict] = []
-    decide, reset = runtime.tick, runtime.reset
+    decide = runtime.tick
 
     def recording_tick(observation, now_ms):
         deciding = runtime.tick_count + 1 >= runtime.ticks_per_step and observation is not None
         inputs = runtime.inputs(observation, now_ms) if deciding else None
         action = decide(observation, now_ms)
         if action is not None:
-            rows.append({"reading": [observation.millis, observation.position_counts, observation.servo_counts,
-                                     observation.omega_rev_s, observation.acceleration_rev_s2,
-                                     observation.arm_velocity_counts_s], "now_ms": int(now_ms),
+            rows.append({"reading": _reading(observation), "now_ms": int(now_ms),
                          "inputs": [float(v) for v in inputs], "action": action})
         return action
 
-    def recording_reset(*args):
-        reset(*args)
-        rows.append({"start": True})
-
-    runtime.tick, runtime.reset = recording_tick, recording_reset
-    episode = 0
-    while len(rows) < decisions:
-        onboard_episode(env, seed=seed + episode, start="random" if episode % 2 else "rest", steps=250)
-        episode += 1
-    env.close()
+    runtime.tick = recording_tick
+    _record_episodes(env, runtime, rows, decisions, seed, steps=250)
     return blob, rows[:decisions]
 
 
@@ -119,14 +132,14 @@ def record_observed_policy(decisions: int = 600, seed: int = 0) -> tuple[bytes, 
     import pendkit
     from pendkit.agents.pretrained import policy_weights
     from pendkit.deploy.learned_blob import learned_policy_blob
-    from pendkit.deploy.on_twin import onboard_episode, upload_to_twin
+    from pendkit.deploy.on_twin import upload_to_twin
 
     blob = pack(learned_policy_blob(*policy_weights("r-td3-bank-robust")))
     env = pendkit.make(fidelity="realistic", action_mode="continuous")
     upload_to_twin(env, blob)
     runtime = env.unwrapped.backend.device.mcu.onboard.runtime
     rows: list[dict] = []
-    decide, make_inputs, reset = runtime.tick, runtime.inputs, runtime.reset
+    decide, make_inputs = runtime.tick, runtime.inputs
     made = {}
 
     def recording_inputs(observation, now_ms):
@@ -136,24 +149,14 @@ def record_observed_policy(decisions: int = 600, seed: int = 0) -> tuple[bytes, 
     def recording_tick(observation, now_ms):
         target = decide(observation, now_ms)
         if target is not None:
-            rows.append({"reading": [observation.millis, observation.position_counts, observation.servo_counts,
-                                     observation.omega_rev_s, observation.acceleration_rev_s2,
-                                     observation.arm_velocity_counts_s], "now_ms": int(now_ms),
+            rows.append({"reading": _reading(observation), "now_ms": int(now_ms),
                          "inputs": [float(v) for v in made["inputs"]], "action": runtime.action,
                          "target_unit": target,
                          "observer": runtime.bank.chosen})
         return target
 
-    def recording_reset(*args):
-        reset(*args)
-        rows.append({"start": True})
-
-    runtime.tick, runtime.inputs, runtime.reset = recording_tick, recording_inputs, recording_reset
-    episode = 0
-    while len(rows) < decisions:
-        onboard_episode(env, seed=seed + episode, start="random" if episode % 2 else "rest", steps=200)
-        episode += 1
-    env.close()
+    runtime.tick, runtime.inputs = recording_tick, recording_inputs
+    _record_episodes(env, runtime, rows, decisions, seed, steps=200)
     return blob, rows[:decisions]
 
 
