@@ -1,7 +1,7 @@
 """Study: does an LQR catch help `r-td3-bank-robust` hold more rigs when the rig's device runs it?
 
     python benchmarks/studies/device_lqr_catch.py [--rigs validation|unseen] [--catch-rad A --rate-rad-s W
-                                                   --fall-rad F]
+                                                   --fall-rad F] [--weights RUN.pt]
 
 The policy's blob runs on each rig's twin device as `bench_transfer.py device-policy` runs it (rest + 5 random
 starts, 500 steps, no network between readings and targets). With a catch (`--catch-rad` > 0) every deciding
@@ -10,7 +10,8 @@ A and |pendulum rate| < W) an LQR takes the target until the pendulum is more th
 is designed per bank candidate (its model, the device's delay, the rig's filter) and the chosen candidate's
 gain is used, as a device that knows only its bank would. The network still steps and reads the LQR's action
 as its own last one, so it takes over again where the LQR lets go. Choose on `--rigs validation`; judge once
-on the unseen rigs. Results: docs/results/robust.md.
+on the unseen rigs. `--weights`: a bank policy's weights file (e.g. `robust_observer.py --out`) in place of the
+shipped one. Results: docs/results/robust.md.
 """
 
 from __future__ import annotations
@@ -74,17 +75,19 @@ def main() -> None:
     parser.add_argument("--rate-rad-s", type=float, default=3.0)
     parser.add_argument("--fall-rad", type=float, default=0.8)
     parser.add_argument("--starts", type=int, default=5)
+    parser.add_argument("--weights", default=None, help="a weights file (default: r-td3-bank-robust as shipped)")
     args = parser.parse_args()
 
     from pendkit.agents.pretrained import policy_weights
     from pendkit.agents.rig_suite import preset_rigs, random_rigs, rig_env, validation_rigs
-    from pendkit.agents.runs import SOLVED_TAIL_STEPS
+    from pendkit.agents.runs import SOLVED_TAIL_STEPS, load_weights
     from pendkit.deploy.learned_blob import learned_policy_blob
     from pendkit.deploy.on_twin import onboard_episode, upload_to_twin
     from pendkit.device.controller_blob import pack
     from pendkit.features import holds_upright
 
-    blob = pack(learned_policy_blob(*policy_weights("r-td3-bank-robust")))
+    blob = pack(learned_policy_blob(*(load_weights(args.weights) if args.weights
+                                      else policy_weights("r-td3-bank-robust"))))
     gains = candidate_gains()
     rigs = validation_rigs(12) if args.rigs == "validation" else {**preset_rigs(), **random_rigs()}
     held_all = episodes = 0
