@@ -1,7 +1,7 @@
 """Study: does an LQR catch help `r-td3-bank-robust` hold more rigs when the rig's device runs it?
 
     python benchmarks/studies/device_lqr_catch.py [--rigs validation|unseen] [--catch-rad A --rate-rad-s W
-                                                   --fall-rad F] [--weights RUN.pt]
+                                                   --fall-rad F] [--weights RUN.pt] [--bank-size N]
 
 The policy's blob runs on each rig's twin device as `bench_transfer.py device-policy` runs it (rest + 5 random
 starts, 500 steps, no network between readings and targets). With a catch (`--catch-rad` > 0) every deciding
@@ -11,7 +11,8 @@ is designed per bank candidate (its model, the device's delay, the rig's filter)
 gain is used, as a device that knows only its bank would. The network still steps and reads the LQR's action
 as its own last one, so it takes over again where the LQR lets go. Choose on `--rigs validation`; judge once
 on the unseen rigs. `--weights`: a bank policy's weights file (e.g. `robust_observer.py --out`) in place of the
-shipped one. Results: docs/results/robust.md.
+shipped one; `--bank-size`: the device's observers designed for that many candidates (`observer_bank(N)`, the
+first 13 those of training; the device takes at most 16). Results: docs/results/robust.md.
 """
 
 from __future__ import annotations
@@ -75,6 +76,7 @@ def main() -> None:
     parser.add_argument("--rate-rad-s", type=float, default=3.0)
     parser.add_argument("--fall-rad", type=float, default=0.8)
     parser.add_argument("--starts", type=int, default=5)
+    parser.add_argument("--bank-size", type=int, default=None, help="candidates of the device's bank (default 13)")
     parser.add_argument("--weights", default=None, help="a weights file (default: r-td3-bank-robust as shipped)")
     args = parser.parse_args()
 
@@ -85,9 +87,10 @@ def main() -> None:
     from pendkit.deploy.on_twin import onboard_episode, upload_to_twin
     from pendkit.device.controller_blob import pack
     from pendkit.features import holds_upright
+    from pendkit.sim.randomize import observer_bank
 
-    blob = pack(learned_policy_blob(*(load_weights(args.weights) if args.weights
-                                      else policy_weights("r-td3-bank-robust"))))
+    spec, state = load_weights(args.weights) if args.weights else policy_weights("r-td3-bank-robust")
+    blob = pack(learned_policy_blob(spec, state, observer=observer_bank(args.bank_size) if args.bank_size else None))
     gains = candidate_gains()
     rigs = validation_rigs(12) if args.rigs == "validation" else {**preset_rigs(), **random_rigs()}
     held_all = episodes = 0
