@@ -18,7 +18,6 @@ first 13 those of training; the device takes at most 16). Results: docs/results/
 from __future__ import annotations
 
 import argparse
-import math
 
 import numpy as np
 
@@ -36,6 +35,8 @@ def candidate_gains():
 
 def add_catch(runtime, gains, catch_rad: float, rate_rad_s: float, fall_rad: float) -> dict:
     """Wrap the device runtime's `tick` and `reset` with the catch; returns its counters."""
+    from pendkit.encoder import angle_from_upright_rad
+
     decide, restart = runtime.tick, runtime.reset
     state = {"catching": False, "ticks": 0}
     range_rad = runtime.params.servo_range_rad
@@ -50,7 +51,7 @@ def add_catch(runtime, gains, catch_rad: float, rate_rad_s: float, fall_rad: flo
         if target is None:
             return None
         x = runtime.bank.observers[runtime.bank.chosen].x
-        from_upright = x[1] % (2 * math.pi) - math.pi
+        from_upright = angle_from_upright_rad(x[1])
         if not state["catching"]:
             state["catching"] = abs(from_upright) < catch_rad and abs(x[3]) < rate_rad_s
         elif abs(from_upright) > fall_rad:
@@ -91,7 +92,7 @@ def main() -> None:
 
     spec, state = load_weights(args.weights) if args.weights else policy_weights("r-td3-bank-robust")
     blob = pack(learned_policy_blob(spec, state, observer=observer_bank(args.bank_size) if args.bank_size else None))
-    gains = candidate_gains()
+    gains = candidate_gains() if args.catch_rad > 0 else None
     rigs = validation_rigs(12) if args.rigs == "validation" else {**preset_rigs(), **random_rigs()}
     held_all = episodes = 0
     for name, rig in rigs.items():

@@ -91,7 +91,6 @@ def _record_episodes(env, runtime, rows: list, decisions: int, seed: int, steps:
     while len(rows) < decisions:
         onboard_episode(env, seed=seed + episode, start="random" if episode % 2 else "rest", steps=steps)
         episode += 1
-    env.close()
 
 
 def record_policy(decisions: int = 1000, seed: int = 0) -> tuple[bytes, list[dict]]:
@@ -125,6 +124,7 @@ def record_policy(decisions: int = 1000, seed: int = 0) -> tuple[bytes, list[dic
 
     runtime.tick = recording_tick
     _record_episodes(env, runtime, rows, decisions, seed, steps=250)
+    env.close()
     return blob, rows[:decisions]
 
 
@@ -157,6 +157,7 @@ def record_observed_policy(decisions: int = 600, seed: int = 0) -> tuple[bytes, 
 
     runtime.tick, runtime.inputs = recording_tick, recording_inputs
     _record_episodes(env, runtime, rows, decisions, seed, steps=200)
+    env.close()
     return blob, rows[:decisions]
 
 
