@@ -183,7 +183,7 @@ class SwingUpEnv(gym.Env):
         self._shown: RigState | None = None  # what the observation is made of: measured, or estimated
         self._estimator = None
         self.feature_source = features  # "measured" or "estimated": what a learner built for this env expects
-        self._observer_design = None  # (params, timing) the observer keeps through set_rig, when pinned
+        self._observer_design = None  # (params, timing; None: each backend's) kept through set_rig
         if observer_params is not None:
             self._observer_design = (observer_params, self.timing)
         if features in OBSERVED_SOURCES:
@@ -202,8 +202,8 @@ class SwingUpEnv(gym.Env):
         """The observer's feed, designed for this step and the backend's own delays (or the pinned design)."""
         from pendkit.control.observer_bank import observer_feed
 
-        params, timing = self._observer_design or (self.params, self.timing)
-        return observer_feed(params, self.dt, timing)
+        params, timing = self._observer_design or (self.params, None)
+        return observer_feed(params, self.dt, timing or self.timing)
 
     @property
     def timing(self):
@@ -221,10 +221,11 @@ class SwingUpEnv(gym.Env):
         """True when the observer keeps its design through `set_rig` (`observer_params` or `pin_observer`)."""
         return self._observer_design is not None
 
-    def pin_observer(self, params: RigParams | None = None) -> None:
-        """Keep the observer designed for `params` (default: the present rig) and the present backend's
-        timing through every later `set_rig`: training over rigs the observer does not know."""
-        self._observer_design = (params or self.params, self.timing)
+    def pin_observer(self, params: RigParams | tuple[RigParams, ...] | None = None, keep_timing: bool = True) -> None:
+        """Keep the observer designed for `params` (default: the present rig) through every later `set_rig`:
+        training over rigs the observer does not know; with the present backend's timing, or (`keep_timing`
+        False) each backend's own delays, as a device designs its observers for its own."""
+        self._observer_design = (params or self.params, self.timing if keep_timing else None)
         if self._estimator is not None:
             self._estimator = self._new_estimator()
 

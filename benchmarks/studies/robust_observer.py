@@ -8,6 +8,8 @@ one policy for every rig of the `robust` ranges, and what does the observer's kn
     python benchmarks/studies/robust_observer.py --start-from td3-realistic     # fine-tuned over the ranges
     python benchmarks/studies/robust_observer.py --learner r-td3+both           # a GRU reading the estimate
                                                                                  # and the raw readings
+    python benchmarks/studies/robust_observer.py --observer bank --observer-timing rig   # the bank designed for
+                                                                                 # each drawn rig's delays
 
 Trains over `robust` (a new rig each episode), keeps the checkpoint that solves most validation rigs (8 rigs
 from the training ranges, rest + one random start each), then prints the default rig (rest + 20 random
@@ -36,6 +38,9 @@ def main() -> None:
     parser.add_argument("--check-every", type=int, default=100)
     parser.add_argument("--agent", default="{}", help="agent settings as JSON, e.g. '{\"hidden\": [128, 128]}'; "
                         "robust: the shipped robust R-DQN's (pretrained.ROBUST_AGENT)")
+    parser.add_argument("--observer-timing", choices=["trained", "rig"], default="trained",
+                        help="the delays a pinned observer (nominal or bank) is designed for in training: the base "
+                             "twin's, or each drawn rig's own (as each rig's evaluation and the device design them)")
     parser.add_argument("--out", default=None, help="write the kept weights here (the kit's weights format)")
     parser.add_argument("--default-in-validation", type=int, default=0, metavar="STARTS",
                         help="also score each checkpoint on the default rig (rest + STARTS random starts) and "
@@ -64,6 +69,10 @@ def main() -> None:
                           check_every=args.check_every)
     started = time.monotonic()
     env, agent, inputs = build_run(spec.run)
+    if args.observer_timing == "rig" and not told:
+        from pendkit.sim.randomize import observer_bank
+
+        env.unwrapped.pin_observer(observer_bank() if args.observer == "bank" else RigParams(), keep_timing=False)
     if args.start_from:
         agent.load_state_dict(policy_weights(args.start_from)[1])
     score = validation_score
@@ -86,7 +95,8 @@ def main() -> None:
         print(f"zero-shot with the observer bank: {bank['solved']}/{bank['episodes']}, with the nominal rig's "
               f"observer: {nominal['solved']}/{nominal['episodes']}")
     extra = args.default_in_validation + 1 if args.default_in_validation else 0
-    print(f"robust-observer learner={args.learner} observer={args.observer} from={args.start_from or 'afresh'} "
+    print(f"robust-observer learner={args.learner} observer={args.observer} timing={args.observer_timing} "
+          f"from={args.start_from or 'afresh'} "
           f"seed={args.seed} "
           f"episodes={args.episodes} chosen_at={chosen['chosen_at_episode']} "
           f"validation={chosen['validation_solved']}/{16 + extra} default={default['solved']}/{default['episodes']} "

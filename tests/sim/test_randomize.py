@@ -112,6 +112,26 @@ def test_an_estimating_env_keeps_its_observer_for_the_base_rig_through_every_dra
         pendkit.make(observer_params=RigParams())  # measured features have no observer
 
 
+def test_a_pinned_observer_keeps_the_base_delays_unless_told_to_follow_each_drawn_rigs():
+    """Pinned, the observer keeps the base twin's delays on every drawn network; `keep_timing=False` keeps its
+    rig but designs for each drawn rig's own delays (what a rig's evaluation and the device do)."""
+    env = DomainRandomization(pendkit.make(fidelity="realistic", action_mode="continuous", features="estimated"),
+                              "robust", seed=3)
+    base = env.unwrapped
+    base_delay_s = base.timing.command_delay_s
+    designed, drawn = [], []
+    for keep in (True, False):
+        base.pin_observer(RigParams(), keep_timing=keep)
+        for episode in range(3):
+            env.reset(seed=episode)
+            observer = base._estimator.observer
+            designed.append(observer.actuation_delay_s)
+            drawn.append(base.timing.command_delay_s)
+            assert base._estimator.params == RigParams()
+    assert designed[:3] == [base_delay_s] * 3 and len(set(drawn[:3])) == 3
+    assert designed[3:] == drawn[3:] and len(set(drawn[3:])) == 3
+
+
 def test_bad_requests_are_refused_with_the_choices():
     with pytest.raises(ConfigError, match="servo, latency, masses, pendulum"):
         parse_randomize("servo,wind")
