@@ -222,10 +222,11 @@ class SwingUpEnv(gym.Env):
         return self._observer_design is not None
 
     def pin_observer(self, params: RigParams | tuple[RigParams, ...] | None = None, keep_timing: bool = True) -> None:
-        """Keep the observer designed for `params` (default: the present rig) through every later `set_rig`:
-        training over rigs the observer does not know; with the present backend's timing, or (`keep_timing`
-        False) each backend's own delays, as a device designs its observers for its own."""
-        self._observer_design = (params or self.params, self.timing if keep_timing else None)
+        """Keep the observer designed for `params` (default: the rigs it is pinned to, else the present one)
+        through every later `set_rig`: training over rigs the observer does not know; with the present backend's
+        timing, or (`keep_timing` False) each backend's own delays, as a device designs its observers for its own."""
+        params = params or (self._observer_design or (self.params,))[0]
+        self._observer_design = (params, self.timing if keep_timing else None)
         if self._estimator is not None:
             self._estimator = self._new_estimator()
 

@@ -70,9 +70,7 @@ def main() -> None:
     started = time.monotonic()
     env, agent, inputs = build_run(spec.run)
     if args.observer_timing == "rig" and not told:
-        from pendkit.sim.randomize import observer_bank
-
-        env.unwrapped.pin_observer(observer_bank() if args.observer == "bank" else RigParams(), keep_timing=False)
+        env.unwrapped.pin_observer(keep_timing=False)  # the same rigs (nominal or bank), each drawn rig's delays
     if args.start_from:
         agent.load_state_dict(policy_weights(args.start_from)[1])
     score = validation_score

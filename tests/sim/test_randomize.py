@@ -121,7 +121,7 @@ def test_a_pinned_observer_keeps_the_base_delays_unless_told_to_follow_each_draw
     base_delay_s = base.timing.command_delay_s
     designed, drawn = [], []
     for keep in (True, False):
-        base.pin_observer(RigParams(), keep_timing=keep)
+        base.pin_observer(keep_timing=keep)  # the rig it was pinned to by DomainRandomization: the base one
         for episode in range(3):
             env.reset(seed=episode)
             observer = base._estimator.observer
