@@ -86,28 +86,15 @@ def policy_on_device(starts: int, policy: str) -> None:
     rest and `starts` random starts (the laptop's episodes' seeds): no network between the readings and the
     targets; heartbeats still cross the rig's own."""
     from pendkit.agents.pretrained import policy_weights
-    from pendkit.agents.rig_suite import preset_rigs, random_rigs, rig_env
-    from pendkit.agents.runs import SOLVED_TAIL_STEPS, Evaluation, held_fraction
+    from pendkit.agents.rig_suite import preset_rigs, random_rigs
     from pendkit.deploy.learned_blob import learned_policy_blob
-    from pendkit.deploy.on_twin import onboard_episode, upload_to_twin
+    from pendkit.deploy.on_twin import blob_on_rigs
     from pendkit.device.controller_blob import pack
-    from pendkit.features import holds_upright, time_to_upright_s
 
     spec, state = policy_weights(policy)
     blob = pack(learned_policy_blob(spec, state))
-    outcomes = {}
-    for name, rig in {**preset_rigs(), **random_rigs()}.items():
-        env = rig_env(rig, action_mode="continuous")
-        upload_to_twin(env, blob)
-        step_s = rig.params.control_step_ms / 1000
-        outcome = Evaluation([], [], [], [])
-        for k, start in enumerate(["rest"] + ["random"] * starts):
-            angles = onboard_episode(env, seed=10_000 + k, start=start, steps=500)
-            outcome += Evaluation([holds_upright(angles, SOLVED_TAIL_STEPS)], [time_to_upright_s(angles, step_s)],
-                                  [0.0], [held_fraction(angles)])
-        env.close()
-        outcomes[name] = outcome
-        print(f"device-policy controller={policy} rig={name} {outcome.summary()}", flush=True)
+    outcomes = blob_on_rigs(blob, {**preset_rigs(), **random_rigs()}, starts, say=lambda name, outcome: print(
+        f"device-policy controller={policy} rig={name} {outcome.summary()}", flush=True))
     _report(policy, outcomes, mode="device-policy")
 
 

@@ -41,6 +41,13 @@ def main() -> None:
     parser.add_argument("--observer-timing", choices=["trained", "rig"], default="trained",
                         help="the delays a pinned observer (nominal or bank) is designed for in training: the base "
                              "twin's, or each drawn rig's own (as each rig's evaluation and the device design them)")
+    parser.add_argument("--network", choices=["robust", "none"], default="robust",
+                        help="the drawn rigs' networks in training: the robust ranges', or none (the device's own "
+                             "loop: readings and targets never cross a network)")
+    parser.add_argument("--validate-on", choices=["laptop", "device"], default="laptop",
+                        help="keep the checkpoint that holds most validation rigs from the laptop (8 rigs, rest + 1 "
+                             "start) or as a blob on each rig's device (12 rigs, rest + 5 starts); with device, the "
+                             "kept policy is also judged on the devices of the presets and held-out rigs")
     parser.add_argument("--out", default=None, help="write the kept weights here (the kit's weights format)")
     parser.add_argument("--default-in-validation", type=int, default=0, metavar="STARTS",
                         help="also score each checkpoint on the default rig (rest + STARTS random starts) and "
@@ -76,6 +83,10 @@ def main() -> None:
     score = validation_score
     if args.default_in_validation:
         score = functools.partial(validation_and_default_score, starts=args.default_in_validation)
+    if args.network == "none":
+        without_network(env)
+    if args.validate_on == "device":
+        score = device_validation_score
     _, chosen = train_keeping_best(env, agent, inputs, spec, score)
     state, run = agent.state_dict(), dataclasses.replace(spec.run, randomize="")
     if args.out:
@@ -92,15 +103,55 @@ def main() -> None:
                                          wrap=lambda env: pin_nominal_observer(env)))
         print(f"zero-shot with the observer bank: {bank['solved']}/{bank['episodes']}, with the nominal rig's "
               f"observer: {nominal['solved']}/{nominal['episodes']}")
+    if args.validate_on == "device":
+        device = on_devices(run, state, {**preset_rigs(), **random_rigs(10)})
+        print("device " + " ".join(f"{name}={sum(e.solved)}/{len(e.solved)}" for name, e in device.items())
+              + f" presets_and_held_out={summary(device)['solved']}/{summary(device)['episodes']}")
     extra = args.default_in_validation + 1 if args.default_in_validation else 0
+    checked = 72 if args.validate_on == "device" else 16 + extra
     print(f"robust-observer learner={args.learner} observer={args.observer} timing={args.observer_timing} "
-          f"from={args.start_from or 'afresh'} "
+          f"from={args.start_from or 'afresh'} network={args.network} validate_on={args.validate_on} "
           f"seed={args.seed} "
           f"episodes={args.episodes} chosen_at={chosen['chosen_at_episode']} "
-          f"validation={chosen['validation_solved']}/{16 + extra} default={default['solved']}/{default['episodes']} "
+          f"validation={chosen['validation_solved']}/{checked} default={default['solved']}/{default['episodes']} "
           f"presets_and_held_out={together['solved']}/{together['episodes']} "
           + " ".join(f"{name}={sum(e.solved)}/{len(e.solved)}" for name, e in rigs.items())
           + f" wall_s={time.monotonic() - started:.0f}")
+
+
+def without_network(env) -> None:
+    """Every rig `env`'s randomisation draws from now on has no network (no latency, nothing lost)."""
+    import gymnasium as gym
+
+    from pendkit.sim.randomize import DomainRandomization
+
+    while not isinstance(env, DomainRandomization):
+        if not isinstance(env, gym.Wrapper):
+            raise SystemExit("--network none needs a run over drawn rigs")
+        env = env.env
+    none = (0.0, 0.0)
+    env.ranges = dataclasses.replace(env.ranges, latency_floor_ms=none, latency_median_ms=none, latency_spread=none,
+                                     loss_pct=none)
+
+
+def on_devices(spec, state: dict, rigs: dict) -> dict:
+    """The policy as its device blob (the bank for a bank policy) on each rig's device, rest + 5 random starts."""
+    from pendkit.deploy.learned_blob import learned_policy_blob
+    from pendkit.deploy.on_twin import blob_on_rigs
+    from pendkit.device.controller_blob import pack
+
+    blob = pack(learned_policy_blob(dataclasses.replace(spec, randomize=""), state))
+    return blob_on_rigs(blob, rigs, starts=5)
+
+
+def device_validation_score(spec, state: dict) -> tuple[int, float]:
+    """(episodes held, mean held fraction) of the policy's blob on 12 validation rigs' devices."""
+    from pendkit.agents.rig_suite import summary, validation_rigs
+
+    outcomes = on_devices(spec.run, state, validation_rigs(12))
+    held = [f or 0.0 for e in outcomes.values() for f in e.held_fractions]
+    print(f"  device validation {summary(outcomes)['solved']}/{len(held)}")
+    return summary(outcomes)["solved"], sum(held) / len(held)
 
 
 def pin_nominal_observer(env):
