@@ -10,6 +10,10 @@ one policy for every rig of the `robust` ranges, and what does the observer's kn
                                                                                  # and the raw readings
     python benchmarks/studies/robust_observer.py --observer bank --observer-timing rig   # the bank designed for
                                                                                  # each drawn rig's delays
+    python benchmarks/studies/robust_observer.py --start-from r-td3-bank-robust --learner r-td3+both
+        --observer bank --observer-timing rig --network none --validate-on device   # (one command) fine-tuned
+                                                                         # for the device's own loop, kept by
+                                                                         # the device's verdict
 
 Trains over `robust` (a new rig each episode), keeps the checkpoint that solves most validation rigs (8 rigs
 from the training ranges, rest + one random start each), then prints the default rig (rest + 20 random
