@@ -15,6 +15,6 @@ def test_each_rigs_device_runs_the_uploaded_swing_up_from_rest_and_the_random_st
     assert said == ["a", "b"]
     for outcome in outcomes.values():
         assert outcome.solved == [True, True, True], outcome  # nothing runs on the device unless it arrived
-        assert all(0 < s < 30 for s in outcome.upright_s) and all(f > 0.99 for f in outcome.held_fractions)
+        assert None not in outcome.upright_s and all(f > 0.99 for f in outcome.held_fractions)  # up, and stays
     assert outcomes["a"].upright_s == outcomes["b"].upright_s  # the same seeds on the same rig
     assert len(set(outcomes["a"].upright_s)) == 3  # rest and two different random starts
