@@ -43,10 +43,23 @@ def unit_of(module: str) -> str:
     return parts[1] if len(parts) > 1 else "pendkit"
 
 
+def parsed(path: Path) -> ast.Module:
+    """The file's syntax tree. CPython 3.11 keeps one AST-building depth counter per interpreter, so a
+    traceback formatted at the same moment on another thread (an nbval kernel's client, say) can make
+    `ast.parse` raise a spurious SystemError (cpython gh-106905); the file itself is fine, so parse again."""
+    for attempt in range(3):
+        try:
+            return ast.parse(path.read_text(), filename=str(path))
+        except SystemError as error:
+            if "recursion depth mismatch" not in str(error) or attempt == 2:
+                raise
+    raise AssertionError("unreachable")
+
+
 def imported(path: Path) -> list[tuple[str, int]]:
     """(module, line) of every pendkit import in the file, wherever it stands."""
     found = []
-    for node in ast.walk(ast.parse(path.read_text())):
+    for node in ast.walk(parsed(path)):
         if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module and node.module.startswith("pendkit"):
             if node.module == "pendkit":  # `from pendkit import sim` imports the package sim
                 found += [(f"pendkit.{a.name}" if a.name in LAYER else "pendkit", node.lineno) for a in node.names]
