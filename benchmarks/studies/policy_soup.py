@@ -44,9 +44,7 @@ def main() -> None:
     from pendkit.agents.pretrained import policy_weights
     from pendkit.agents.rig_suite import policy_on_rigs, preset_rigs, random_rigs, summary, validation_rigs
     from pendkit.agents.runs import load_weights
-    from pendkit.deploy.learned_blob import learned_policy_blob
-    from pendkit.deploy.on_twin import blob_on_rigs
-    from pendkit.device.controller_blob import pack
+    from pendkit.deploy.on_twin import policy_on_devices
     from pendkit.rig import RigParams
     from pendkit.sim.randomize import RandomRig
 
@@ -56,7 +54,7 @@ def main() -> None:
         ingredients = {"shipped": shipped, **ingredients}
 
     def on_devices(state: dict, rigs: dict) -> dict:
-        return blob_on_rigs(pack(learned_policy_blob(spec, state)), rigs, starts=5)
+        return policy_on_devices(spec, state, rigs)
 
     def validation(names: list[str]) -> int:
         held = summary(on_devices(soup([ingredients[n] for n in names]), validation_rigs(12)))["solved"]

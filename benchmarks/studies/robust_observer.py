@@ -68,6 +68,7 @@ def main() -> None:
     from pendkit.agents.rig_suite import policy_on_rigs, preset_rigs, random_rigs, summary
     from pendkit.agents.runs import RunSpec, build_run
     from pendkit.agents.threads import use_kit_threads
+    from pendkit.deploy.on_twin import policy_on_devices
     from pendkit.rig import RigParams
     from pendkit.sim.randomize import RandomRig
 
@@ -108,7 +109,7 @@ def main() -> None:
         print(f"zero-shot with the observer bank: {bank['solved']}/{bank['episodes']}, with the nominal rig's "
               f"observer: {nominal['solved']}/{nominal['episodes']}")
     if args.validate_on == "device":
-        device = on_devices(run, state, {**preset_rigs(), **random_rigs(10)})
+        device = policy_on_devices(run, state, {**preset_rigs(), **random_rigs(10)})
         print("device " + " ".join(f"{name}={sum(e.solved)}/{len(e.solved)}" for name, e in device.items())
               + f" presets_and_held_out={summary(device)['solved']}/{summary(device)['episodes']}")
     extra = args.default_in_validation + 1 if args.default_in_validation else 0
@@ -138,21 +139,12 @@ def without_network(env) -> None:
                                      loss_pct=none)
 
 
-def on_devices(spec, state: dict, rigs: dict) -> dict:
-    """The policy as its device blob (the bank for a bank policy) on each rig's device, rest + 5 random starts."""
-    from pendkit.deploy.learned_blob import learned_policy_blob
-    from pendkit.deploy.on_twin import blob_on_rigs
-    from pendkit.device.controller_blob import pack
-
-    blob = pack(learned_policy_blob(dataclasses.replace(spec, randomize=""), state))
-    return blob_on_rigs(blob, rigs, starts=5)
-
-
 def device_validation_score(spec, state: dict) -> tuple[int, float]:
     """(episodes held, mean held fraction) of the policy's blob on 12 validation rigs' devices."""
     from pendkit.agents.rig_suite import summary, validation_rigs
+    from pendkit.deploy.on_twin import policy_on_devices
 
-    outcomes = on_devices(spec.run, state, validation_rigs(12))
+    outcomes = policy_on_devices(spec.run, state, validation_rigs(12))
     held = [f or 0.0 for e in outcomes.values() for f in e.held_fractions]
     print(f"  device validation {summary(outcomes)['solved']}/{len(held)}")
     return summary(outcomes)["solved"], sum(held) / len(held)
