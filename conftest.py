@@ -57,7 +57,8 @@ def pytest_xdist_auto_num_workers(config):
     """`-n auto`: a worker more than the cores (they wait on real time), at most 6 (memory: a worker with
     torch, MuJoCo and a notebook kernel holds about 1 GB). Three more than the cores were faster on an idle
     2-core machine (436 s against 478 s) but starved the virtual rigs of the notebooks under load (two
-    readings 0.5-0.7 s late in two CI runs beside a training), so the suite keeps one more."""
+    readings 0.5-0.7 s late in two CI runs beside a training), and two more gained only 1-2% in a fresh
+    environment (docs/results/test-suite.md), so the suite keeps one more."""
     return min(6, (os.cpu_count() or 1) + 1)
 
 
