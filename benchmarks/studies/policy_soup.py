@@ -4,7 +4,8 @@
 
 Every ingredient must be a fine-tune of the same start (e.g. `robust_observer.py --start-from r-td3-bank-robust
 --out W.pt`): the networks' weights and the input normaliser's statistics are averaged. Scored as a blob on the
-devices of the 12 validation rigs (rest + 5 random starts, 72 episodes); `--greedy` adds the ingredients one at
+devices of the 12 validation rigs (rest + 5 random starts, 72 episodes; `--validation-rigs N --fresh-validation`:
+N others, drawn after the 12 the ingredients' checkpoints were kept by); `--greedy` adds the ingredients one at
 a time, best-scored first, keeping each that does not lower the score; `--unseen` judges the result once on the
 devices of the presets and held-out rigs (90 episodes), `--laptop` from the laptop too. Results:
 docs/results/robust.md.
@@ -32,6 +33,25 @@ def soup(states: list[dict]) -> dict:
     return out
 
 
+def validation_set(count: int, fresh: bool) -> dict:
+    """`count` validation rigs; `fresh`: drawn after the 12 that the ingredients' checkpoints were kept by."""
+    from pendkit.agents.rig_suite import validation_rigs
+
+    if not fresh:
+        return validation_rigs(count)
+    return dict(list(validation_rigs(12 + count).items())[12:])
+
+
+def held_on_devices(spec, state: dict, rigs: dict) -> int:
+    """Episodes the state's blob holds on the rigs' devices (rest + 5 random starts each)."""
+    from pendkit.agents.rig_suite import summary
+    from pendkit.agents.threads import use_kit_threads
+    from pendkit.deploy.on_twin import policy_on_devices
+
+    use_kit_threads()
+    return summary(policy_on_devices(spec, state, rigs))["solved"]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("weights", nargs="+", help="fine-tunes of one policy (the kit's weights format)")
@@ -39,10 +59,16 @@ def main() -> None:
     parser.add_argument("--greedy", action="store_true")
     parser.add_argument("--unseen", action="store_true")
     parser.add_argument("--laptop", action="store_true")
+    parser.add_argument("--validation-rigs", type=int, default=12)
+    parser.add_argument("--fresh-validation", action="store_true",
+                        help="validation rigs after the 12 the fine-tunes' checkpoints were kept by")
+    parser.add_argument("--jobs", type=int, default=1, help="processes ranking the ingredients one by one")
     args = parser.parse_args()
 
+    from concurrent.futures import ProcessPoolExecutor
+
     from pendkit.agents.pretrained import policy_weights
-    from pendkit.agents.rig_suite import policy_on_rigs, preset_rigs, random_rigs, summary, validation_rigs
+    from pendkit.agents.rig_suite import policy_on_rigs, preset_rigs, random_rigs, summary
     from pendkit.agents.runs import load_weights
     from pendkit.deploy.on_twin import policy_on_devices
     from pendkit.rig import RigParams
@@ -52,31 +78,36 @@ def main() -> None:
     ingredients = {path: load_weights(path)[1] for path in args.weights}
     if args.with_shipped:
         ingredients = {"shipped": shipped, **ingredients}
-
-    def on_devices(state: dict, rigs: dict) -> dict:
-        return policy_on_devices(spec, state, rigs)
+    checking = validation_set(args.validation_rigs, args.fresh_validation)
+    episodes = 6 * len(checking)
 
     def validation(names: list[str]) -> int:
-        held = summary(on_devices(soup([ingredients[n] for n in names]), validation_rigs(12)))["solved"]
-        print(f"soup {'+'.join(names)}: device validation {held}/72", flush=True)
+        held = held_on_devices(spec, soup([ingredients[n] for n in names]), checking)
+        print(f"soup {'+'.join(names)}: device validation {held}/{episodes}", flush=True)
         return held
 
     chosen = list(ingredients)
     if args.greedy:
-        ranked = sorted(ingredients, key=lambda name: -validation([name]))
-        chosen, best = ranked[:1], validation(ranked[:1])
+        with ProcessPoolExecutor(args.jobs) as pool:
+            alone = dict(zip(ingredients, pool.map(held_on_devices, [spec] * len(ingredients),
+                                                   list(ingredients.values()), [checking] * len(ingredients))))
+        for name, held in alone.items():
+            print(f"alone {name}: device validation {held}/{episodes}", flush=True)
+        ranked = sorted(ingredients, key=lambda name: -alone[name])
+        chosen, best = ranked[:1], alone[ranked[0]]
         for name in ranked[1:]:
             held = validation(chosen + [name])
             if held >= best:
                 chosen, best = chosen + [name], held
+        print(f"greedy soup: {'+'.join(chosen)} at {best}/{episodes}", flush=True)
     else:
         validation(chosen)
     state = soup([ingredients[n] for n in chosen])
     rigs = {**preset_rigs(), **random_rigs(10)}
     if args.unseen:
-        out = on_devices(state, rigs)
+        out = policy_on_devices(spec, state, rigs)
         print(f"soup {'+'.join(chosen)}: device, presets + held-out {summary(out)['solved']}/90 "
-              + " ".join(f"{name}={sum(e.solved)}/{len(e.solved)}" for name, e in out.items()))
+              + " ".join(f"{name}={sum(e.solved)}/{len(e.solved)}" for name, e in out.items()), flush=True)
     if args.laptop:
         default = summary(policy_on_rigs(spec, state, {"default": RandomRig(RigParams(), None, 0)}, starts=20))
         out = policy_on_rigs(spec, state, rigs, starts=5)
