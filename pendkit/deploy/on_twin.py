@@ -84,11 +84,9 @@ def blob_on_rigs(blob: bytes, rigs: dict, starts: int = 5, seed: int = 10_000, s
 
 
 def policy_on_devices(spec, state: dict, rigs: dict, starts: int = 5) -> dict:
-    """A trained policy (`spec`, its policy state) as its device blob, built for its nominal twin whatever it
-    was trained over, run on each rig's device from rest and `starts` random starts (`blob_on_rigs`)."""
-    import dataclasses
-
+    """A trained policy (`spec`, its policy state) as its device blob, run on each rig's device from rest and
+    `starts` random starts (`blob_on_rigs`)."""
     from pendkit.deploy.learned_blob import learned_policy_blob
     from pendkit.device.controller_blob import pack
 
-    return blob_on_rigs(pack(learned_policy_blob(dataclasses.replace(spec, randomize=""), state)), rigs, starts)
+    return blob_on_rigs(pack(learned_policy_blob(spec, state)), rigs, starts)
