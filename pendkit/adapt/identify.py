@@ -141,7 +141,8 @@ def fit_pendulum(recordings: list[Recording], prior: RigParams) -> RigParams:
     measured = swing_estimates(recordings, period_s)
     if measured is None:
         return prior
-    twin = [dataclasses.replace(r, pendulum_rad=list(simulate(prior, PRIOR_LATENCY_MS, r))) for r in recordings]
+    twin = [dataclasses.replace(r, pendulum_rad=list(angles))
+            for r, angles in zip(recordings, simulate_all(prior, PRIOR_LATENCY_MS, recordings))]
     reference = swing_estimates(twin, period_s)
     if reference is None:
         return prior
@@ -152,15 +153,22 @@ def fit_pendulum(recordings: list[Recording], prior: RigParams) -> RigParams:
     return dataclasses.replace(fitted, pendulum_damping_n_m_s_per_rad=min(0.5, max(1e-5, damping)))
 
 
-def simulate(params: RigParams, latency_ms: float, recording: Recording) -> np.ndarray:
-    """The realistic twin of `params` (a fixed latency, no loss) run through `recording`'s actions from rest:
-    the pendulum's encoder angle after each step, read with the rig's calibration offset (its reading at rest)."""
+def identifying_twin(params: RigParams, latency_ms: float):
+    """The realistic twin of `params` (a fixed latency, no loss) that `simulate` runs recordings on: one
+    made per candidate and reset for each recording (making it costs as much as a tenth of a recording)."""
     import pendkit
     from pendkit.adapt.excitation import Excitation
 
     network = NetworkImpairment(LatencyModel(floor_ms=latency_ms))
     fidelity = FIDELITY_PRESETS["realistic"].replace(name="identifying", network=network)
-    env = pendkit.make(fidelity=fidelity, params=params, max_episode_steps=1000, **Excitation.env_kwargs())
+    return pendkit.make(fidelity=fidelity, params=params, max_episode_steps=1000, **Excitation.env_kwargs())
+
+
+def simulate(params: RigParams, latency_ms: float, recording: Recording, twin=None) -> np.ndarray:
+    """The realistic twin of `params` (a fixed latency, no loss) run through `recording`'s actions from rest:
+    the pendulum's encoder angle after each step, read with the rig's calibration offset (its reading at rest).
+    `twin`: an `identifying_twin` of the same params and latency to reuse (default: one made and closed)."""
+    env = twin if twin is not None else identifying_twin(params, latency_ms)
     limit = params.servo_range_rad
     arm_rad = max(-limit, min(limit, recording.start_servo_target_rad))
     env.reset(seed=0, options={"start": "rest", "arm_angle_rad": arm_rad})
@@ -171,8 +179,18 @@ def simulate(params: RigParams, latency_ms: float, recording: Recording) -> np.n
     for k, action in enumerate(recording.actions):
         target = max(-1.0, min(1.0, float(np.float32(action))))
         angles[k] = backend.step(ServoCommand("continuous", target_unit=target)).pendulum_angle_rad
-    env.close()
+    if twin is None:
+        env.close()
     return angles + recording.start_pendulum_rad  # a pendulum at rest hangs plumb: what it read is the offset
+
+
+def simulate_all(params: RigParams, latency_ms: float, recordings: Sequence[Recording]) -> list[np.ndarray]:
+    """`simulate` for each of `recordings`, on one twin."""
+    twin = identifying_twin(params, latency_ms)
+    try:
+        return [simulate(params, latency_ms, r, twin) for r in recordings]
+    finally:
+        twin.close()
 
 
 def guarded_cost(cost: Callable[[RigParams, float, list[Recording]], float], params: RigParams, last: float,
@@ -187,7 +205,8 @@ def guarded_cost(cost: Callable[[RigParams, float, list[Recording]], float], par
 
 
 def matching_cost(params: RigParams, latency_ms: float, recordings: list[Recording]) -> float:
-    return float(np.mean([angle_error_rad2(simulate(params, latency_ms, r), r.pendulum_rad) for r in recordings]))
+    return float(np.mean([angle_error_rad2(angles, r.pendulum_rad)
+                          for r, angles in zip(recordings, simulate_all(params, latency_ms, recordings))]))
 
 
 def on_device_clock(recordings: list[Recording]) -> bool:
