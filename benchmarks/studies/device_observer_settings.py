@@ -1,0 +1,86 @@
+"""Study: what the device's bank of observers is designed for, chosen blind on fresh validation rigs.
+
+    python benchmarks/studies/device_observer_settings.py [--validation-rigs 30] [--jobs 2] [--unseen]
+
+`r-td3-bank-robust` as shipped, its observers designed for the device's own delays (a target reaches the servo
+10 ms after its acting tick on average, a reading is the device's own) and a bank memory of 1 s. Each setting
+below changes one of the three; every setting is scored on the devices of validation rigs drawn after the 12
+the policy's checkpoint was kept by (rest + 5 random starts each), the best kept (a tie to the shipped one), and
+with `--unseen` the kept one is run once on the devices of the presets and held-out rigs (90 episodes).
+Results: docs/results/robust.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+
+# (command delay ms, reading delay ms, bank memory s): the shipped setting first
+SETTINGS = ((10.0, 0.0, 1.0), (5.0, 0.0, 1.0), (15.0, 0.0, 1.0), (20.0, 0.0, 1.0), (30.0, 0.0, 1.0),
+            (10.0, 5.0, 1.0), (10.0, 10.0, 1.0), (10.0, 0.0, 0.5), (10.0, 0.0, 2.0))
+
+
+def blob_for(setting: tuple[float, float, float]) -> bytes:
+    """The shipped bank policy's blob with its observers designed for `setting`."""
+    from pendkit.agents.pretrained import policy_weights
+    from pendkit.agents.rig_suite import unknown_rig_observer
+    from pendkit.agents.runs import build_run
+    from pendkit.backend_contract import BackendTiming
+    from pendkit.deploy.export import observed_policy_blob
+    from pendkit.device.controller_blob import pack
+
+    command_ms, reading_ms, memory_s = setting
+    spec, state = policy_weights("r-td3-bank-robust")
+    env, agent, inputs = build_run(spec)
+    agent.load_policy(state)
+    env.close()
+    params = env.unwrapped.params
+    timing = BackendTiming(params.control_step_ms / 1000.0, command_ms / 1000.0, reading_ms / 1000.0,
+                           firmware_readings=True)
+    blob = observed_policy_blob(agent, inputs, params, unknown_rig_observer(spec)["observer_params"],
+                                env.unwrapped.filter_coefficient, timing)
+    forgetting = min(1.0, params.control_step_ms / 1000.0 / memory_s)
+    return pack(dataclasses.replace(blob, observers=dataclasses.replace(blob.observers, forgetting=forgetting)))
+
+
+def held(setting: tuple[float, float, float], rigs: dict) -> int:
+    """Episodes the setting's blob holds on the rigs' devices."""
+    from pendkit.agents.rig_suite import summary
+    from pendkit.agents.threads import use_kit_threads
+    from pendkit.deploy.on_twin import blob_on_rigs
+
+    use_kit_threads()
+    return summary(blob_on_rigs(blob_for(setting), rigs))["solved"]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--validation-rigs", type=int, default=30)
+    parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--unseen", action="store_true")
+    args = parser.parse_args()
+
+    from concurrent.futures import ProcessPoolExecutor
+
+    from pendkit.agents.rig_suite import preset_rigs, random_rigs, validation_rigs
+
+    checking = dict(list(validation_rigs(12 + args.validation_rigs).items())[12:])
+    episodes = 6 * len(checking)
+    with ProcessPoolExecutor(args.jobs) as pool:
+        scores = dict(zip(SETTINGS, pool.map(held, SETTINGS, [checking] * len(SETTINGS))))
+    for setting, score in scores.items():
+        print(f"command {setting[0]:g} ms, reading {setting[1]:g} ms, memory {setting[2]:g} s: "
+              f"device validation {score}/{episodes}", flush=True)
+    kept = max(SETTINGS, key=lambda s: (scores[s], s == SETTINGS[0]))
+    print(f"kept: command {kept[0]:g} ms, reading {kept[1]:g} ms, memory {kept[2]:g} s", flush=True)
+    if args.unseen:
+        from pendkit.agents.rig_suite import summary
+        from pendkit.deploy.on_twin import blob_on_rigs
+
+        out = blob_on_rigs(blob_for(kept), {**preset_rigs(), **random_rigs(10)})
+        print(f"kept setting: device, presets + held-out {summary(out)['solved']}/90 "
+              + " ".join(f"{name}={sum(e.solved)}/{len(e.solved)}" for name, e in out.items()), flush=True)
+
+
+if __name__ == "__main__":
+    main()
