@@ -58,7 +58,8 @@ def run_suite(workers: str, extra: list[str]) -> dict[str, str]:
     return {"workers": workers, "wall_s": f"{wall_s:.0f}", "cpu_s": f"{cpu_s:.0f}",
             "busy": f"{100 * cpu_s / (wall_s * cores):.0f}%", "cores": str(cores),
             "machine_busy": share(machine_before, machine_after),
-            "result": (summary[-1] if summary else f"exit {done.returncode}").replace(" ", "_")}
+            "result": (summary[-1] if summary else f"exit {done.returncode}").replace(" ", "_"),
+            "failures": re.findall(r"^(?:FAILED|ERROR) .*$", done.stdout, flags=re.MULTILINE)}
 
 
 def main() -> None:
@@ -68,7 +69,10 @@ def main() -> None:
     extra = [a for a in extra if a != "--"]
     for workers in args.workers:
         row = run_suite(workers, extra)
+        failures = row.pop("failures")
         print(" ".join(f"{key}={value}" for key, value in row.items()), flush=True)
+        for line in failures:  # a slower run is no figure if something failed: say what
+            print(f"  {line}", flush=True)
 
 
 if __name__ == "__main__":
