@@ -109,7 +109,9 @@ def test_no_command_sequence_overrides_the_stops(broker_url):
 
 def test_a_stuck_encoder_is_detected_and_reported(broker_url):
     with VirtualRigGroup([VirtualRig("r01", broker_url, encoder_fault="stuck")]):
-        env = rig_env(broker_url)
+        # the subject is the flag, not freshness: a busy CI worker once held a reading back 0.73 s, past the
+        # default 0.5 s (the timeout's own tests are test_broker_killed_mid_episode_then_back and test_reset_wait)
+        env = rig_env(broker_url, observation_timeout_s=3.0)
         env.reset(seed=0)
         flags = set()
         for _ in range(30):
