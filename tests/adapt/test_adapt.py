@@ -19,7 +19,7 @@ from pendkit.adapt.excitation import (
     record,
     schedule,
 )
-from pendkit.adapt.identify import identify, identify_best, matching_cost, swing_estimates
+from pendkit.adapt.identify import identify, identify_best, matching_cost, simulate, simulate_all, swing_estimates
 from pendkit.adapt.rigs import twin_rig
 from pendkit.device.controller_blob import parse
 from pendkit.encoder import wrapped_rad
@@ -64,6 +64,16 @@ def test_the_matching_cost_singles_out_the_rigs_own_parameters():
     prior = matching_cost(RigParams(), 10.0, recs)
     slower = matching_cost(dataclasses.replace(HIDDEN, servo_speed_s_per_60deg=0.4), 0.0, recs)
     assert own < 0.02 and prior > 5 * own and slower > 5 * own
+
+
+def test_one_twin_reset_for_each_recording_simulates_what_a_new_twin_for_each_does():
+    """A candidate's recordings share one twin (made once, reset each time): nothing of one recording's run
+    (the arm's position, the device's state, the network's draws) may carry into the next."""
+    recs, _ = recordings(HIDDEN)
+    shared = simulate_all(HIDDEN, 12.0, recs)
+    for recording, angles in zip(recs, shared):
+        np.testing.assert_array_equal(angles, simulate(HIDDEN, 12.0, recording))
+    assert not np.array_equal(shared[0][:len(shared[1])], shared[1][:len(shared[0])])  # each ends elsewhere
 
 
 def test_of_several_fits_of_the_same_recordings_the_closest_match_is_kept():
