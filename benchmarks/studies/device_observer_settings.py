@@ -23,23 +23,17 @@ SETTINGS = ((10.0, 0.0, 1.0), (5.0, 0.0, 1.0), (15.0, 0.0, 1.0), (20.0, 0.0, 1.0
 def blob_for(setting: tuple[float, float, float]) -> bytes:
     """The shipped bank policy's blob with its observers designed for `setting`."""
     from pendkit.agents.pretrained import policy_weights
-    from pendkit.agents.rig_suite import unknown_rig_observer
-    from pendkit.agents.runs import build_run
     from pendkit.backend_contract import BackendTiming
-    from pendkit.deploy.export import observed_policy_blob
+    from pendkit.deploy.learned_blob import learned_policy_blob
     from pendkit.device.controller_blob import pack
+    from pendkit.rig import RigParams
 
     command_ms, reading_ms, memory_s = setting
     spec, state = policy_weights("r-td3-bank-robust")
-    env, agent, inputs = build_run(spec)
-    agent.load_policy(state)
-    env.close()
-    params = env.unwrapped.params
-    timing = BackendTiming(params.control_step_ms / 1000.0, command_ms / 1000.0, reading_ms / 1000.0,
-                           firmware_readings=True)
-    blob = observed_policy_blob(agent, inputs, params, unknown_rig_observer(spec)["observer_params"],
-                                env.unwrapped.filter_coefficient, timing)
-    forgetting = min(1.0, params.control_step_ms / 1000.0 / memory_s)
+    step_s = RigParams().control_step_ms / 1000.0
+    timing = BackendTiming(step_s, command_ms / 1000.0, reading_ms / 1000.0, firmware_readings=True)
+    blob = learned_policy_blob(spec, state, timing=timing)
+    forgetting = min(1.0, blob.period_s / memory_s)
     return pack(dataclasses.replace(blob, observers=dataclasses.replace(blob.observers, forgetting=forgetting)))
 
 
@@ -64,7 +58,7 @@ def main() -> None:
 
     from pendkit.agents.rig_suite import preset_rigs, random_rigs, validation_rigs
 
-    checking = dict(list(validation_rigs(12 + args.validation_rigs).items())[12:])
+    checking = validation_rigs(args.validation_rigs, after=12)
     episodes = 6 * len(checking)
     with ProcessPoolExecutor(args.jobs) as pool:
         scores = dict(zip(SETTINGS, pool.map(held, SETTINGS, [checking] * len(SETTINGS))))

@@ -33,15 +33,6 @@ def soup(states: list[dict]) -> dict:
     return out
 
 
-def validation_set(count: int, fresh: bool) -> dict:
-    """`count` validation rigs; `fresh`: drawn after the 12 that the ingredients' checkpoints were kept by."""
-    from pendkit.agents.rig_suite import validation_rigs
-
-    if not fresh:
-        return validation_rigs(count)
-    return dict(list(validation_rigs(12 + count).items())[12:])
-
-
 def held_on_devices(spec, state: dict, rigs: dict) -> int:
     """Episodes the state's blob holds on the rigs' devices (rest + 5 random starts each)."""
     from pendkit.agents.rig_suite import summary
@@ -68,7 +59,7 @@ def main() -> None:
     from concurrent.futures import ProcessPoolExecutor
 
     from pendkit.agents.pretrained import policy_weights
-    from pendkit.agents.rig_suite import policy_on_rigs, preset_rigs, random_rigs, summary
+    from pendkit.agents.rig_suite import policy_on_rigs, preset_rigs, random_rigs, summary, validation_rigs
     from pendkit.agents.runs import load_weights
     from pendkit.deploy.on_twin import policy_on_devices
     from pendkit.rig import RigParams
@@ -78,7 +69,7 @@ def main() -> None:
     ingredients = {path: load_weights(path)[1] for path in args.weights}
     if args.with_shipped:
         ingredients = {"shipped": shipped, **ingredients}
-    checking = validation_set(args.validation_rigs, args.fresh_validation)
+    checking = validation_rigs(args.validation_rigs, after=12 if args.fresh_validation else 0)
     episodes = 6 * len(checking)
 
     def validation(names: list[str]) -> int:

@@ -27,9 +27,12 @@ def random_rigs(count: int = 10, seed: int = HELD_OUT_SEED) -> dict[str, RandomR
     return {f"random-{k:02d}": rig for k, rig in enumerate(held_out_rigs(count, seed))}
 
 
-def validation_rigs(count: int = 8, seed: int = VALIDATION_SEED) -> dict[str, RandomRig]:
-    """Rigs drawn from the training ranges themselves, to choose between checkpoints of a robust policy."""
-    return {f"validation-{k:02d}": rig for k, rig in enumerate(held_out_rigs(count, seed, widening=1.0))}
+def validation_rigs(count: int = 8, seed: int = VALIDATION_SEED, after: int = 0) -> dict[str, RandomRig]:
+    """Rigs drawn from the training ranges themselves, to choose between checkpoints of a robust policy.
+    `after`: the `count` drawn after the first `after` (fresh rigs for a choice made after checkpoints were
+    kept by those)."""
+    rigs = held_out_rigs(count + after, seed, widening=1.0)
+    return {f"validation-{k:02d}": rigs[k] for k in range(after, after + count)}
 
 
 def unknown_rig_observer(spec: RunSpec) -> dict:

@@ -9,13 +9,14 @@ from pendkit.errors import ConfigError
 DEVICE_LEARNERS = {"r-dqn": 1, "r-td3+both": 2}
 
 
-def learned_policy_blob(spec, state: dict | None, params=None, observer=None, trained_timing=None, run=None):
+def learned_policy_blob(spec, state: dict | None, params=None, observer=None, trained_timing=None, run=None,
+                        timing=None):
     """The `PolicyBlob` of a trained agent (`spec`, its policy state) for a rig of `params` (default: the
     learner's own twin). Layout 2: `observer`, the rig or the bank of rigs its observers are designed for
     (default what the laptop would give it on a rig nobody identified, `pendkit.agents.rig_suite`), on the
     delays `observer_timing` chooses; `trained_timing`: the `BackendTiming` its observers had in training
-    (default its own twin's). `run`: (env, agent, inputs) already built and loaded, in place of `state` (the
-env is closed here)."""
+    (default its own twin's); `timing`: the delays to design them for instead (a study's). `run`: (env, agent,
+    inputs) already built and loaded, in place of `state` (the env is closed here)."""
     from pendkit.agents.rig_suite import unknown_rig_observer
     from pendkit.agents.runs import build_run
     from pendkit.deploy.export import observed_policy_blob, policy_blob
@@ -34,7 +35,7 @@ env is closed here)."""
     if layout == 1:
         return policy_blob(agent, params)
     observer = observer or unknown_rig_observer(spec)["observer_params"]
-    timing = observer_timing(observer, trained_timing or env.unwrapped.timing)
+    timing = timing or observer_timing(observer, trained_timing or env.unwrapped.timing)
     return observed_policy_blob(agent, inputs, params, observer, env.unwrapped.filter_coefficient, timing)
 
 

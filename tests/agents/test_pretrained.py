@@ -40,6 +40,9 @@ def test_validation_rigs_come_from_the_training_ranges_and_are_not_the_held_out_
 
     validation, held_out = validation_rigs(), random_rigs()
     assert validation == validation_rigs()  # one documented draw
+    fresh = validation_rigs(3, after=5)  # a later choice's rigs: the same draw, past the first five
+    assert list(fresh) == ["validation-05", "validation-06", "validation-07"]
+    assert [r.params for r in fresh.values()] == [r.params for r in list(validation_rigs(8).values())[5:]]
     speeds = [rig.params.servo_speed_s_per_60deg for rig in validation.values()]
     low, high = TRAINING_RANGES.servo_speed_s_per_60deg
     assert all(low <= s <= high for s in speeds)

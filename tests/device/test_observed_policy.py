@@ -141,3 +141,18 @@ def test_a_bank_is_designed_for_the_devices_delays_and_a_single_observer_keeps_i
     assert (single.actuation_delay_s, single.reading_latency_s) == pytest.approx(
         (trained.command_delay_s, trained.reading_delay_s))
     assert single.actuation_delay_s > bank.actuation_delay_s  # the laptop's network and acting tick on top
+
+
+def test_observers_designed_for_other_delays_when_asked_carry_them_to_the_device():
+    pytest.importorskip("torch")
+    from pendkit.agents.pretrained import policy_weights
+    from pendkit.backend_contract import BackendTiming
+    from pendkit.deploy.learned_blob import learned_policy_blob
+
+    shipped = learned_policy_blob(*policy_weights("r-td3-bank-robust"))
+    asked = learned_policy_blob(*policy_weights("r-td3-bank-robust"),
+                                timing=BackendTiming(0.06, 0.02, 0.005, firmware_readings=True))
+    assert (asked.observers.actuation_delay_s, asked.observers.reading_latency_s) == pytest.approx((0.02, 0.005))
+    carried = parse(pack(asked)).observers  # the device predicts over the delays its blob carries
+    assert (carried.actuation_delay_s, carried.reading_latency_s) == pytest.approx((0.02, 0.005))
+    assert pack(asked) != pack(shipped)
