@@ -5,7 +5,8 @@ Solutions run strict: a check short of full marks fails the notebook.
 
 The suite runs on pytest-xdist workers (`-n auto` in pyproject.toml), one file per worker at a time (a
 notebook's cells share one kernel). Much of it waits on real time (virtual rigs, brokers, timeouts), so
-there are more workers than cores (keep `--dist loadfile` when overriding addopts); each computes on one
+there are more workers than cores, and the files that wait run beside the ones that compute
+(tests/scheduling.py; keep `--dist loadfile` when overriding addopts); each computes on one
 thread, or the workers' torch and BLAS threads fight over the cores (a 9 s R-DQN test took 97 s that way).
 """
 
@@ -54,12 +55,23 @@ _kernels_on_unix_sockets()
 
 @pytest.hookimpl(optionalhook=True)
 def pytest_xdist_auto_num_workers(config):
-    """`-n auto`: a worker more than the cores (they wait on real time), at most 6 (memory: a worker with
-    torch, MuJoCo and a notebook kernel holds about 1 GB). Three more than the cores were faster on an idle
-    2-core machine (436 s against 478 s) but starved the virtual rigs of the notebooks under load (two
-    readings 0.5-0.7 s late in two CI runs beside a training), and two more gained only 1-2% in a fresh
-    environment (docs/results/test-suite.md), so the suite keeps one more."""
-    return min(6, (os.cpu_count() or 1) + 1)
+    """`-n auto`: two workers more than the cores, at most 6 (memory: a worker with torch, MuJoCo and a
+    notebook kernel holds about 1 GB). The two extra run the files that wait on real time beside the computing
+    ones (tests/scheduling.py): on an idle 2-core machine 401 s against 467 s with one extra worker and files
+    in collection order, the machine 98% busy against 85% (docs/results/test-suite.md). Without that
+    scheduling, extra workers starved the notebooks' virtual rigs under load."""
+    return min(6, (os.cpu_count() or 1) + 2)
+
+
+@pytest.hookimpl(tryfirst=True, optionalhook=True)
+def pytest_xdist_make_scheduler(config, log):
+    """`--dist loadfile` (the suite's) with files that wait on real time run beside computing ones
+    (tests/scheduling.py); other modes as xdist has them."""
+    if config.getvalue("dist") != "loadfile":
+        return None
+    from tests.scheduling import make_scheduler
+
+    return make_scheduler(config, log)
 
 
 def pytest_collection_modifyitems(config, items):
