@@ -63,11 +63,16 @@ def pytest_xdist_auto_num_workers(config):
     return min(6, (os.cpu_count() or 1) + 2)
 
 
+def pytest_addoption(parser):
+    parser.addoption("--files-in-order", action="store_true",
+                     help="hand out files in collection order (xdist's loadfile), not waiting beside computing")
+
+
 @pytest.hookimpl(tryfirst=True, optionalhook=True)
 def pytest_xdist_make_scheduler(config, log):
     """`--dist loadfile` (the suite's) with files that wait on real time run beside computing ones
-    (tests/scheduling.py); other modes as xdist has them."""
-    if config.getvalue("dist") != "loadfile":
+    (tests/scheduling.py); other modes, or `--files-in-order`, as xdist has them."""
+    if config.getvalue("dist") != "loadfile" or config.getoption("files_in_order"):
         return None
     from tests.scheduling import make_scheduler
 
