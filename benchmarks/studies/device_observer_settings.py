@@ -37,18 +37,20 @@ def blob_for(setting: tuple[float, float, float]) -> bytes:
     return pack(dataclasses.replace(blob, observers=dataclasses.replace(blob.observers, forgetting=forgetting)))
 
 
-def held(setting: tuple[float, float, float], rigs: dict) -> int:
-    """Episodes the setting's blob holds on the rigs' devices."""
-    from pendkit.agents.rig_suite import summary
+def held(setting: tuple[float, float, float], rigs: dict) -> dict:
+    """Each rig's `Evaluation` with the setting's blob on its device."""
     from pendkit.agents.threads import use_kit_threads
     from pendkit.deploy.on_twin import blob_on_rigs
 
     use_kit_threads()
-    return summary(blob_on_rigs(blob_for(setting), rigs))["solved"]
+    return blob_on_rigs(blob_for(setting), rigs)
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def choose_blind(settings: tuple, run, said, description: str) -> None:
+    """Score every setting with `run(setting, rigs)` on the devices of fresh validation rigs, keep the best (a
+    tie to the first, the shipped one) and with `--unseen` run the kept one on the presets and held-out rigs;
+    `said(setting)` names a setting in the printed lines. Shared by the device studies."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--validation-rigs", type=int, default=30)
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--unseen", action="store_true")
@@ -56,24 +58,25 @@ def main() -> None:
 
     from concurrent.futures import ProcessPoolExecutor
 
-    from pendkit.agents.rig_suite import preset_rigs, random_rigs, validation_rigs
+    from pendkit.agents.rig_suite import preset_rigs, random_rigs, summary, validation_rigs
 
     checking = validation_rigs(args.validation_rigs, after=12)
-    episodes = 6 * len(checking)
     with ProcessPoolExecutor(args.jobs) as pool:
-        scores = dict(zip(SETTINGS, pool.map(held, SETTINGS, [checking] * len(SETTINGS))))
+        scores = {setting: summary(out)["solved"]
+                  for setting, out in zip(settings, pool.map(run, settings, [checking] * len(settings)))}
     for setting, score in scores.items():
-        print(f"command {setting[0]:g} ms, reading {setting[1]:g} ms, memory {setting[2]:g} s: "
-              f"device validation {score}/{episodes}", flush=True)
-    kept = max(SETTINGS, key=lambda s: (scores[s], s == SETTINGS[0]))
-    print(f"kept: command {kept[0]:g} ms, reading {kept[1]:g} ms, memory {kept[2]:g} s", flush=True)
+        print(f"{said(setting)}: device validation {score}/{6 * len(checking)}", flush=True)
+    kept = max(settings, key=lambda s: (scores[s], s == settings[0]))
+    print(f"kept: {said(kept)}", flush=True)
     if args.unseen:
-        from pendkit.agents.rig_suite import summary
-        from pendkit.deploy.on_twin import blob_on_rigs
-
-        out = blob_on_rigs(blob_for(kept), {**preset_rigs(), **random_rigs(10)})
+        out = run(kept, {**preset_rigs(), **random_rigs(10)})
         print(f"kept setting: device, presets + held-out {summary(out)['solved']}/90 "
               + " ".join(f"{name}={sum(e.solved)}/{len(e.solved)}" for name, e in out.items()), flush=True)
+
+
+def main() -> None:
+    choose_blind(SETTINGS, held, lambda s: f"command {s[0]:g} ms, reading {s[1]:g} ms, memory {s[2]:g} s",
+                 __doc__.splitlines()[0])
 
 
 if __name__ == "__main__":

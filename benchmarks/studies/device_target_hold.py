@@ -13,7 +13,6 @@ hold is this study's alone (the kit's device has none). Results: docs/results/ro
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 from collections import deque
 
@@ -50,53 +49,18 @@ def targets_held(ticks: int):
         observed.ObservedDevicePolicy = shipped
 
 
-def blob_for(command_ms: float) -> bytes:
-    """The shipped bank policy's blob, its observers designed for a command delay of `command_ms`."""
-    from pendkit.agents.pretrained import policy_weights
-    from pendkit.backend_contract import BackendTiming
-    from pendkit.deploy.learned_blob import learned_policy_blob
-    from pendkit.device.controller_blob import pack
-    from pendkit.rig import RigParams
-
-    spec, state = policy_weights("r-td3-bank-robust")
-    timing = BackendTiming(RigParams().control_step_ms / 1000.0, command_ms / 1000.0, 0.0, firmware_readings=True)
-    return pack(learned_policy_blob(spec, state, timing=timing))
-
-
 def run(setting: tuple[int, float], rigs: dict) -> dict:
     """Each rig's `Evaluation` with `setting`'s blob on its device."""
-    from pendkit.agents.threads import use_kit_threads
-    from pendkit.deploy.on_twin import blob_on_rigs
+    from device_observer_settings import held
 
-    use_kit_threads()
     with targets_held(setting[0]):
-        return blob_on_rigs(blob_for(setting[1]), rigs)
+        return held((setting[1], 0.0, 1.0), rigs)  # readings without delay, a 1 s memory: as shipped
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--validation-rigs", type=int, default=30)
-    parser.add_argument("--jobs", type=int, default=2)
-    parser.add_argument("--unseen", action="store_true")
-    args = parser.parse_args()
+    from device_observer_settings import choose_blind
 
-    from concurrent.futures import ProcessPoolExecutor
-
-    from pendkit.agents.rig_suite import preset_rigs, random_rigs, summary, validation_rigs
-
-    checking = validation_rigs(args.validation_rigs, after=12)
-    with ProcessPoolExecutor(args.jobs) as pool:
-        scores = {s: summary(out)["solved"] for s, out in zip(SETTINGS, pool.map(run, SETTINGS,
-                                                                                  [checking] * len(SETTINGS)))}
-    for (ticks, command_ms), score in scores.items():
-        print(f"held {ticks} ticks, observers for {command_ms:g} ms: device validation {score}/{6 * len(checking)}",
-              flush=True)
-    kept = max(SETTINGS, key=lambda s: (scores[s], s == SETTINGS[0]))
-    print(f"kept: held {kept[0]} ticks, observers for {kept[1]:g} ms", flush=True)
-    if args.unseen:
-        out = run(kept, {**preset_rigs(), **random_rigs(10)})
-        print(f"kept setting: device, presets + held-out {summary(out)['solved']}/90 "
-              + " ".join(f"{name}={sum(e.solved)}/{len(e.solved)}" for name, e in out.items()), flush=True)
+    choose_blind(SETTINGS, run, lambda s: f"held {s[0]} ticks, observers for {s[1]:g} ms", __doc__.splitlines()[0])
 
 
 if __name__ == "__main__":
