@@ -45,9 +45,10 @@ def main() -> None:
     parser.add_argument("--observer-timing", choices=["trained", "rig"], default="trained",
                         help="the delays a pinned observer (nominal or bank) is designed for in training: the base "
                              "twin's, or each drawn rig's own (as each rig's evaluation and the device design them)")
-    parser.add_argument("--network", choices=["robust", "none"], default="robust",
-                        help="the drawn rigs' networks in training: the robust ranges', or none (the device's own "
-                             "loop: readings and targets never cross a network)")
+    parser.add_argument("--network", choices=["robust", "none", "mixed"], default="robust",
+                        help="the drawn rigs' networks in training: the robust ranges', none (the device's own "
+                             "loop: readings and targets never cross a network), or mixed (each episode one of the "
+                             "two, even odds)")
     parser.add_argument("--validate-on", choices=["laptop", "device"], default="laptop",
                         help="keep the checkpoint that holds most validation rigs from the laptop (8 rigs, rest + 1 "
                              "start) or as a blob on each rig's device (12 rigs, rest + 5 starts); with device, the "
@@ -90,6 +91,8 @@ def main() -> None:
         score = functools.partial(validation_and_default_score, starts=args.default_in_validation)
     if args.network == "none":
         without_network(env)
+    if args.network == "mixed":
+        half_without_network(env, args.seed)
     if args.validate_on == "device":
         score = device_validation_score
     _, chosen = train_keeping_best(env, agent, inputs, spec, score)
@@ -124,19 +127,43 @@ def main() -> None:
           + f" wall_s={time.monotonic() - started:.0f}")
 
 
-def without_network(env) -> None:
-    """Every rig `env`'s randomisation draws from now on has no network (no latency, nothing lost)."""
+def randomization(env):
     import gymnasium as gym
 
     from pendkit.sim.randomize import DomainRandomization
 
     while not isinstance(env, DomainRandomization):
         if not isinstance(env, gym.Wrapper):
-            raise SystemExit("--network none needs a run over drawn rigs")
+            raise SystemExit("--network none or mixed needs a run over drawn rigs")
         env = env.env
+    return env
+
+
+def no_network(ranges):
     none = (0.0, 0.0)
-    env.ranges = dataclasses.replace(env.ranges, latency_floor_ms=none, latency_median_ms=none, latency_spread=none,
-                                     loss_pct=none)
+    return dataclasses.replace(ranges, latency_floor_ms=none, latency_median_ms=none, latency_spread=none,
+                               loss_pct=none)
+
+
+def without_network(env) -> None:
+    """Every rig `env`'s randomisation draws from now on has no network (no latency, nothing lost)."""
+    drawing = randomization(env)
+    drawing.ranges = no_network(drawing.ranges)
+
+
+def half_without_network(env, seed: int) -> None:
+    """Each rig `env`'s randomisation draws from now on has no network or the ranges' own, even odds (a coin of
+    its own, so the rigs drawn are those of the same seed with either network)."""
+    import numpy as np
+
+    drawing = randomization(env)
+    ranges, coin, reset = drawing.ranges, np.random.default_rng([seed, 7]), drawing.reset
+
+    def reset_with_either(**kwargs):
+        drawing.ranges = no_network(ranges) if coin.random() < 0.5 else ranges
+        return reset(**kwargs)
+
+    drawing.reset = reset_with_either
 
 
 def device_validation_score(spec, state: dict) -> tuple[int, float]:
