@@ -53,6 +53,9 @@ def main() -> None:
                         help="keep the checkpoint that holds most validation rigs from the laptop (8 rigs, rest + 1 "
                              "start) or as a blob on each rig's device (12 rigs, rest + 5 starts); with device, the "
                              "kept policy is also judged on the devices of the presets and held-out rigs")
+    parser.add_argument("--fine-tune-lr", type=float, default=1.0, metavar="SCALE",
+                        help="with --start-from: the actor's and critic's learning rates times SCALE (the saved "
+                             "optimizers' rates come back with the weights, so they are scaled after loading)")
     parser.add_argument("--out", default=None, help="write the kept weights here (the kit's weights format)")
     parser.add_argument("--default-in-validation", type=int, default=0, metavar="STARTS",
                         help="also score each checkpoint on the default rig (rest + STARTS random starts) and "
@@ -86,6 +89,9 @@ def main() -> None:
         env.unwrapped.pin_observer(keep_timing=False)  # the same rigs (nominal or bank), each drawn rig's delays
     if args.start_from:
         agent.load_state_dict(policy_weights(args.start_from)[1])
+        for optimizer in (agent.actor_optimizer, agent.critic_optimizer):
+            for group in optimizer.param_groups:
+                group["lr"] *= args.fine_tune_lr
     score = validation_score
     if args.default_in_validation:
         score = functools.partial(validation_and_default_score, starts=args.default_in_validation)
@@ -118,7 +124,7 @@ def main() -> None:
     extra = args.default_in_validation + 1 if args.default_in_validation else 0
     checked = 72 if args.validate_on == "device" else 16 + extra
     print(f"robust-observer learner={args.learner} observer={args.observer} timing={args.observer_timing} "
-          f"from={args.start_from or 'afresh'} network={args.network} validate_on={args.validate_on} "
+          f"from={args.start_from or 'afresh'} fine_tune_lr={args.fine_tune_lr} network={args.network} validate_on={args.validate_on} "
           f"seed={args.seed} "
           f"episodes={args.episodes} chosen_at={chosen['chosen_at_episode']} "
           f"validation={chosen['validation_solved']}/{checked} default={default['solved']}/{default['episodes']} "
