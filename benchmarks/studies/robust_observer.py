@@ -124,7 +124,8 @@ def main() -> None:
     extra = args.default_in_validation + 1 if args.default_in_validation else 0
     checked = 72 if args.validate_on == "device" else 16 + extra
     print(f"robust-observer learner={args.learner} observer={args.observer} timing={args.observer_timing} "
-          f"from={args.start_from or 'afresh'} fine_tune_lr={args.fine_tune_lr} network={args.network} validate_on={args.validate_on} "
+          f"from={args.start_from or 'afresh'} fine_tune_lr={args.fine_tune_lr} network={args.network} "
+          f"validate_on={args.validate_on} "
           f"seed={args.seed} "
           f"episodes={args.episodes} chosen_at={chosen['chosen_at_episode']} "
           f"validation={chosen['validation_solved']}/{checked} default={default['solved']}/{default['episodes']} "

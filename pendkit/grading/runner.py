@@ -22,6 +22,7 @@ from pathlib import Path
 
 from pendkit.errors import ConfigError
 from pendkit.grading.core import TASKS, TIMEOUT_CAP_VARIABLE, TestResult, load_hidden, load_lab, run_test
+from pendkit.grading.local_kernels import unix_socket_kernel_manager
 from pendkit.grading.notebook_files import nbformat, read_submitted
 from pendkit.grading.remote import KernelLost, KernelSession, RemoteFunction
 from pendkit.grading.sandbox import Sandbox, isolation_problem
@@ -111,7 +112,7 @@ def grade_notebook(path: Path, student: str, lab: str, hidden_paths: list[Path],
     if demos:
         grade.notes.append(f"{demos} demonstration cells (tagged `{DEMO_TAG}`) were not run: they score nothing")
     scratch = Path(tempfile.mkdtemp(prefix="pendkit-submission-"))
-    sandbox = None
+    sandbox, run = None, None
     try:
         for what in stage_submission(Path(path), folder, scratch):
             grade.notes.append(f"left out {what}")
@@ -133,6 +134,8 @@ def grade_notebook(path: Path, student: str, lab: str, hidden_paths: list[Path],
     finally:
         if sandbox is not None:
             sandbox.close()
+        if run is not None and run.socket_dir is not None:
+            shutil.rmtree(run.socket_dir, ignore_errors=True)
         shutil.rmtree(scratch, ignore_errors=True)
     grade.tasks = [run.graded.get(t) or zero_grade(t, run.skipped.get(t, "not graded: the notebook did not "
                                                                          "get this far"))
@@ -151,13 +154,18 @@ class _Run:
         self.noted_errors: set[int] = set()
         self.check_timeout_s: float | None = None
         self.sandbox: Sandbox | None = None
+        self.socket_dir: Path | None = None  # the kernel's sockets without a sandbox (removed with the scratch)
 
     def once(self) -> None:
         from nbclient import NotebookClient
         from nbclient.exceptions import CellTimeoutError, DeadKernelError
 
         notebook = nbformat.from_dict(self.notebook)  # a fresh copy per run
-        km = self.sandbox.kernel_manager() if self.sandbox is not None else None
+        if self.sandbox is not None:
+            km = self.sandbox.kernel_manager()
+        else:
+            self.socket_dir = self.socket_dir or Path(tempfile.mkdtemp(prefix="pendkit-kernel-"))
+            km = unix_socket_kernel_manager(self.socket_dir)
         client = NotebookClient(notebook, km=km, timeout=math.ceil(self.cell_timeout_s), kernel_name="python3",
                                 allow_errors=True, interrupt_on_timeout=False, record_timing=False,
                                 shutdown_kernel="immediate",  # nothing of the kernel's is kept

@@ -5,11 +5,13 @@ suite's workers."""
 
 import functools
 import os
+import tempfile
 from pathlib import Path
 
 import nbformat
 from nbclient import NotebookClient
 
+from pendkit.grading.local_kernels import unix_socket_kernel_manager
 from pendkit.grading.runner import DEMO_TAG
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -43,8 +45,9 @@ def _printed(notebook_name: str, stop_at: str, replace: tuple[tuple[str, str], .
     saved = os.environ.get("PENDKIT_MODE")
     os.environ["PENDKIT_MODE"] = "ci"  # the kernel inherits it: the notebooks' short horizons
     try:
-        NotebookClient(notebook, timeout=300, kernel_name="python3",
-                       resources={"metadata": {"path": str(ROOT / "solutions")}}).execute()
+        with tempfile.TemporaryDirectory(prefix="pendkit-kernel-") as sockets:  # no port race with other workers
+            NotebookClient(notebook, timeout=300, kernel_name="python3", km=unix_socket_kernel_manager(sockets),
+                           resources={"metadata": {"path": str(ROOT / "solutions")}}).execute()
     finally:
         if saved is None:
             os.environ.pop("PENDKIT_MODE", None)
