@@ -38,6 +38,8 @@ def _kernels_on_unix_sockets() -> None:
         import nbval.kernel
     except ImportError:
         return
+    from pendkit.grading.local_kernels import unix_socket_kernel_manager
+
     if os.name != "posix":
         return
     folder = tempfile.mkdtemp(prefix="pendkit-kernels-")
@@ -45,7 +47,7 @@ def _kernels_on_unix_sockets() -> None:
     names, manager = itertools.count(), nbval.kernel.KernelManager
 
     def on_unix_sockets(**kwargs):
-        return manager(transport="ipc", ip=os.path.join(folder, f"k{next(names)}"), **kwargs)
+        return unix_socket_kernel_manager(os.path.join(folder, f"k{next(names)}"), manager_class=manager, **kwargs)
 
     nbval.kernel.KernelManager = on_unix_sockets
 

@@ -12,11 +12,12 @@ import os
 from pathlib import Path
 
 
-def unix_socket_kernel_manager(folder: str | Path, kernel_name: str = "python3", **kwargs):
-    """An AsyncKernelManager whose sockets are files `folder/kernel-N`; None where there are no Unix sockets
-    (Windows: the caller's default, TCP)."""
+def unix_socket_kernel_manager(folder: str | Path, kernel_name: str = "python3", manager_class=None, **kwargs):
+    """A kernel manager (default jupyter_client's AsyncKernelManager) whose sockets are files `folder/kernel-N`,
+    the folder made if missing; None where there are no Unix sockets (Windows: the caller's default, TCP)."""
     if os.name != "posix":
         return None
-    from jupyter_client.manager import AsyncKernelManager
-
-    return AsyncKernelManager(kernel_name=kernel_name, transport="ipc", ip=str(Path(folder) / "kernel"), **kwargs)
+    if manager_class is None:
+        from jupyter_client.manager import AsyncKernelManager as manager_class
+    Path(folder).mkdir(parents=True, exist_ok=True)
+    return manager_class(kernel_name=kernel_name, transport="ipc", ip=str(Path(folder) / "kernel"), **kwargs)

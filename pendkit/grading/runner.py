@@ -112,7 +112,7 @@ def grade_notebook(path: Path, student: str, lab: str, hidden_paths: list[Path],
     if demos:
         grade.notes.append(f"{demos} demonstration cells (tagged `{DEMO_TAG}`) were not run: they score nothing")
     scratch = Path(tempfile.mkdtemp(prefix="pendkit-submission-"))
-    sandbox, run = None, None
+    sandbox, sockets = None, None
     try:
         for what in stage_submission(Path(path), folder, scratch):
             grade.notes.append(f"left out {what}")
@@ -122,6 +122,8 @@ def grade_notebook(path: Path, student: str, lab: str, hidden_paths: list[Path],
         workdir = sandbox.work if sandbox is not None else scratch
         run = _Run(notebook, workdir, task_ids, cell_timeout_s, started + notebook_timeout_s, grade)
         run.check_timeout_s, run.sandbox = check_timeout_s, sandbox
+        if sandbox is None:
+            run.sockets = sockets = Path(tempfile.mkdtemp(prefix="pendkit-kernel-"))
         with _grading_environment(check_timeout_s):
             for _ in range(MAX_RUNS):
                 try:
@@ -134,8 +136,8 @@ def grade_notebook(path: Path, student: str, lab: str, hidden_paths: list[Path],
     finally:
         if sandbox is not None:
             sandbox.close()
-        if run is not None and run.socket_dir is not None:
-            shutil.rmtree(run.socket_dir, ignore_errors=True)
+        if sockets is not None:
+            shutil.rmtree(sockets, ignore_errors=True)
         shutil.rmtree(scratch, ignore_errors=True)
     grade.tasks = [run.graded.get(t) or zero_grade(t, run.skipped.get(t, "not graded: the notebook did not "
                                                                          "get this far"))
@@ -154,18 +156,14 @@ class _Run:
         self.noted_errors: set[int] = set()
         self.check_timeout_s: float | None = None
         self.sandbox: Sandbox | None = None
-        self.socket_dir: Path | None = None  # the kernel's sockets without a sandbox (removed with the scratch)
+        self.sockets: Path | None = None  # the folder of the kernel's sockets without a sandbox
 
     def once(self) -> None:
         from nbclient import NotebookClient
         from nbclient.exceptions import CellTimeoutError, DeadKernelError
 
         notebook = nbformat.from_dict(self.notebook)  # a fresh copy per run
-        if self.sandbox is not None:
-            km = self.sandbox.kernel_manager()
-        else:
-            self.socket_dir = self.socket_dir or Path(tempfile.mkdtemp(prefix="pendkit-kernel-"))
-            km = unix_socket_kernel_manager(self.socket_dir)
+        km = self.sandbox.kernel_manager() if self.sandbox is not None else unix_socket_kernel_manager(self.sockets)
         client = NotebookClient(notebook, km=km, timeout=math.ceil(self.cell_timeout_s), kernel_name="python3",
                                 allow_errors=True, interrupt_on_timeout=False, record_timing=False,
                                 shutdown_kernel="immediate",  # nothing of the kernel's is kept

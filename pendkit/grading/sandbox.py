@@ -181,12 +181,13 @@ class Sandbox:
     def kernel_manager(self):
         """A kernel manager for one run of the notebook (a restart gets a fresh one)."""
         from jupyter_client.kernelspec import KernelSpecManager
-        from jupyter_client.manager import AsyncKernelManager
+
+        from pendkit.grading.local_kernels import unix_socket_kernel_manager
 
         specs = KernelSpecManager(kernel_dirs=[str(self.root / "specs")], ensure_native_kernel=False)
-        return AsyncKernelManager(kernel_name=KERNEL_NAME, kernel_spec_manager=specs, transport="ipc",
-                                  ip=str(self.root / "ipc" / "kernel"),  # the kernel binds these sockets
-                                  connection_file=str(self.root / "run" / "connection.json"))
+        return unix_socket_kernel_manager(self.root / "ipc", KERNEL_NAME,  # the kernel binds these sockets
+                                          kernel_spec_manager=specs,
+                                          connection_file=str(self.root / "run" / "connection.json"))
 
     def close(self) -> None:
         """Kill whatever still runs as the sandbox's own user, then remove the scratch folder."""
