@@ -61,7 +61,10 @@ def start_ray(address: str | None = None, num_cpus: int | None = None, say=print
     os.environ.setdefault("TUNE_DISABLE_AUTO_CALLBACK_LOGGERS", "1")  # no TensorBoard/CSV files of Tune's own
     os.environ.setdefault("RAY_AIR_NEW_OUTPUT", "0")
     started = time.perf_counter()
-    local = {"num_cpus": num_cpus} if address is None else {}
+    # Ray starts its workers at niceness 15, so on a laptop in use (or beside a test run) a local sweep's trials
+    # get a few percent of a core; here they are the work, so they run at the driver's own priority. A
+    # cluster's nodes keep what `ray start` gave them (RAY_worker_niceness=0 there does the same).
+    local = {"num_cpus": num_cpus, "_system_config": {"worker_niceness": 0}} if address is None else {}
     ray.init(address=address or "local", **local, include_dashboard=False, log_to_driver=False,
              configure_logging=True, logging_level="ERROR", ignore_reinit_error=True)
     ray_start_s = time.perf_counter() - started

@@ -44,7 +44,7 @@ def run_spec_and_params(trial: Trial):
 
 
 def where_am_i() -> dict:
-    """The host, process and (under Ray) node a trial ran on."""
+    """The host, process, its niceness (None where the OS has none) and (under Ray) node a trial ran on."""
     node = None
     try:
         import ray
@@ -53,7 +53,8 @@ def where_am_i() -> dict:
             node = ray.get_runtime_context().get_node_id()
     except ImportError:
         pass
-    return {"host": socket.gethostname(), "pid": os.getpid(), "node_id": node}
+    niceness = os.nice(0) if hasattr(os, "nice") else None
+    return {"host": socket.gethostname(), "pid": os.getpid(), "niceness": niceness, "node_id": node}
 
 
 def run_trial(trial: Trial, folder: str | Path) -> dict:
