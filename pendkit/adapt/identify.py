@@ -215,8 +215,7 @@ def on_device_clock(recordings: list[Recording]) -> bool:
 
 def identify(recordings: list[Recording], prior: RigParams | None = None, max_evaluations: int = 1200,
              seed: int = 0, cost: Callable[[RigParams, float, list[Recording]], float] = matching_cost,
-             progress: Callable[[int, float], None] | None = None,
-             population: int | None = None) -> Identification:
+             progress: Callable[[int, float], None] | None = None) -> Identification:
     """Fit the twin to `recordings`: the pendulum from its free swings, then the servo and latency by
     differential evolution on `cost` (default the kit's `matching_cost`; lab 09 passes the student's).
     With the kit's cost and recordings on the device's clock, the servo and its PWM phase by `replay_cost`."""
@@ -243,8 +242,7 @@ def identify(recordings: list[Recording], prior: RigParams | None = None, max_ev
         return value
 
     dims, evolving = len(SERVO_BOUNDS), 3 * max_evaluations // 4  # a quarter left to polish
-    # a small budget still gets a generation past the first
-    members = population or max(5, min(10 * dims, evolving // 2))
+    members = max(5, min(10 * dims, evolving // 2))  # a small budget still gets a generation past the first
     box = np.array(search_box(last))
     start = np.random.default_rng(seed).uniform(box[:, 0], box[:, 1], size=(members, dims))
     start[0] = [0.0] * (dims - 1) + [last_prior]  # the prior is one of the first candidates
