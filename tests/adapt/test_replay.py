@@ -73,6 +73,7 @@ def test_without_a_log_identification_matches_the_hosts_steps(tmp_path):
 def test_identification_on_the_device_clock_reads_a_hidden_servo_through_poor_wifi(tmp_path):
     hidden = RigParams.preset("hitec-hsb-9380th").with_dowel_length(0.42)  # an underdamped servo loop (0.2)
     recordings = logged_recordings(hidden, IMPAIRMENTS["poor-wifi"], tmp_path, episodes=6)
+    # seed 0's search; seeds 1 and 2 settle in worse fits that misread the damping (docs/results/test-suite.md)
     found = identify(recordings, RigParams(), max_evaluations=600)
     assert found.pwm_phase_ms is not None  # matched on the device's clock
     assert found.cost < found.prior_cost / 10  # angle errors (rad^2), not times
