@@ -80,20 +80,22 @@ def zero_shot(starts: int, only: str | None = None, network: str = "rig") -> Non
         _report(controller + suffix, outcomes)
 
 
-def policy_on_device(starts: int, policy: str) -> None:
-    """`policy` exported as its rig's device blob (`pendkit.deploy.learned_blob`: a bank policy keeps its bank,
-    designed for the device's timing), uploaded to each preset's and held-out rig's device and run there from
-    rest and `starts` random starts (the laptop's episodes' seeds): no network between the readings and the
-    targets; heartbeats still cross the rig's own."""
+def policy_on_device(starts: int, policy: str, seed: int = 10_000) -> None:
+    """`policy` (a shipped name or a weights file) exported as its rig's device blob
+    (`pendkit.deploy.learned_blob`: a bank policy keeps its bank, designed for the device's timing), uploaded to
+    each preset's and held-out rig's device and run there from rest and `starts` random starts (seeds `seed`,
+    `seed + 1`, ..., the laptop's episodes' by default): no network between the readings and the targets;
+    heartbeats still cross the rig's own."""
     from pendkit.agents.pretrained import policy_weights
     from pendkit.agents.rig_suite import preset_rigs, random_rigs
+    from pendkit.agents.runs import load_weights
     from pendkit.deploy.learned_blob import learned_policy_blob
     from pendkit.deploy.on_twin import blob_on_rigs
     from pendkit.device.controller_blob import pack
 
-    spec, state = policy_weights(policy)
+    spec, state = load_weights(policy) if policy.endswith(".pt") else policy_weights(policy)
     blob = pack(learned_policy_blob(spec, state))
-    outcomes = blob_on_rigs(blob, {**preset_rigs(), **random_rigs()}, starts, say=lambda name, outcome: print(
+    outcomes = blob_on_rigs(blob, {**preset_rigs(), **random_rigs()}, starts, seed, say=lambda name, outcome: print(
         f"device-policy controller={policy} rig={name} {outcome.summary()}", flush=True))
     _report(policy, outcomes, mode="device-policy")
 
@@ -107,10 +109,11 @@ def without_network(rig):
     return dataclasses.replace(rig, network=NetworkImpairment())
 
 
-def ceiling(starts: int) -> None:
-    """The classical designs with everything the kit could know: each rig's true parameters, acting on the
-    twin's true state (no estimate, no reading delay), with the rig's own network and with none. What they
-    cannot solve is beyond the kit's model-based control on the laptop, a bound for any policy's goal."""
+def ceiling(starts: int, seed: int = 10_000, networks=("rig", "none"), controllers=None) -> None:
+    """The classical designs (`controllers`, default all) with everything the kit could know: each rig's true
+    parameters, acting on the twin's true state (no estimate, no reading delay), with the rig's own network
+    and with none, from rest and `starts` random starts (seeds `seed`, `seed + 1`, ...). What they cannot
+    solve is beyond the kit's model-based control on the laptop, a bound for any policy's goal."""
     import math
 
     from pendkit.adapt.routes import CLASSICAL
@@ -142,15 +145,15 @@ def ceiling(starts: int) -> None:
                           [0.0], [None])
 
     rigs = {**preset_rigs(), **random_rigs()}
-    for network in ("rig", "none"):
-        for controller in CLASSICAL:
+    for network in networks:
+        for controller in controllers or CLASSICAL:
             outcomes = {}
             for rig_name, rig in rigs.items():
                 rig = rig if network == "rig" else without_network(rig)
                 env = rig_env(rig, action_mode="continuous", filter_coefficient=0.0)
                 design = rig_env(rig, action_mode="continuous", filter_coefficient=0.0)
                 policy = CONTROLLERS[controller](design)
-                outcomes[rig_name] = sum((episode(env, policy, 10_000 + k, start) for k, start in
+                outcomes[rig_name] = sum((episode(env, policy, seed + k, start) for k, start in
                                           enumerate(["rest"] + ["random"] * starts)), Evaluation([], [], [], []))
                 env.close()
                 design.close()
@@ -291,6 +294,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("mode", choices=["zero-shot", "ceiling", "adapt", "ablations", "device", "device-policy"])
     parser.add_argument("--starts", type=int, default=5)
+    parser.add_argument("--start-seed", type=int, default=10_000,
+                        help="ceiling, device-policy: the first episode's seed (the laptop's figures use 10 000)")
     parser.add_argument("--rigs", type=int, default=6)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0])
     parser.add_argument("--jobs", type=int, default=None, help="CPUs of the local Ray (default: all)")
@@ -314,13 +319,13 @@ def main() -> None:
         zero_shot(args.starts, args.policy, args.network)
         return
     if args.mode == "ceiling":
-        ceiling(args.starts)
+        ceiling(args.starts, args.start_seed)
         return
     if args.mode == "device":
         device_on_true_parameters(args.rigs)
         return
     if args.mode == "device-policy":
-        policy_on_device(args.starts, args.policy or "r-td3-bank-robust")
+        policy_on_device(args.starts, args.policy or "r-td3-bank-robust", args.start_seed)
         return
     rigs = [(name, rig) for name, rig in adapt_rigs(args.rigs) if args.only is None or name in args.only]
     variants = args.variants or (["default"] if args.mode == "adapt"
