@@ -80,12 +80,12 @@ def zero_shot(starts: int, only: str | None = None, network: str = "rig") -> Non
         _report(controller + suffix, outcomes)
 
 
-def policy_on_device(starts: int, policy: str, seed: int = 10_000) -> None:
+def policy_on_device(starts: int, policy: str, seed: int = 10_000) -> dict:
     """`policy` (a shipped name or a weights file) exported as its rig's device blob
     (`pendkit.deploy.learned_blob`: a bank policy keeps its bank, designed for the device's timing), uploaded to
     each preset's and held-out rig's device and run there from rest and `starts` random starts (seeds `seed`,
     `seed + 1`, ..., the laptop's episodes' by default): no network between the readings and the targets;
-    heartbeats still cross the rig's own."""
+    heartbeats still cross the rig's own. Returns each rig's `Evaluation`."""
     from pendkit.agents.pretrained import policy_weights
     from pendkit.agents.rig_suite import preset_rigs, random_rigs
     from pendkit.agents.runs import load_weights
@@ -98,6 +98,7 @@ def policy_on_device(starts: int, policy: str, seed: int = 10_000) -> None:
     outcomes = blob_on_rigs(blob, {**preset_rigs(), **random_rigs()}, starts, seed, say=lambda name, outcome: print(
         f"device-policy controller={policy} rig={name} {outcome.summary()}", flush=True))
     _report(policy, outcomes, mode="device-policy")
+    return outcomes
 
 
 def without_network(rig):
@@ -109,11 +110,12 @@ def without_network(rig):
     return dataclasses.replace(rig, network=NetworkImpairment())
 
 
-def ceiling(starts: int, seed: int = 10_000, networks=("rig", "none"), controllers=None) -> None:
+def ceiling(starts: int, seed: int = 10_000, networks=("rig", "none"), controllers=None) -> dict:
     """The classical designs (`controllers`, default all) with everything the kit could know: each rig's true
     parameters, acting on the twin's true state (no estimate, no reading delay), with the rig's own network
     and with none, from rest and `starts` random starts (seeds `seed`, `seed + 1`, ...). What they cannot
-    solve is beyond the kit's model-based control on the laptop, a bound for any policy's goal."""
+    solve is beyond the kit's model-based control on the laptop, a bound for any policy's goal. Returns
+    {(controller, network): each rig's `Evaluation`}."""
     import math
 
     from pendkit.adapt.routes import CLASSICAL
@@ -144,7 +146,7 @@ def ceiling(starts: int, seed: int = 10_000, networks=("rig", "none"), controlle
         return Evaluation([holds_upright(angles, SOLVED_TAIL_STEPS)], [time_to_upright_s(angles, env.unwrapped.dt)],
                           [0.0], [None])
 
-    rigs = {**preset_rigs(), **random_rigs()}
+    rigs, found = {**preset_rigs(), **random_rigs()}, {}
     for network in networks:
         for controller in controllers or CLASSICAL:
             outcomes = {}
@@ -158,6 +160,8 @@ def ceiling(starts: int, seed: int = 10_000, networks=("rig", "none"), controlle
                 env.close()
                 design.close()
             _report(f"{controller}-oracle-network-{network}", outcomes, "ceiling")
+            found[controller, network] = outcomes
+    return found
 
 
 def _report(controller: str, outcomes: dict, mode: str = "zero-shot") -> None:

@@ -13,7 +13,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import io
-import re
 import sys
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -22,19 +21,17 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 
 def one_run(what: str, seed: int) -> tuple[str, int, dict[str, int]]:
-    """(what, seed, episodes held on each rig) from bench_transfer's own lines."""
+    """(what, seed, episodes held on each rig); bench_transfer's own lines are not shown."""
     from benchmarks import bench_transfer
     from pendkit.agents.threads import use_kit_threads
 
     use_kit_threads()
-    printed = io.StringIO()
-    with contextlib.redirect_stdout(printed):
+    with contextlib.redirect_stdout(io.StringIO()):
         if what == "oracle":
-            bench_transfer.ceiling(5, seed, networks=("none",), controllers=("trajopt",))
+            outcomes = bench_transfer.ceiling(5, seed, networks=("none",), controllers=("trajopt",))["trajopt", "none"]
         else:
-            bench_transfer.policy_on_device(5, what, seed)
-    found = re.findall(r"(?:ceiling|device-policy) controller=\S+ rig=(\S+) solved=(\d+)/", printed.getvalue())
-    return what, seed, {rig: int(n) for rig, n in found}
+            outcomes = bench_transfer.policy_on_device(5, what, seed)
+    return what, seed, {rig: sum(outcome.solved) for rig, outcome in outcomes.items()}
 
 
 def main() -> None:
