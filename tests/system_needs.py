@@ -38,6 +38,17 @@ def why_missing(need: str) -> str | None:
     return None if HAVE[need] else f"needs {need}: {INSTALL[need]}"
 
 
+def class_isolation() -> bool | None:
+    """What a test grading a class passes as `isolate`: the sandbox where there is one, else an explicit
+    False (a class without a sandbox is refused unless asked for, as `--no-sandbox` does)."""
+    return None if isolation_problem() is None else False
+
+
+def no_sandbox_args() -> list[str]:
+    """The same for `pendkit grade`'s command line."""
+    return [] if isolation_problem() is None else ["--no-sandbox"]
+
+
 def needs(*wanted: str) -> pytest.MarkDecorator:
     """`@needs("mosquitto")`: skip, saying how to install it, where it is missing."""
     reasons = [r for r in map(why_missing, wanted) if r]

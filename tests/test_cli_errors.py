@@ -35,7 +35,7 @@ MORE_BAD = [
     (["grade", "class", "--cell-timeout", "inf"], "positive number of seconds"),
     (["grade", "class", "--check-timeout", "-5"], "positive number of seconds"),
     (["grade", "--gradescope-autograder", "x.zip", "--lab", "42"], "no lab '42'"),
-    (["grade", "class", "--hidden", "/nonexistent"], "not a folder of hidden tests"),
+    (["grade", "class", "--hidden", "/nonexistent"], "holds no hidden tests"),
     (["eval", "not-a-run"], "no weights"),
     (["plot", "not-a-run"], "not a training run"),
     (["export", "--policy", "dqn-ideal", "--out", "x.pkcb"], "the device runs r-dqn and r-td3+both policies"),

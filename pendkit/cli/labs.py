@@ -74,8 +74,13 @@ def _lab(ctx, param, value: str | None) -> str | None:
               default=None, help="Instead of grading: write Gradescope's autograder zip for --lab NN.")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("grades"),
               show_default=True, help="Where results.json files and grades.csv go.")
-@click.option("--hidden", "hidden_dir", type=click.Path(file_okay=False, path_type=Path),
-              default=Path("solutions/tests"), show_default=True, help="Hidden tests (labNN_*.py).")
+@click.option("--hidden", "hidden_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Hidden tests (labNN_*.py); default: the solutions/tests of the kit this command runs from.")
+@click.option("--public-only", is_flag=True,
+              help="Grade, or build the autograder, with the public tests only (scores out of fewer points).")
+@click.option("--no-sandbox", is_flag=True,
+              help="Grade a class where no sandbox can hold students' code (macOS, Windows, Linux without "
+                   "bubblewrap): one submission can then change other students' grades.")
 @click.option("--cell-timeout", type=float, default=120.0, show_default=True, callback=_seconds,
               help="Seconds per cell.")
 @click.option("--notebook-timeout", type=float, default=600.0, show_default=True, callback=_seconds,
@@ -87,43 +92,52 @@ def _lab(ctx, param, value: str | None) -> str | None:
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @click.pass_context
 def grade(ctx: click.Context, submissions: Path | None, lab: str | None, autograder_zip: Path | None, out_dir: Path,
-          hidden_dir: Path, cell_timeout: float, notebook_timeout: float, check_timeout: float | None, jobs: int,
-          quiet: bool) -> None:
+          hidden_dir: Path | None, public_only: bool, no_sandbox: bool, cell_timeout: float, notebook_timeout: float,
+          check_timeout: float | None, jobs: int, quiet: bool) -> None:
     """Run and grade every submitted notebook; write Gradescope results.json files and a CSV."""
+    from pendkit.grading.core import kit_hidden_tests
     from pendkit.grading.report import grade_folder
     from pendkit.grading.sandbox import isolation_problem
 
-    hidden = hidden_dir if hidden_dir.is_dir() else None
-    if hidden is None and ctx.get_parameter_source("hidden_dir") != click.core.ParameterSource.DEFAULT:
-        raise click.BadParameter(f"{hidden_dir} is not a folder of hidden tests", param_hint="--hidden")
-    public_only = (f"no hidden tests at {hidden_dir}: graded with the public tests only, so every score below is "
-                   "out of the public points; pass --hidden with the kit's solutions/tests to grade out of all of them")
-    if hidden is None:
-        click.echo(public_only, err=True)
+    if hidden_dir is not None and not any(hidden_dir.glob("lab??_*.py")):
+        raise click.BadParameter(f"{hidden_dir} holds no hidden tests (labNN_*.py)", param_hint="--hidden")
+    hidden = None if public_only else (hidden_dir or kit_hidden_tests())
+    if hidden is None and not public_only:
+        raise click.UsageError("this install of pendkit has no hidden tests (solutions/tests: a clone installed "
+                               "with `pip install -e .` has them): pass --hidden FOLDER, or --public-only to grade "
+                               "out of the public points alone")
+    public_note = "graded with the public tests only (--public-only): every score is out of the public points"
     if autograder_zip is not None:
         from pendkit.grading.gradescope import build_autograder
 
         if lab is None:
             raise click.BadParameter("say which lab the autograder is for", param_hint="--lab")
-        click.echo(f"wrote {build_autograder(autograder_zip, lab, hidden)}: upload it as the assignment's "
-                   "autograder (docs/labs-and-grading.md)")
+        click.echo(f"wrote {build_autograder(autograder_zip, lab, hidden)} with "
+                   + (f"the hidden tests of {hidden}" if hidden else "the public tests only")
+                   + ": upload it as the assignment's autograder (docs/labs-and-grading.md)")
         return
     if submissions is None:
         raise click.BadParameter("give the folder of submitted notebooks", param_hint="SUBMISSIONS")
-    problem = isolation_problem()
-    if problem is not None:
-        click.echo(f"WARNING: isolation is off ({problem}): student code runs as you, with your files and "
-                   "network. Grade on Linux with bubblewrap for a class.", err=True)
+    if hidden is None:
+        click.echo(public_note, err=True)
+    if no_sandbox:
+        click.echo(f"WARNING: no sandbox ({isolation_problem() or 'turned off by --no-sandbox'}): students' code "
+                   "runs as you, with your files and network, and one submission can change other students' "
+                   "grades.", err=True)
     grades = grade_folder(submissions, out_dir, lab, hidden, cell_timeout, notebook_timeout, check_timeout,
-                          progress=not quiet, jobs=jobs)
+                          progress=not quiet, jobs=jobs, isolate=False if no_sandbox else None)
     if not grades:
         raise click.ClickException(f"no notebooks found in {submissions}")
     for result in grades:
         click.echo(f"{result.student:<24} lab {result.lab}  {result.score:g}/{result.max_score:g}"
                    + (f"  ({len(result.notes)} notes)" if result.notes else ""))
     click.echo(f"reports: {out_dir / 'grades.csv'} and {out_dir}/<student>/results.json")
+    for result in grades:
+        for note in result.notes:
+            if "CHECK:" in note:
+                click.echo(note[note.index("CHECK:"):], err=True)
     if hidden is None:  # said again at the end, where an instructor reads the scores
-        click.echo(f"NOTE: {public_only}", err=True)
+        click.echo(f"NOTE: {public_note}", err=True)
 
 
 @click.command("autograder-run")

@@ -184,6 +184,15 @@ def load_lab(lab: str) -> list[Task]:
 
 
 _LOADED_HIDDEN: dict[str, object] = {}  # content digest -> the module it made
+def kit_hidden_tests() -> Path | None:
+    """The hidden tests of the kit this command runs from (`solutions/tests` beside its package, as in a
+    clone installed with `pip install -e`), or None where this install has none (a wheel)."""
+    import pendkit
+
+    folder = Path(pendkit.__file__).resolve().parents[1] / "solutions" / "tests"
+    return folder if any(folder.glob("lab??_*.py")) else None
+
+
 HIDDEN_MODULES: dict[str, object] = {}  # each loaded hidden-test module by its file's stem (its answer key too)
 
 

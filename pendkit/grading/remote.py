@@ -14,6 +14,7 @@ import os
 import select
 import socket
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -24,6 +25,9 @@ from pendkit.grading.core import Failed, NotGradable, Outcome
 from pendkit.grading.timeouts import CheckTimeout
 
 INTERRUPT_GRACE_S = 5.0
+# A test's time limit is charged in the kernel's own CPU time, so a busy machine costs the student nothing;
+# code that waits without computing (a sleep, a blocked read) is stopped at this multiple of the limit.
+WALL_BACKSTOP_FACTOR, WALL_BACKSTOP_EXTRA_S = 4.0, 10.0
 MAX_REPLY_BYTES = 4 << 20  # a kernel's answer to one batch of calls: thousands of times any lab's (under 1 kB)
 MAX_REPLY_VALUES = 100_000  # values in it (each opens one JSON object): bounds the grader's memory
 # What a student's exception may come back as; anything else is a StudentError.
@@ -54,17 +58,44 @@ class KernelSession:
 
     With `channel_dir` (a folder both sides can reach) the calls go over a Unix socket there, answered by
     one long execute request in the kernel (`kernel.serve_socket`); without it each batch of calls is an
-    execute request of its own (Windows, which has no Unix sockets in Python)."""
+    execute request of its own (Windows, which has no Unix sockets in Python).
+
+    `cpu_s()` reads the kernel's CPU seconds (its process tree): a test is out of time once its wall limit
+    has passed *and* the kernel spent that long computing, or at the wall backstop; without it, at the
+    wall limit."""
 
     client: object
     channel_dir: Path | None = None
-    deadline: float = float("inf")  # monotonic time by which the current test must be done
+    cpu_s: Callable[[], float | None] | None = None
+    deadline: float = float("inf")  # monotonic time of the current test's wall limit
+    backstop: float = float("inf")  # monotonic time past which it ends whatever its CPU
     limit_s: float = float("inf")  # the current test's time limit, for the message
+    _cpu_at_start: float | None = field(default=None, repr=False)
     _connection: socket.socket | None = field(default=None, repr=False)
     _serve_id: str | None = field(default=None, repr=False)
 
     def start_test(self, limit_s: float) -> None:
-        self.limit_s, self.deadline = limit_s, time.monotonic() + limit_s
+        now = time.monotonic()
+        self.limit_s, self.deadline = limit_s, now + limit_s
+        self.backstop = now + limit_s * WALL_BACKSTOP_FACTOR + WALL_BACKSTOP_EXTRA_S
+        self._cpu_at_start = self.cpu_s() if self.cpu_s is not None else None
+
+    def _grace(self, seconds: float) -> None:
+        """A plain wall-clock limit (interrupts, the end of the calls)."""
+        self.deadline = self.backstop = time.monotonic() + seconds
+        self._cpu_at_start = None
+
+    def out_of_time(self) -> bool:
+        now = time.monotonic()
+        if now < self.deadline:
+            return False
+        if now >= self.backstop or self._cpu_at_start is None:
+            return True
+        spent = self.cpu_s()
+        return spent is None or spent - self._cpu_at_start >= self.limit_s
+
+    def _timeout(self) -> CheckTimeout:
+        return CheckTimeout(f"took longer than {self.limit_s:g} s")
 
     def call(self, name: str, calls: list[tuple]) -> dict:
         request = wire.dumps({"function": name, "calls": [list(args) for args in calls]}, allow_kit=True)
@@ -84,7 +115,7 @@ class KernelSession:
             return
         try:
             channel.send(self._connection, "")
-            self.deadline = time.monotonic() + INTERRUPT_GRACE_S
+            self._grace(INTERRUPT_GRACE_S)
             self._wait(self.client.kc, self._serve_id)
         except (OSError, CheckTimeout, KernelLost):
             pass  # the kernel is shut down next anyway
@@ -95,12 +126,15 @@ class KernelSession:
         if self._connection is None:
             self._open()
         try:
-            self._connection.settimeout(max(0.001, self.deadline - time.monotonic()))
+            self._connection.settimeout(max(0.001, self.backstop - time.monotonic()))
             channel.send(self._connection, request)
-            text = channel.receive(self._connection, self.deadline, MAX_REPLY_BYTES)  # the whole reply in time
+            while not select.select([self._connection], [], [], 0.2)[0]:  # the answer's first byte
+                if self.out_of_time():
+                    raise TimeoutError
+            text = channel.receive(self._connection, self.backstop, MAX_REPLY_BYTES)  # then the whole reply
         except TimeoutError:
             self._abandon_call()
-            raise CheckTimeout(f"took longer than {self.limit_s:g} s") from None
+            raise self._timeout() from None
         except channel.TooLarge as error:
             self._abandon_call()
             raise StudentError("an oversized answer", f"the answer was {error.size} bytes, more than the "
@@ -125,7 +159,6 @@ class KernelSession:
         """Stop the kernel's serving request mid-answer; the next call opens a new one."""
         serve_id = self._serve_id
         self._drop()  # the kernel's send fails once the socket is gone, if the interrupt did not stop it
-        self.deadline = max(self.deadline, time.monotonic())
         self._interrupt(self.client.kc, serve_id)
 
     def _open(self) -> None:
@@ -147,9 +180,9 @@ class KernelSession:
                     content = reply["content"]
                     raise StudentError(str(content.get("ename", "an error")), f"{str(content.get('evalue', ''))[:200]}"
                                        " (the grader could not reach the function in the kernel)")
-                if time.monotonic() > self.deadline:
+                if self.out_of_time():
                     self._interrupt(kc, self._serve_id)
-                    raise CheckTimeout(f"took longer than {self.limit_s:g} s")
+                    raise self._timeout()
                 if not run_sync(self.client.km.is_alive)():
                     raise KernelLost("the kernel died") from None
         path.unlink(missing_ok=True)
@@ -181,11 +214,10 @@ class KernelSession:
 
     def _wait(self, kc, msg_id: str) -> dict:
         while True:
-            remaining = self.deadline - time.monotonic()
-            if remaining <= 0:
+            if self.out_of_time():
                 self._interrupt(kc, msg_id)
-                raise CheckTimeout(f"took longer than {self.limit_s:g} s")
-            reply = _shell_reply(kc, msg_id, timeout_s=min(remaining, 1.0))
+                raise self._timeout()
+            reply = _shell_reply(kc, msg_id, timeout_s=0.25)  # returns as soon as the reply is there
             if reply is not None:
                 return reply
             if not run_sync(self.client.km.is_alive)():

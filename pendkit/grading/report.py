@@ -3,98 +3,24 @@
 from __future__ import annotations
 
 import csv
-import dataclasses
 import io
 import json
 import os
-import re
 import shutil
 import sys
 import tempfile
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
-from dataclasses import dataclass
 from multiprocessing import get_context
 from pathlib import Path
 
 from pendkit.errors import ConfigError, PendkitError
 from pendkit.grading.core import known_labs, load_hidden_source, load_lab
-from pendkit.grading.notebook_files import read_submitted
-from pendkit.grading.runner import SubmissionGrade, grade_notebook
-
-LAB_PREFIX = re.compile(r"^(\d\d)_")
-
-
-@dataclass(frozen=True)
-class Submission:
-    student: str
-    path: Path
-    lab: str | None
-    folder: Path | None = None  # the student's own folder (None: a notebook lying flat in the class folder)
-    problem: str | None = None  # why it cannot be graded, said in its row
-    note: str | None = None  # said in its row, graded anyway
-
-
-def find_submissions(folder: Path, lab: str | None = None, one_student: bool = False) -> list[Submission]:
-    """`folder/<student>/*.ipynb` or `folder/<student>.ipynb`, every one of them (a notebook that cannot be
-    graded, or not in this run, still gets its row saying why). Links are not followed. `one_student`:
-    the folder is one student's (Gradescope's submission folder), whose files its notebooks may read."""
-    folder = Path(folder)
-    found = []
-    for path in _notebooks(folder):
-        relative = path.relative_to(folder)
-        student = relative.parts[0] if len(relative.parts) > 1 else path.stem
-        own_folder = folder / relative.parts[0] if len(relative.parts) > 1 else (folder if one_student else None)
-        if path.is_symlink():
-            found.append(Submission(student, path, lab, own_folder, problem=f"not graded: {relative} is a symbolic "
-                                    "link; submit the notebook itself"))
-            continue
-        found.append(_with_lab(Submission(student, path, None, own_folder), lab))
-    counts: dict[str, int] = {}
-    for submission in found:
-        counts[submission.student] = counts.get(submission.student, 0) + 1
-    return [dataclasses.replace(s, student=f"{s.student}/{s.path.stem}") if counts[s.student] > 1 else s
-            for s in found]
-
-
-def _notebooks(folder: Path) -> list[Path]:
-    found = []
-    for top, dirs, files in os.walk(folder):  # never into linked folders
-        dirs[:] = sorted(d for d in dirs if d != ".ipynb_checkpoints")
-        found += [Path(top) / name for name in files if name.endswith(".ipynb")]
-    return sorted(found)
-
-
-def _with_lab(submission: Submission, lab: str | None) -> Submission:
-    """Which lab a notebook is: its metadata's (written by `pendkit labs build`), else its name's NN_ prefix,
-    else `--lab`; a lab the kit does not have is named in the row."""
-    labs = known_labs()
-    stated = lab_of_notebook(submission.path)
-    by_name = LAB_PREFIX.match(submission.path.name)
-    by_name = by_name.group(1) if by_name else None
-    detected = next((n for n in (stated, by_name) if n in labs), None)
-    note = None
-    if stated is not None and stated not in labs:
-        note = f"the notebook's metadata says lab {stated!r}, which the kit does not have"
-    if lab is not None:
-        if detected is not None and detected != lab:
-            return dataclasses.replace(submission, lab=detected, problem=f"not graded: this is lab {detected}'s "
-                                       f"notebook, and this run grades lab {lab}")
-        return dataclasses.replace(submission, lab=lab, note=note and f"{note}: graded as lab {lab}")
-    if detected is None:
-        return dataclasses.replace(submission, problem=f"not graded: {note or 'cannot tell which lab this is'}; name "
-                                   "it NN_name.ipynb or pass --lab NN")
-    return dataclasses.replace(submission, lab=detected, note=note and f"{note}: graded as lab {detected}")
-
-
-def lab_of_notebook(path: Path) -> str | None:
-    """The lab number the notebook's metadata states (written by `pendkit labs build`), if any."""
-    try:
-        lab = read_submitted(path).metadata.get("pendkit", {}).get("lab")
-        return str(lab) if lab else None
-    except Exception:
-        return None  # unreadable notebooks are reported by the runner
+from pendkit.grading.process_guard import carrying, end_processes, new_run_token
+from pendkit.grading.runner import SubmissionGrade, grade_notebook, zero_grade
+from pendkit.grading.sandbox import isolation_problem
+from pendkit.grading.submissions import Submission, find_submissions
 
 
 def gradescope_results(grade: SubmissionGrade) -> dict:
@@ -196,12 +122,20 @@ def grade_folder(folder: Path, out: Path, lab: str | None, hidden_dir: Path | No
     """Grade every submission in `folder`, `jobs` at a time; write the reports; return the grades. Hidden
     files that cannot be loaded are skipped and reported on stderr; no submission can stop the others.
     Every scratch folder lives under one folder of this run, removed however the run ends; an interrupted
-    run writes what it graded and says so in the other rows. `isolate`: as `grade_notebook`'s."""
+    run writes what it graded and says so in the other rows. `isolate`: as `grade_notebook`'s, except that
+    without a sandbox (None where there is none) a class of several students is refused: pass False to grade
+    it anyway. Reports are written once every process a submission started has ended."""
+    if Path(out).resolve().is_relative_to(Path(folder).resolve()):
+        raise ConfigError(f"the grades' folder {out} is inside the submissions' folder {folder}, where a student's "
+                          "notebook could read or write them: choose --out outside it")
     submissions = find_submissions(folder, lab, one_student)
+    if isolate is None and not one_student:
+        _refuse_a_class_without_sandbox(submissions)
     sources = read_hidden_sources(hidden_dir, {s.lab for s in submissions if s.lab is not None and not s.problem})
     for problem in load_suites(sources):
         print(f"pendkit grade: {problem}; grading without it", file=sys.stderr)
-    settings = (cell_timeout_s, notebook_timeout_s, check_timeout_s, isolate)
+    run_token = new_run_token()
+    settings = (cell_timeout_s, notebook_timeout_s, check_timeout_s, isolate, run_token)
     bar = None
     if progress:
         from tqdm.auto import tqdm
@@ -221,6 +155,7 @@ def grade_folder(folder: Path, out: Path, lab: str | None, hidden_dir: Path | No
     except KeyboardInterrupt:
         ordered = [grades.get(k) or _failed_grade(s, "not graded: the run was interrupted")
                    for k, s in enumerate(submissions)]
+        end_processes(lambda: carrying(run_token, exact=False))
         write_reports(ordered, out)
         raise GradingInterrupted(f"interrupted: {len(grades)} of {len(submissions)} notebooks graded, the rest "
                                  f"marked so in {out / 'grades.csv'}") from None
@@ -229,8 +164,23 @@ def grade_folder(folder: Path, out: Path, lab: str | None, hidden_dir: Path | No
         if bar is not None:
             bar.close()
     ordered = [grades[k] for k in range(len(submissions))]
+    end_processes(lambda: carrying(run_token, exact=False))  # what a killed worker could not end
     write_reports(ordered, out)
     return ordered
+
+
+class SandboxRequired(ConfigError):
+    """A class graded where no sandbox can hold a student's code, without saying so."""
+
+
+def _refuse_a_class_without_sandbox(submissions: list[Submission]) -> None:
+    problem = isolation_problem()
+    students = {s.student.split("/")[0] for s in submissions if s.problem is None}
+    if problem is not None and len(students) > 1:
+        raise SandboxRequired(
+            f"no sandbox here ({problem}): a student's notebook would run as you, and one submission could "
+            f"change or zero the grades of the other {len(students) - 1} students. Install bubblewrap on Linux, "
+            "grade one student's folder at a time, or pass --no-sandbox to grade the class anyway")
 
 
 def _grade_in_pool(submissions, settings, sources, jobs, scratch, grades, bar) -> None:
@@ -293,9 +243,10 @@ def _start_worker(sources, scratch: str) -> None:
 def _grade_one(submission: Submission, settings: tuple) -> SubmissionGrade:
     if submission.problem is not None:
         return _failed_grade(submission, submission.problem)
+    *limits, run_token = settings
     try:
-        grade = grade_notebook(submission.path, submission.student, submission.lab, [], *settings,
-                               folder=submission.folder)
+        grade = grade_notebook(submission.path, submission.student, submission.lab, [], *limits,
+                               folder=submission.folder, run_token=run_token)
     except Exception as error:  # a grader bug must cost this submission nothing but its own grade
         return _failed_grade(submission, f"the grader failed on it ({type(error).__name__}: {error})")
     if submission.note is not None:
@@ -304,6 +255,9 @@ def _grade_one(submission: Submission, settings: tuple) -> SubmissionGrade:
 
 
 def _failed_grade(submission: Submission, note: str) -> SubmissionGrade:
+    """0 on every task of its lab (when known), with the reason in its notes."""
     grade = SubmissionGrade(submission.student, str(submission.path), submission.lab or "?")
     grade.notes.append(note)
+    if submission.this_run and submission.lab in known_labs():
+        grade.tasks = [zero_grade(t.id, note) for t in load_lab(submission.lab)]
     return grade

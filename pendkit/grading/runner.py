@@ -9,6 +9,7 @@ student adds or removes can only cost them points or the grader time, never gain
 
 from __future__ import annotations
 
+import itertools
 import logging
 import math
 import os
@@ -23,7 +24,9 @@ from pathlib import Path
 from pendkit.errors import ConfigError
 from pendkit.grading.core import TASKS, TIMEOUT_CAP_VARIABLE, TestResult, load_hidden, load_lab, run_test
 from pendkit.grading.local_kernels import unix_socket_kernel_manager
+from pendkit.grading.notebook_client import MAX_KEPT_OUTPUT_BYTES, CappedNotebookClient, end_kernel, kernel_alive
 from pendkit.grading.notebook_files import nbformat, read_submitted
+from pendkit.grading.process_guard import ProcessGuard, kernel_pid, new_run_token, tree_cpu_s
 from pendkit.grading.remote import KernelLost, KernelSession, RemoteFunction
 from pendkit.grading.sandbox import Sandbox, isolation_problem
 from pendkit.grading.staging import stage_submission
@@ -36,6 +39,7 @@ KERNEL_ENV_ALLOWED = {"PATH", "LANG", "LANGUAGE", "LC_ALL", "LC_CTYPE", "LC_NUME
                       "MUJOCO_GL", "PYOPENGL_PLATFORM", "OMP_NUM_THREADS", "MKL_NUM_THREADS",
                       "OPENBLAS_NUM_THREADS"}
 MAX_RUNS = 5
+_NOTEBOOKS = itertools.count()
 DEMO_TAG = "demo"
 GRADING_SLACK_S = 20.0
 
@@ -87,10 +91,12 @@ def zero_grade(task_id: str, message: str) -> TaskGrade:
 
 def grade_notebook(path: Path, student: str, lab: str, hidden_paths: list[Path], cell_timeout_s: float = 120.0,
                    notebook_timeout_s: float = 600.0, check_timeout_s: float | None = None,
-                   isolate: bool | None = None, folder: Path | None = None) -> SubmissionGrade:
+                   isolate: bool | None = None, folder: Path | None = None,
+                   run_token: str | None = None) -> SubmissionGrade:
     """Run `path` and grade lab `lab`'s tasks in it. Never raises for anything the notebook does.
     `folder`: the student's own folder, whose other files the notebook may read (None: the notebook alone).
-    `isolate`: run the kernel in the bubblewrap sandbox (None: where it is available)."""
+    `isolate`: run the kernel in the bubblewrap sandbox (None: where it is available). `run_token`: the
+    grading run's (process_guard); every process the notebook started is ended before this returns."""
     if not all(math.isfinite(t) and t > 0 for t in (cell_timeout_s, notebook_timeout_s, check_timeout_s or 1.0)):
         raise ConfigError("time limits must be positive and finite")
     started = time.monotonic()
@@ -117,15 +123,17 @@ def grade_notebook(path: Path, student: str, lab: str, hidden_paths: list[Path],
         for what in stage_submission(Path(path), folder, scratch):
             grade.notes.append(f"left out {what}")
         if isolate is True or (isolate is None and isolation_problem() is None):
-            sandbox = Sandbox(scratch)
+            sandbox = Sandbox(scratch, kernel_starts=MAX_RUNS)
         grade.isolated = sandbox is not None
         workdir = sandbox.work if sandbox is not None else scratch
         run = _Run(notebook, workdir, task_ids, cell_timeout_s, started + notebook_timeout_s, grade)
         run.check_timeout_s, run.sandbox = check_timeout_s, sandbox
         if sandbox is None:
             run.sockets = sockets = Path(tempfile.mkdtemp(prefix="pendkit-kernel-"))
-        with _grading_environment(check_timeout_s):
-            for _ in range(MAX_RUNS):
+        run.guard = ProcessGuard(f"{run_token or new_run_token()}:{os.getpid()}-{next(_NOTEBOOKS)}")
+        with _grading_environment(check_timeout_s), run.guard:
+            for start in range(MAX_RUNS):
+                run.start = start
                 try:
                     run.once()
                     break
@@ -133,6 +141,13 @@ def grade_notebook(path: Path, student: str, lab: str, hidden_paths: list[Path],
                     continue
             else:
                 grade.notes.append(f"gave up after {MAX_RUNS} kernel restarts")
+        if run.guard.ended:
+            grade.notes.append(f"{run.guard.ended} processes your notebook started were still running after it "
+                               "and were stopped (a notebook should leave nothing running)")
+        if run.dropped_output_bytes:
+            grade.notes.append(f"your notebook printed or drew more than the {MAX_KEPT_OUTPUT_BYTES >> 20} MB of "
+                               f"output the grader keeps: {run.dropped_output_bytes} bytes were not kept (they score "
+                               "nothing either way)")
     finally:
         if sandbox is not None:
             sandbox.close()
@@ -156,22 +171,26 @@ class _Run:
         self.noted_errors: set[int] = set()
         self.check_timeout_s: float | None = None
         self.sandbox: Sandbox | None = None
-        self.sockets: Path | None = None  # the folder of the kernel's sockets without a sandbox
+        self.sockets: Path | None = None  # the folder of the kernels' sockets without a sandbox
+        self.start = 0  # which start of the kernel this is: each binds its sockets in a folder of its own
+        self.guard: ProcessGuard | None = None
+        self.dropped_output_bytes = 0
 
     def once(self) -> None:
-        from nbclient import NotebookClient
         from nbclient.exceptions import CellTimeoutError, DeadKernelError
 
         notebook = nbformat.from_dict(self.notebook)  # a fresh copy per run
-        km = self.sandbox.kernel_manager() if self.sandbox is not None else unix_socket_kernel_manager(self.sockets)
-        client = NotebookClient(notebook, km=km, timeout=math.ceil(self.cell_timeout_s), kernel_name="python3",
+        km = (self.sandbox.kernel_manager(self.start) if self.sandbox is not None
+              else unix_socket_kernel_manager(self.sockets / f"start-{self.start}"))
+        client = CappedNotebookClient(notebook, km=km, timeout=math.ceil(self.cell_timeout_s), kernel_name="python3",
                                 allow_errors=True, interrupt_on_timeout=False, record_timing=False,
                                 shutdown_kernel="immediate",  # nothing of the kernel's is kept
                                 resources={"metadata": {"path": str(self.workdir)}})
         started = False
         try:
-            with client.setup_kernel(env=kernel_environment(self.check_timeout_s)):
+            with client.setup_kernel(env={**kernel_environment(self.check_timeout_s), **self.guard.environment()}):
                 started = True
+                self.guard.watch(kernel_pid(client.km))
                 for index, cell in enumerate(notebook.cells):
                     if cell.cell_type != "code" or index in self.excluded or _is_demo(cell):
                         continue
@@ -190,7 +209,7 @@ class _Run:
                         self.excluded.add(index)
                         raise _Restart from error
                     except Exception as error:  # noqa: BLE001 - the kernel's messages no longer make sense
-                        if not _alive(client):  # nbclient saw the death its own way
+                        if not kernel_alive(client):  # nbclient saw the death its own way
                             self.grade.notes.append(f"{_where(index, cell)} killed the kernel; it was left out "
                                                     "and the notebook run again without it")
                             self.excluded.add(index)
@@ -199,7 +218,8 @@ class _Run:
                         return
                     self._note_error(index, cell)
                 with _call_channel(self.sandbox) as channel_dir:
-                    session = KernelSession(client, channel_dir)
+                    pid = kernel_pid(client.km)
+                    session = KernelSession(client, channel_dir, cpu_s=lambda: tree_cpu_s(pid))
                     try:
                         for task_id in self.task_ids:
                             if task_id not in self.graded and task_id not in self.skipped:
@@ -215,12 +235,10 @@ class _Run:
                 raise
             # before any cell ran: the machine's fault, not the notebook's (another kernel took its port)
             self.grade.notes.append(f"the kernel did not start ({error}); it was started again")
-            if km is None and client.km is not None:  # nbclient cleans up only after a start that worked
-                _kill_kernel(client.km)
             raise _Restart from error
         finally:
-            if km is not None:  # nbclient shuts down only the kernels it started itself
-                _kill_kernel(km)
+            self.dropped_output_bytes += client.dropped_output_bytes
+            end_kernel(client, client.km or km)  # nbclient ends only the kernels and clients it made itself
 
     def _tampered(self, when: str, error: Exception) -> None:
         """The kernel's replies stopped making sense (its json, numpy or socket modules were replaced):
@@ -272,26 +290,6 @@ def _call_channel(sandbox: Sandbox | None):
     else:
         with tempfile.TemporaryDirectory(prefix="pendkit-calls-") as folder:
             yield Path(folder)
-
-
-def _alive(client) -> bool:
-    from jupyter_core.utils import run_sync
-
-    try:
-        return bool(run_sync(client.km.is_alive)())
-    except Exception:  # noqa: BLE001 - a kernel that cannot even say is not one to go on with
-        return False
-
-
-def _kill_kernel(km) -> None:
-    """End a kernel now (a sandboxed one: killing bwrap ends everything inside it)."""
-    from jupyter_core.utils import run_sync
-
-    try:
-        if run_sync(km.is_alive)():
-            run_sync(km.shutdown_kernel)(now=True)
-    except Exception as error:  # noqa: BLE001 - the sandbox's close() kills what is left
-        LOG.warning("could not stop a sandboxed kernel: %s", error)
 
 
 def _is_demo(cell) -> bool:

@@ -43,9 +43,18 @@ class Limits:
     processes: int = 256  # threads count too; beyond the user's own where the grader is not root
 
 
-@functools.cache
+SANDBOX_VARIABLE = "PENDKIT_GRADE_SANDBOX"  # "off": grade as on a machine without bubblewrap (CI tests that path)
+
+
 def isolation_problem() -> str | None:
     """Why a sandbox cannot be used here, or None when it can."""
+    if os.environ.get(SANDBOX_VARIABLE, "").lower() == "off":
+        return f"turned off by {SANDBOX_VARIABLE}=off"
+    return _bubblewrap_problem()
+
+
+@functools.cache
+def _bubblewrap_problem() -> str | None:
     if platform.system() != "Linux":
         return f"bubblewrap needs Linux (this is {platform.system()})"
     if shutil.which("bwrap") is None:
@@ -131,10 +140,10 @@ class Sandbox:
     """A scratch folder holding a copy of the submission's folder, and a kernel spec that starts the kernel
     inside bubblewrap. `kernel_manager()` for nbclient; `close()` removes the scratch folder."""
 
-    def __init__(self, submission_dir: Path, limits: Limits | None = None) -> None:
+    def __init__(self, submission_dir: Path, limits: Limits | None = None, kernel_starts: int = 5) -> None:
         self.limits = limits or Limits()
         self.root = Path(tempfile.mkdtemp(prefix="pendkit-grade-"))
-        if len(str(self.root / "ipc" / "kernel-65535")) > MAX_SOCKET_PATH:
+        if len(str(self._sockets(kernel_starts - 1) / "kernel-65535")) > MAX_SOCKET_PATH:
             shutil.rmtree(self.root)
             raise ConfigError(f"the scratch folder {self.root.parent} is too deep for the kernel's sockets (a socket's "
                               f"path may not pass {MAX_SOCKET_PATH} bytes): grade with TMPDIR=/tmp")
@@ -143,6 +152,8 @@ class Sandbox:
         shutil.copytree(submission_dir, self.work, symlinks=True)  # staged: regular files only
         for name in (*KERNEL_WRITES, *GRADER_ONLY):
             (self.root / name).mkdir(exist_ok=True)
+        for start in range(kernel_starts):  # made now, so that a root grader hands them to the kernel's user
+            self._sockets(start).mkdir()
         for font_list in _font_cache_files():  # else matplotlib rebuilds it in every sandbox (~0.4 s)
             shutil.copy2(font_list, self.root / "home")
         self.uid = _kernel_uid() if os.geteuid() == 0 else None
@@ -178,14 +189,18 @@ class Sandbox:
         folder.mkdir()
         (folder / "kernel.json").write_text(json.dumps(spec, indent=1))
 
-    def kernel_manager(self):
-        """A kernel manager for one run of the notebook (a restart gets a fresh one)."""
+    def _sockets(self, start: int) -> Path:
+        return self.root / "ipc" / f"s{start}"
+
+    def kernel_manager(self, start: int = 0):
+        """A kernel manager for start `start` of the notebook: each start binds its sockets in a folder of its
+        own, so a new kernel never takes the socket paths an earlier one's client may still hold."""
         from jupyter_client.kernelspec import KernelSpecManager
 
         from pendkit.grading.local_kernels import unix_socket_kernel_manager
 
         specs = KernelSpecManager(kernel_dirs=[str(self.root / "specs")], ensure_native_kernel=False)
-        return unix_socket_kernel_manager(self.root / "ipc", KERNEL_NAME,  # the kernel binds these sockets
+        return unix_socket_kernel_manager(self._sockets(start), KERNEL_NAME,  # the kernel binds these sockets
                                           kernel_spec_manager=specs,
                                           connection_file=str(self.root / "run" / "connection.json"))
 

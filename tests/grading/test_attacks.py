@@ -12,7 +12,9 @@ import pytest
 
 from pendkit.grading.report import grade_folder
 from pendkit.grading.sandbox import Limits, isolation_problem
-from tests.system_needs import needs
+from tests.system_needs import class_isolation, needs
+
+pytestmark = pytest.mark.expensive  # the full tier (`pytest --full`): a class of attacks graded
 
 ROOT = Path(__file__).resolve().parents[2]
 TEMPLATE = ROOT / "labs" / "01_encoder.ipynb"
@@ -102,7 +104,8 @@ def attacked(tmp_path_factory):
     for student, notebook in attacks.items():
         (submissions / student).mkdir(parents=True)
         nbformat.write(notebook, submissions / student / "01_encoder.ipynb")
-    grades = grade_folder(submissions, work / "out", "01", hidden, 60.0, 300.0, progress=False, jobs=2)
+    grades = grade_folder(submissions, work / "out", "01", hidden, 60.0, 300.0, progress=False, jobs=2,
+                          isolate=class_isolation())
     time.sleep(1.0)
     return {g.student: g for g in grades}, before, hidden, work / "out"
 

@@ -13,7 +13,9 @@ import pytest
 
 from pendkit.grading.report import GradingInterrupted, grade_folder
 from pendkit.grading.sandbox import isolation_problem
-from tests.system_needs import needs
+from tests.system_needs import class_isolation, needs
+
+pytestmark = pytest.mark.expensive  # the full tier (`pytest --full`): a class of attacks graded
 
 ROOT = Path(__file__).resolve().parents[2]
 TEMPLATE = ROOT / "labs" / "00_tour.ipynb"
@@ -134,7 +136,7 @@ def graded(tmp_path_factory):
     saved_tmp, tempfile.tempdir = tempfile.tempdir, str(run_tmp)
     try:
         grades = grade_folder(cls, work / "out", None, outside, 60.0, 240.0, check_timeout_s=3.0,
-                              progress=False, jobs=2)
+                              progress=False, jobs=2, isolate=class_isolation())
     finally:
         del os.environ["PENDKIT_TEST_INSTRUCTOR_TOKEN"]
         tempfile.tempdir = saved_tmp
@@ -261,7 +263,7 @@ def test_an_interrupted_run_writes_what_it_graded(tmp_path, monkeypatch):
     run_tmp = Path(tempfile.mkdtemp(prefix="pk-"))
     monkeypatch.setattr(tempfile, "tempdir", str(run_tmp))
     with pytest.raises(GradingInterrupted, match="1 of 3 notebooks graded"):
-        grade_folder(cls, tmp_path / "out", None, None, 60.0, 240.0, progress=False)
+        grade_folder(cls, tmp_path / "out", None, None, 60.0, 240.0, progress=False, isolate=class_isolation())
     rows = (tmp_path / "out" / "grades.csv").read_text().splitlines()
     assert len(rows) == 4 and "interrupted" in rows[2] and "interrupted" in rows[3]
     assert list(run_tmp.iterdir()) == []

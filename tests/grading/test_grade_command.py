@@ -3,6 +3,8 @@
 import csv
 import json
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import nbformat
@@ -11,6 +13,9 @@ from click.testing import CliRunner
 
 from pendkit.cli import main
 from pendkit.grading.runner import DEMO_TAG
+from tests.system_needs import no_sandbox_args
+
+pytestmark = pytest.mark.expensive  # the full tier (`pytest --full`): a class of broken submissions graded
 
 ROOT = Path(__file__).resolve().parents[2]
 SOLUTION = ROOT / "solutions" / "01_encoder.ipynb"
@@ -79,7 +84,7 @@ def graded(tmp_path_factory):
     broken_class(folder)
     result = CliRunner().invoke(main, ["grade", str(folder), "--out", str(out), "--hidden", str(HIDDEN),
                                        "--cell-timeout", "4", "--notebook-timeout", "90", "--check-timeout", CHECK_S,
-                                       "--quiet"])
+                                       "--quiet", *no_sandbox_args()])
     assert result.exit_code == 0, result.output
     rows = {row["student"]: row for row in csv.DictReader((out / "grades.csv").open())}
     results = {student: json.loads((out / student / "results.json").read_text()) for student in rows}
@@ -173,11 +178,30 @@ def test_feedback_never_shows_hidden_test_code(graded):
     assert "rng.integers(0, 1 << 16, 400)" in hidden_source  # the probe itself is real
 
 
-def test_grading_without_hidden_tests_says_so_where_the_scores_are_read(tmp_path, monkeypatch):
+def test_hidden_tests_are_found_from_the_kits_install_wherever_grade_runs(tmp_path, monkeypatch):
     (tmp_path / "class").mkdir()
-    shutil.copy(ROOT / "labs" / "00_tour.ipynb", tmp_path / "class" / "zoe.ipynb")
+    shutil.copy(SOLUTION, tmp_path / "class" / "zoe.ipynb")
     monkeypatch.chdir(tmp_path)  # outside the kit's folder: no solutions/tests here
-    result = CliRunner().invoke(main, ["grade", "class", "--lab", "00", "--out", "out", "--quiet"])
+    result = CliRunner().invoke(main, ["grade", "class", "--lab", "01", "--out", "out", "--quiet"])
     assert result.exit_code == 0, result.output
-    last = result.output.strip().splitlines()[-1]
-    assert last.startswith("NOTE: no hidden tests") and "out of the public points" in last, result.output
+    assert "zoe" in result.output and f"{FULL}/{FULL}" in result.output, result.output
+    # a process of its own: this one has loaded the hidden tests already
+    public = subprocess.run([sys.executable, "-m", "pendkit.cli", "grade", "class", "--lab", "01", "--out", "out",
+                             "--quiet", "--public-only"], capture_output=True, text=True, timeout=600)
+    last = public.stderr.strip().splitlines()[-1]
+    assert last.startswith("NOTE: graded with the public tests only") and "out of the public points" in last
+    assert f"{FULL}/{FULL}" not in public.stdout and "zoe" in public.stdout
+
+
+def test_an_install_without_hidden_tests_refuses_to_grade_or_build_silently(tmp_path, monkeypatch):
+    import pendkit.grading.core as core
+
+    monkeypatch.setattr(core, "kit_hidden_tests", lambda: None)  # a wheel: no solutions/ beside the package
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "class").mkdir()
+    for command in (["grade", "class", "--lab", "00"], ["grade", "--gradescope-autograder", "a.zip", "--lab", "00"]):
+        result = CliRunner().invoke(main, command)
+        assert result.exit_code != 0 and "has no hidden tests" in result.output and "--public-only" in result.output
+    assert not (tmp_path / "a.zip").exists()
+    built = CliRunner().invoke(main, ["grade", "--gradescope-autograder", "a.zip", "--lab", "00", "--public-only"])
+    assert built.exit_code == 0 and "the public tests only" in built.output

@@ -8,6 +8,7 @@ import zipfile
 from pathlib import Path
 
 import nbformat
+import pytest
 from click.testing import CliRunner
 
 from pendkit.cli import main
@@ -16,6 +17,7 @@ from pendkit.grading.gradescope import unpack_for_test
 ROOT = Path(__file__).resolve().parents[2]
 
 
+@pytest.mark.expensive  # the full tier: a Gradescope run
 def test_the_autograder_zip_grades_a_submission_like_gradescope(tmp_path):
     archive = tmp_path / "autograder.zip"
     result = CliRunner().invoke(main, ["grade", "--gradescope-autograder", str(archive), "--lab", "00",

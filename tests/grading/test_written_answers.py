@@ -11,6 +11,7 @@ import nbformat
 from pendkit.grading.report import grade_folder
 from pendkit.grading.written import ANSWER_PROMPT, collect_answers, questions_of
 from pendkit.labs.build import lab_files
+from tests.system_needs import class_isolation
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -36,7 +37,8 @@ def test_an_answer_is_collected_for_the_instructor_and_scores_nothing_by_itself(
         (tmp_path / "class" / student).mkdir(parents=True)
         nbformat.write(nb, tmp_path / "class" / student / "00_tour.ipynb")
     shutil.copy(ROOT / "solutions" / "tests" / "lab00_hidden.py", tmp_path / "lab00_hidden.py")
-    grades = grade_folder(tmp_path / "class", tmp_path / "out", "00", tmp_path, 60.0, 300.0, progress=False)
+    grades = grade_folder(tmp_path / "class", tmp_path / "out", "00", tmp_path, 60.0, 300.0, progress=False,
+                          isolate=class_isolation())
     assert [g.score for g in grades] == [0, 0]  # untouched code, and a written answer is not auto-scored
     results = json.loads((tmp_path / "out" / "ann" / "results.json").read_text())
     written = [t for t in results["tests"] if "graded by hand" in t["name"]]
