@@ -26,6 +26,8 @@ from pendkit.encoder import wrapped_rad
 from pendkit.errors import ConfigError
 from pendkit.rig import RigParams
 
+pytestmark = pytest.mark.expensive  # the full tier (`pytest --full`): adaptation sessions (identification, trials)
+
 HIDDEN = dataclasses.replace(RigParams.preset("hitec-d645mw-4v8"), dowel_length_m=0.34,
                              dowel_mass_kg=RigParams().dowel_mass_kg * 0.34 / 0.4)
 

@@ -99,6 +99,7 @@ def test_normalizer_matches_numpy_and_round_trips():
     assert torch.equal(copy.normalize(torch.ones(1, 3)), norm.normalize(torch.ones(1, 3)))
 
 
+@pytest.mark.expensive  # the full tier: training
 def test_trained_r_dqn_recalls_a_cue_that_plain_dqn_cannot():
     env = CueRecall()
     inputs = StepInputs.for_env(env)
@@ -113,6 +114,7 @@ def test_trained_r_dqn_recalls_a_cue_that_plain_dqn_cannot():
     assert recall_rate(env, plain, StepInputs.for_env(env)) <= 0.75  # a memoryless agent can only guess
 
 
+@pytest.mark.expensive  # the full tier: training
 def test_trained_r_td3_recalls_a_cue():
     env = CueRecall(continuous=True)
     inputs = StepInputs.for_env(env)

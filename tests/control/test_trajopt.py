@@ -157,6 +157,7 @@ def test_with_no_plan_the_controller_falls_back_to_energy_pumping():
     assert fallback_s is not None and pumped_s is not None and abs(fallback_s - pumped_s) < 1.5, (fallback_s, pumped_s)
 
 
+@pytest.mark.expensive  # the full tier: a real-time rig run
 def test_the_tracker_runs_unchanged_through_the_rig_backend():
     from pendkit.link.virtual_rig import LocalRig
 

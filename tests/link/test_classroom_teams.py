@@ -73,6 +73,7 @@ def test_a_retained_command_never_moves_a_rig_at_its_next_boot(room, tmp_path):
         assert rebooted.device.mcu.servo_counts == start and rebooted.commands_received == 0
 
 
+@pytest.mark.expensive  # the full tier: real-time rig runs
 def test_each_team_deploys_and_evaluates_its_own_rig_and_not_the_other(room, tmp_path):
     broker, credentials, rigs = room
     own = ["--rig", "r02", "--broker", broker.url, "--username", "host-r02"]
