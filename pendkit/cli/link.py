@@ -37,19 +37,30 @@ def broker(host: str, port: int) -> None:
 @click.option("--tls", "tls_port", type=click.IntRange(1, 65535), default=None, is_flag=False, flag_value=8883,
               help="Also a TLS listener on this port (--tls alone: 8883), with a CA made here (ca.crt for hosts "
                    "and rigs; keep ca.key private).")
-def broker_config(rig_ids: tuple[str, ...], out_dir: Path, port: int, bind: str, tls_port: int | None) -> None:
+@click.option("--address", "addresses", multiple=True,
+              help="A name or address the broker is reached by (repeatable: a Pi's name, the room's IP), named in "
+                   "the TLS certificate beside this machine's own; a new one reissues it from the same CA.")
+@click.option("--new-ca", is_flag=True,
+              help="Make a new CA even though ca.key is gone (every rig and host then needs the new ca.crt).")
+def broker_config(rig_ids: tuple[str, ...], out_dir: Path, port: int, bind: str, tls_port: int | None,
+                  addresses: tuple[str, ...], new_ca: bool) -> None:
     """Write a classroom Mosquitto configuration: per-rig users, an ACL, client ids tied to usernames, no
     anonymous clients. Run it again with more rigs to add them: existing users keep their passwords."""
     from pendkit.errors import ConfigError
     from pendkit.link.broker import write_classroom_config
 
     try:
-        paths = write_classroom_config(list(rig_ids), out_dir, port, bind, tls_port=tls_port)
+        paths = write_classroom_config(list(rig_ids), out_dir, port, bind, tls_port=tls_port,
+                                       addresses=list(addresses), new_ca=new_ca)
     except ConfigError as error:
+        if tls_port is not None and ("ca.key" in str(error) or "openssl" in str(error)):
+            raise click.ClickException(str(error)) from None
         raise click.BadParameter(str(error), param_hint="--rigs") from None
     click.echo(f"wrote {paths['conf']}, {paths['acl']}, {paths['passwords']}")
     if tls_port is not None:
-        click.echo(f"TLS on port {tls_port}: give hosts and rigs {paths['ca']}; keep {paths['ca_key']} private")
+        names = (paths["ca"].parent / "server-names.txt").read_text().split()
+        click.echo(f"TLS on port {tls_port}: the certificate names {', '.join(names)}; give hosts and rigs "
+                   f"{paths['ca']}; keep {paths['ca_key']} private")
     click.echo(f"passwords for rigs, hosts and the instructor: {paths['credentials']} (keep it private)")
     click.echo(f"start it with: mosquitto -c {paths['conf']}")
 

@@ -16,49 +16,88 @@ import subprocess
 from pathlib import Path
 
 from pendkit.errors import ConfigError
+from pendkit.link.secret_files import keep_private
 
 CERT_DAYS = 400  # a school year and some
 
 
-def broker_names() -> list[str]:
-    """What the server certificate vouches for: this machine's name and addresses, and loopback."""
-    names = {"localhost", socket.gethostname(), "127.0.0.1"}
+def broker_names(extra: list[str] | tuple[str, ...] = ()) -> list[str]:
+    """What the server certificate vouches for: this machine's name and every address it has (so a laptop
+    across the room can check the broker it reaches), loopback, and `extra` (a Pi's name, the room's IP)."""
+    names = {"localhost", socket.gethostname(), "127.0.0.1", *extra}
     try:
         names |= {info[4][0] for info in socket.getaddrinfo(socket.gethostname(), None)}
     except OSError:
         pass
-    return sorted(names)
+    try:
+        import psutil
+
+        for addresses in psutil.net_if_addrs().values():
+            names |= {a.address for a in addresses if a.family in (socket.AF_INET, socket.AF_INET6)}
+    except ImportError:
+        pass
+    try:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:  # the route out: no packet is sent
+            probe.connect(("192.0.2.1", 9))
+            names.add(probe.getsockname()[0])
+    except OSError:
+        pass
+    return sorted(n for n in names if n and not n.lower().startswith("fe80"))  # link-local: no use to a client
 
 
-def make_classroom_ca(out: str | Path, names: list[str] | None = None) -> dict[str, Path]:
-    """ca.crt, ca.key (keep it private), server.crt and server.key in `out`; made once, then kept."""
+def _subject_names(names: list[str]) -> list[str]:
+    subject_names = []
+    for name in names:
+        try:
+            subject_names.append(f"IP:{ipaddress.ip_address(name.split('%')[0])}")
+        except ValueError:
+            subject_names.append(f"DNS:{name}")
+    return subject_names
+
+
+def make_classroom_ca(out: str | Path, names: list[str] | None = None, extra_names: list[str] | tuple = (),
+                      new_ca: bool = False) -> dict[str, Path]:
+    """ca.crt, ca.key (keep it private), server.crt and server.key in `out`. The CA is made once and kept (every
+    rig and host trusts it); the server certificate is issued again from it whenever it does not name every
+    address wanted. Without ca.key beside ca.crt a new CA is made only with `new_ca`."""
     openssl = shutil.which("openssl")
     if openssl is None:
         raise ConfigError("--tls needs the openssl command (apt-get install openssl; macOS has it)")
     out = Path(out)
     paths = {"ca": out / "ca.crt", "ca_key": out / "ca.key", "cert": out / "server.crt", "key": out / "server.key"}
-    if all(path.exists() for path in paths.values()):
-        return paths  # adding a rig keeps the CA every rig and host already trusts
+    wanted = sorted(set(names or broker_names(list(extra_names))) | set(extra_names))
+    listed = out / "server-names.txt"
+    named = set(listed.read_text().split()) if listed.exists() else set()
+    if paths["ca"].exists() and not paths["ca_key"].exists():
+        if set(wanted) <= named and paths["cert"].exists() and paths["key"].exists():
+            return paths  # nothing to issue: the CA's key may stay away
+        if not new_ca:
+            raise ConfigError(f"{paths['ca_key']} is missing, and the server certificate must be issued again (for "
+                              f"{', '.join(sorted(set(wanted) - named)) or 'its key'}): put ca.key back and run "
+                              "again, or pass --new-ca to make a new CA (every rig and host then needs the new ca.crt)")
+    if set(wanted) <= named and all(path.exists() for path in paths.values()):
+        return paths  # adding a rig keeps the CA and the certificate every rig and host already trusts
 
     def run(*args: str) -> None:
         result = subprocess.run([openssl, *args], cwd=out, capture_output=True, text=True)
         if result.returncode != 0:
             raise ConfigError(f"openssl {args[0]} failed: {result.stderr.strip().splitlines()[-1:]}")
 
-    subject_names = []
-    for name in names or broker_names():
-        try:
-            subject_names.append(f"IP:{ipaddress.ip_address(name.split('%')[0])}")
-        except ValueError:
-            subject_names.append(f"DNS:{name}")
-    run("req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", str(CERT_DAYS), "-subj", "/CN=pendkit classroom CA",
-        "-keyout", "ca.key", "-out", "ca.crt")
-    run("req", "-newkey", "rsa:2048", "-nodes", "-subj", "/CN=pendkit classroom broker", "-keyout", "server.key",
-        "-out", "server.csr")
-    (out / "san.ext").write_text("subjectAltName=" + ",".join(subject_names) + "\n")
-    run("x509", "-req", "-in", "server.csr", "-CA", "ca.crt", "-CAkey", "ca.key", "-CAcreateserial", "-days",
-        str(CERT_DAYS), "-extfile", "san.ext", "-out", "server.crt")
-    os.chmod(paths["ca_key"], 0o600)
-    for name in ("ca", "cert", "key"):
-        os.chmod(paths[name], 0o644)  # mosquitto reads them after dropping root
+    previous = os.umask(0o077)  # keys private from the moment openssl creates them
+    try:
+        if new_ca or not (paths["ca"].exists() and paths["ca_key"].exists()):
+            run("req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", str(CERT_DAYS), "-subj",
+                "/CN=pendkit classroom CA", "-keyout", "ca.key", "-out", "ca.crt")
+        run("req", "-newkey", "rsa:2048", "-nodes", "-subj", "/CN=pendkit classroom broker", "-keyout", "server.key",
+            "-out", "server.csr")
+        (out / "san.ext").write_text("subjectAltName=" + ",".join(_subject_names(wanted)) + "\n")
+        run("x509", "-req", "-in", "server.csr", "-CA", "ca.crt", "-CAkey", "ca.key", "-CAcreateserial", "-days",
+            str(CERT_DAYS), "-extfile", "san.ext", "-out", "server.crt")
+    finally:
+        os.umask(previous)
+    listed.write_text("\n".join(wanted) + "\n")
+    keep_private(paths["ca_key"])
+    keep_private(paths["key"], broker_reads=True)
+    for name in ("ca", "cert"):
+        os.chmod(paths[name], 0o644)  # certificates are public
     return paths

@@ -150,3 +150,64 @@ def test_the_generated_tls_listener_takes_a_team_with_the_classroom_ca(tmp_path)
     finally:
         process.kill()
         process.wait()
+
+
+@needs("openssl")
+def test_secrets_are_private_and_passwords_hashed_in_mosquittos_format(tmp_path):
+    import stat
+
+    from pendkit.link.broker import read_credentials
+    from pendkit.link.secret_files import mosquitto_password_check
+
+    paths = write_classroom_config(["r01"], tmp_path, tls_port=8883, addresses=["127.0.0.2"])
+    for name in ("passwords", "credentials", "key", "ca_key"):
+        mode = stat.S_IMODE(paths[name].stat().st_mode)
+        assert mode & 0o007 == 0 and mode & 0o070 in (0, 0o040), (name, oct(mode))  # at most the broker's group
+    hashes = dict(line.split(":", 1) for line in paths["passwords"].read_text().splitlines())
+    for user, password in read_credentials(paths["credentials"]).items():
+        assert hashes[user].startswith("$7$") and mosquitto_password_check(password, hashes[user])
+        assert password not in paths["passwords"].read_text()
+
+
+@needs("openssl")
+def test_a_new_address_reissues_the_server_certificate_from_the_same_ca(tmp_path):
+    from pendkit.errors import ConfigError
+
+    write_classroom_config(["r01"], tmp_path, tls_port=8883)
+    ca = (tmp_path / "ca.crt").read_bytes()
+    assert "127.0.0.2" not in (tmp_path / "server-names.txt").read_text().split()
+    write_classroom_config(["r01"], tmp_path, tls_port=8883, addresses=["127.0.0.2", "pi-room4.local"])
+    assert (tmp_path / "ca.crt").read_bytes() == ca  # rigs keep the CA they were given
+    text = subprocess.run(["openssl", "x509", "-in", str(tmp_path / "server.crt"), "-noout", "-text"],
+                          capture_output=True, text=True, check=True).stdout
+    assert "IP Address:127.0.0.2" in text and "DNS:pi-room4.local" in text
+    (tmp_path / "ca.key").rename(tmp_path / "ca.key.away")  # kept apart, as the guide advises
+    write_classroom_config(["r01", "r02"], tmp_path, tls_port=8883, addresses=["127.0.0.2"])  # nothing to issue
+    with pytest.raises(ConfigError, match="ca.key is missing.*--new-ca"):
+        write_classroom_config(["r01"], tmp_path, tls_port=8883, addresses=["10.9.8.7"])
+    assert (tmp_path / "ca.crt").read_bytes() == ca
+    write_classroom_config(["r01"], tmp_path, tls_port=8883, addresses=["10.9.8.7"], new_ca=True)
+    assert (tmp_path / "ca.crt").read_bytes() != ca
+
+
+@needs("openssl", "mosquitto")
+def test_tls_reaches_the_broker_through_another_address_it_names(tmp_path):
+    """127.0.0.2 plays the room's address a second laptop uses: named with --address, the link checks it."""
+    from pendkit.link.broker import free_port, read_credentials, wait_for_port
+
+    port, tls_port = free_port(), free_port()
+    paths = write_classroom_config(["r01"], tmp_path, port, "127.0.0.2", tls_port=tls_port, addresses=["127.0.0.2"])
+    if os.geteuid() == 0:
+        with paths["conf"].open("a") as conf:
+            conf.write("user root\n")
+    process = subprocess.Popen([mosquitto_binary(), "-c", str(paths["conf"])], stdout=subprocess.DEVNULL,
+                               stderr=subprocess.PIPE)
+    try:
+        assert wait_for_port("127.0.0.2", tls_port)
+        password = read_credentials(paths["credentials"])["host-r01"]
+        link = RigLink("r01", f"mqtts://127.0.0.2:{tls_port}", "host-r01", password, str(paths["ca"]))
+        link.connect(timeout_s=5)
+        link.close()
+    finally:
+        process.kill()
+        process.wait()
