@@ -20,6 +20,7 @@ from pendkit.device.log import EpisodeLog
 from pendkit.device.protocol import ANY_DEVICE, ProtocolError, ReadingLimits, ReceivedObservation, parse_observation
 from pendkit.errors import ConfigError, PendkitError
 from pendkit.link import DEFAULT_BROKER
+from pendkit.link.diagnose import rig_user_mismatch, why_no_connection
 
 LOG = logging.getLogger("pendkit.link")
 # While the stream is live, an observation older than the newest (time or v2 sequence) or further ahead than
@@ -130,8 +131,10 @@ class RigLink:
 
     def __init__(self, rig: str, broker: str = DEFAULT_BROKER, username: str | None = None,
                  password: str | None = None, tls_ca: str | None = None, keepalive_s: int = 5,
-                 log: EpisodeLog | None = None, limits: ReadingLimits = ANY_DEVICE) -> None:
-        """`limits`: what this rig's device can report (`ReadingLimits.for_rig(params)`); beyond it, malformed."""
+                 log: EpisodeLog | None = None, limits: ReadingLimits = ANY_DEVICE, check_user: bool = True) -> None:
+        """`limits`: what this rig's device can report (`ReadingLimits.for_rig(params)`); beyond it, malformed.
+        `check_user`: refuse at once a classroom host user of another rig (`host-r02` for r01); the broker's ACL
+        would drop its messages without a word (False: let the broker decide, as its own tests do)."""
         self.rig, self.address = rig, BrokerAddress.parse(broker)
         self.limits = limits
         self.obs_topic, self.act_topic, self.status_topic = topics(rig)
@@ -143,6 +146,10 @@ class RigLink:
         self.log = log
         self._connected = threading.Event()
         self._refused: str | None = None
+        mismatch = rig_user_mismatch(rig, username) if check_user else None
+        if mismatch is not None:
+            raise RigLinkError(mismatch)
+        self.username, self._tls_ca = username, tls_ca
         self.client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, client_id=f"pendkit-host-{rig}-{id(self):x}")
         if username is not None:
             self.client.username_pw_set(username, password)
@@ -164,10 +171,9 @@ class RigLink:
         self.client.loop_start()
         if not self._connected.wait(timeout_s):
             self.close()
-            reason = f" ({self._refused})" if self._refused else ""
-            raise RigLinkError(f"no connection to the broker at {self.address} within {timeout_s:g} s{reason}: "
-                               "start one with `pendkit broker`, or pass broker= your classroom's Mosquitto "
-                               "and its username and password")
+            cause = why_no_connection(self.address.host, self.address.port, self.address.tls or bool(self._tls_ca),
+                                      self._tls_ca, self.username, self._refused)
+            raise RigLinkError(f"no connection to the broker within {timeout_s:g} s: {cause}")
 
     def publish(self, text: str) -> bool:
         info = self.client.publish(self.act_topic, text, qos=0)

@@ -211,3 +211,33 @@ def test_tls_reaches_the_broker_through_another_address_it_names(tmp_path):
     finally:
         process.kill()
         process.wait()
+
+
+@needs("openssl", "mosquitto")
+def test_each_failed_connection_names_its_cause_in_one_line(tmp_path):
+    """A name the certificate lacks, no CA, plain MQTT to the TLS port, TLS to the plain port, no broker."""
+    from pendkit.link.broker import free_port, read_credentials, wait_for_port
+    from pendkit.link.driver import RigLinkError
+
+    port, tls_port = free_port(), free_port()
+    paths = write_classroom_config(["r01"], tmp_path, port, "127.0.0.2", tls_port=tls_port)  # not naming .2
+    if os.geteuid() == 0:
+        with paths["conf"].open("a") as conf:
+            conf.write("user root\n")
+    process = subprocess.Popen([mosquitto_binary(), "-c", str(paths["conf"])], stdout=subprocess.DEVNULL,
+                               stderr=subprocess.PIPE)
+    password = read_credentials(paths["credentials"])["host-r01"]
+    cases = [(f"mqtts://127.0.0.2:{tls_port}", str(paths["ca"]), "certificate does not name 127.0.0.2"),
+             (f"mqtts://127.0.0.2:{tls_port}", None, "not trusted"),
+             (f"mqtt://127.0.0.2:{tls_port}", None, "speaks TLS: connect with mqtts://"),
+             (f"mqtts://127.0.0.2:{port}", str(paths["ca"]), "does not speak TLS"),
+             (f"mqtt://127.0.0.2:{free_port()}", None, "nothing listens at")]
+    try:
+        assert wait_for_port("127.0.0.2", tls_port)
+        for url, ca, cause in cases:
+            with pytest.raises(RigLinkError) as refused:
+                RigLink("r01", url, "host-r01", password, ca).connect(timeout_s=1.5)
+            assert cause in str(refused.value) and "\n" not in str(refused.value), (url, str(refused.value))
+    finally:
+        process.kill()
+        process.wait()

@@ -168,7 +168,11 @@ def test_classroom_acl_and_anonymous_clients(classroom):
     rig_b = VirtualRig("r02", classroom.url, username="r02", password=credentials["r02"])
     with VirtualRigGroup([rig_b]):
         # the host of r01 tries to command r02: the broker drops it
-        intruder = RigLink("r02", classroom.url, username="host-r01", password=credentials["host-r01"])
+        with pytest.raises(RigLinkError, match="user host-r01 may only reach rig r01, not r02"):
+            RigLink("r02", classroom.url, username="host-r01", password=credentials["host-r01"])  # the kit says so
+        # and a client that does not ask the kit: the broker drops it
+        intruder = RigLink("r02", classroom.url, username="host-r01", password=credentials["host-r01"],
+                           check_user=False)
         intruder.connect()
         before = rig_b.device.mcu.servo_counts
         for _ in range(20):
@@ -185,7 +189,7 @@ def test_classroom_acl_and_anonymous_clients(classroom):
         owner.close()
     with pytest.raises(RigLinkError, match="no connection"):
         RigLink("r01", classroom.url).connect(timeout_s=1.0)  # anonymous: refused
-    with pytest.raises(RigLinkError, match="no connection"):
+    with pytest.raises(RigLinkError, match="refused user 'host-r01'.*username or password is wrong"):
         RigLink("r01", classroom.url, username="host-r01", password="wrong").connect(timeout_s=1.0)
 
 
