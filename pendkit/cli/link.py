@@ -73,8 +73,15 @@ def broker_config(rig_ids: tuple[str, ...], out_dir: Path, port: int, bind: str,
               help="Simulated seconds per real second.")
 @click.option("--impairment", type=click.Choice(list(IMPAIRMENTS)), default="none",
               show_default=True, help="Extra latency and loss, as a rig's WiFi would add.")
-@click.option("--username", default=None, help="MQTT user (default: the rig id when --password is given).")
-@click.option("--password", default=None, help="MQTT password of the rig's user.")
+@click.option("--credentials", "credentials_path", type=click.Path(exists=True, dir_okay=False, path_type=Path),
+              default=None, help="The credentials.csv `pendkit broker-config` wrote: each rig logs in as its own "
+                                 "user with its own password (no password on the command line).")
+@click.option("--tls-ca", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
+              help="The classroom CA (broker/ca.crt) for an mqtts:// broker.")
+@click.option("--username", default=None, help="MQTT user of a single rig (default: the rig id).")
+@click.option("--password", envvar="PENDKIT_MQTT_PASSWORD", default=None, show_envvar=True,
+              help="MQTT password of a single rig's user (from the environment: a command line is visible to "
+                   "other users of this machine).")
 @click.option("--encoder-fault", type=click.Choice(("stuck", "garbage")), default=None,
               help="Simulate a seized or broken encoder (safety demos).")
 @click.option("--protocol", type=click.Choice(("v1", "v2")), default="v2", show_default=True,
@@ -83,8 +90,8 @@ def broker_config(rig_ids: tuple[str, ...], out_dir: Path, port: int, bind: str,
               help="The servo (and its counts range) of the simulated rig.")
 @click.option("--params", "params_path", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
               help="The whole rig from a RigParams.save file (servo, masses, pendulum, pulses); replaces --preset.")
-def virtual_rig(rig_ids, broker_url, speed, impairment, username, password, encoder_fault, protocol,
-                preset, params_path) -> None:
+def virtual_rig(rig_ids, broker_url, speed, impairment, credentials_path, tls_ca, username, password, encoder_fault,
+                protocol, preset, params_path) -> None:
     """Run virtual rigs: the twin with the firmware's logic, speaking the rig protocol over MQTT."""
     from pendkit.errors import ConfigError
     from pendkit.link.driver import RigLinkError, check_rig_id
@@ -100,9 +107,10 @@ def virtual_rig(rig_ids, broker_url, speed, impairment, username, password, enco
         params = RigParams.load(params_path) if params_path is not None else RigParams.preset(preset)
     except ConfigError as error:
         raise click.BadParameter(str(error), param_hint="--params") from None
-    rigs = [VirtualRig(rig, broker_url, params=params, impairment=impairment,
-                       encoder_fault=encoder_fault, username=username or (rig if password else None),
-                       password=password, protocol=int(protocol[1])) for rig in rig_ids]
+    logins = _rig_logins(rig_ids, credentials_path, username, password)
+    rigs = [VirtualRig(rig, broker_url, params=params, impairment=impairment, encoder_fault=encoder_fault,
+                       username=logins[rig][0], password=logins[rig][1], protocol=int(protocol[1]),
+                       tls_ca=str(tls_ca) if tls_ca else None) for rig in rig_ids]
     stop = threading.Event()
     signal.signal(signal.SIGINT, lambda *_: stop.set())
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
@@ -116,3 +124,24 @@ def virtual_rig(rig_ids, broker_url, speed, impairment, username, password, enco
 
 
 COMMANDS = (broker, broker_config, virtual_rig)
+
+
+def _rig_logins(rig_ids, credentials_path: Path | None, username: str | None,
+                password: str | None) -> dict[str, tuple[str | None, str | None]]:
+    """Each rig's (user, password): its own row of credentials.csv, or one --username/--password for one rig."""
+    from pendkit.link.broker import read_credentials
+
+    if credentials_path is not None:
+        if username or password:
+            raise click.UsageError("give either --credentials or --username/--password, not both")
+        known = read_credentials(credentials_path)
+        missing = [rig for rig in rig_ids if rig not in known]
+        if missing:
+            raise click.BadParameter(f"{credentials_path} has no user for {', '.join(missing)}: run `pendkit "
+                                     f"broker-config` with every rig (--rigs {' --rigs '.join(missing)})",
+                                     param_hint="--credentials")
+        return {rig: (rig, known[rig]) for rig in rig_ids}
+    if password and len(rig_ids) > 1 and username is None:
+        raise click.UsageError("each rig has its own password: pass --credentials broker/credentials.csv for "
+                               "several rigs")
+    return {rig: (username or (rig if password else None), password) for rig in rig_ids}

@@ -26,6 +26,7 @@ import paho.mqtt.client as mqtt
 from pendkit.device.observation import McuObservation
 from pendkit.device.twin import ENCODER_FAULTS, TwinDevice
 from pendkit.errors import ConfigError
+from pendkit.link.diagnose import why_no_connection
 from pendkit.link.driver import (
     DEFAULT_BROKER,
     BrokerAddress,
@@ -48,8 +49,9 @@ class VirtualRig:
     def __init__(self, rig: str, broker: str = DEFAULT_BROKER, params: RigParams | None = None,
                  impairment: str | NetworkImpairment = "none", username: str | None = None,
                  password: str | None = None, seed: int = 0, mount_offset_counts: int | None = None,
-                 encoder_fault: str | None = None, protocol: int = 2) -> None:
-        """`protocol=1` emulates a rig flashed with the authors' firmware (`DeviceScheduler`)."""
+                 encoder_fault: str | None = None, protocol: int = 2, tls_ca: str | None = None) -> None:
+        """`protocol=1` emulates a rig flashed with the authors' firmware (`DeviceScheduler`); `tls_ca`: the
+        classroom CA for an `mqtts://` broker (its name checked, as the firmware checks it)."""
         if isinstance(impairment, str):
             if impairment not in IMPAIRMENTS:
                 raise ConfigError(f"unknown impairment {impairment!r}; choose from {sorted(IMPAIRMENTS)}")
@@ -83,6 +85,9 @@ class VirtualRig:
         self.client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, client_id=f"pendkit-virtual-{rig}-{id(self):x}")
         if username is not None:
             self.client.username_pw_set(username, password)
+        self._username, self._tls_ca, self._refused = username, tls_ca, None
+        if self.address.tls or tls_ca:
+            self.client.tls_set(ca_certs=tls_ca)
         self.client.will_set(self.status_topic, json.dumps({"online": False}), qos=1, retain=True)
         self.client.reconnect_delay_set(min_delay=0.1, max_delay=1)
         self.client.on_connect = self._on_connect
@@ -95,10 +100,13 @@ class VirtualRig:
         self.client.loop_start()
         if not self._connected.wait(timeout_s):
             self.client.loop_stop()
-            raise RigLinkError(f"virtual rig {self.rig}: no connection to {self.address} within {timeout_s:g} s")
+            cause = why_no_connection(self.address.host, self.address.port, self.address.tls or bool(self._tls_ca),
+                                      self._tls_ca, self._username, self._refused)
+            raise RigLinkError(f"virtual rig {self.rig}: no connection within {timeout_s:g} s: {cause}")
 
     def _on_connect(self, client, userdata, flags, reason_code, properties) -> None:
         if reason_code.is_failure:
+            self._refused = str(reason_code)
             LOG.warning("virtual rig %s: broker refused the connection: %s", self.rig, reason_code)
             return
         send_without_delay(client)  # as the firmware does: observations leave at once

@@ -241,3 +241,45 @@ def test_each_failed_connection_names_its_cause_in_one_line(tmp_path):
     finally:
         process.kill()
         process.wait()
+
+
+@needs("openssl", "mosquitto")
+def test_one_virtual_rig_process_logs_two_rigs_in_from_the_credentials_file_over_tls(tmp_path):
+    """The guide's room: `pendkit virtual-rig --rig r01 --rig r02 --credentials ... --tls-ca ...`, each rig its
+    own user, no password on the command line; each team's host then sees its own rig's observations."""
+    import sys
+
+    from pendkit.link.broker import free_port, read_credentials, wait_for_port
+
+    port, tls_port = free_port(), free_port()
+    paths = write_classroom_config(["r01", "r02"], tmp_path, port, "127.0.0.2", tls_port=tls_port,
+                                   addresses=["127.0.0.2"])
+    if os.geteuid() == 0:
+        with paths["conf"].open("a") as conf:
+            conf.write("user root\n")
+    broker = subprocess.Popen([mosquitto_binary(), "-c", str(paths["conf"])], stdout=subprocess.DEVNULL,
+                              stderr=subprocess.PIPE)
+    url = f"mqtts://127.0.0.2:{tls_port}"
+    rigs = None
+    try:
+        assert wait_for_port("127.0.0.2", tls_port)
+        rigs = subprocess.Popen([sys.executable, "-m", "pendkit.cli", "virtual-rig", "--rig", "r01", "--rig", "r02",
+                                 "--broker", url, "--credentials", str(paths["credentials"]), "--tls-ca",
+                                 str(paths["ca"])], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        credentials = read_credentials(paths["credentials"])
+        for rig in ("r01", "r02"):
+            link = RigLink(rig, url, f"host-{rig}", credentials[f"host-{rig}"], str(paths["ca"]))
+            link.connect(timeout_s=5)
+            deadline = time.monotonic() + 30
+            while link.newest is None and time.monotonic() < deadline and rigs.poll() is None:
+                link.publish("h")
+                time.sleep(0.05)
+            link.close()
+            assert link.newest is not None, rigs.stdout.read() if rigs.poll() is not None else rig
+        assert rigs.poll() is None  # both logged in and still serving
+    finally:
+        if rigs is not None:
+            rigs.kill()
+            rigs.wait()
+        broker.kill()
+        broker.wait()
