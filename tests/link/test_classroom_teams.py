@@ -1,6 +1,7 @@
 """Two teams on a real Mosquitto with the generated classroom config: each attack on the other team's rig
 fails, while each team's own deploy, eval and adaptation link work with its credentials."""
 
+import contextlib
 import os
 import subprocess
 import time
@@ -127,29 +128,39 @@ def test_broker_config_adds_rigs_without_new_passwords_and_refuses_reserved_name
     assert "use_username_as_clientid true" in (tmp_path / "mosquitto.conf").read_text()
 
 
-@needs("openssl")
-def test_the_generated_tls_listener_takes_a_team_with_the_classroom_ca(tmp_path):
-    from pendkit.link.broker import free_port, read_credentials, wait_for_port
-    from pendkit.link.driver import RigLinkError
+@contextlib.contextmanager
+def classroom_mosquitto(folder, rigs, host="127.0.0.1", **options):
+    """Mosquitto with `write_classroom_config`'s files (TLS listener included), on `host`; yields the paths and
+    the two ports, and stops it after."""
+    from pendkit.link.broker import free_port, wait_for_port
 
     port, tls_port = free_port(), free_port()
-    paths = write_classroom_config(["r01"], tmp_path, port, "127.0.0.1", tls_port=tls_port)
+    paths = write_classroom_config(rigs, folder, port, host, tls_port=tls_port, **options)
     if os.geteuid() == 0:  # as MosquittoBroker does for tests: mosquitto cannot enter pytest's private folders
         with paths["conf"].open("a") as conf:
             conf.write("user root\n")
-    binary = mosquitto_binary()
-    process = subprocess.Popen([binary, "-c", str(paths["conf"])], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    process = subprocess.Popen([mosquitto_binary(), "-c", str(paths["conf"])], stdout=subprocess.DEVNULL,
+                               stderr=subprocess.PIPE)
     try:
-        assert wait_for_port("127.0.0.1", tls_port)
+        assert wait_for_port(host, tls_port)
+        yield paths, port, tls_port
+    finally:
+        process.kill()
+        process.wait()
+
+
+@needs("openssl")
+def test_the_generated_tls_listener_takes_a_team_with_the_classroom_ca(tmp_path):
+    from pendkit.link.broker import read_credentials
+    from pendkit.link.driver import RigLinkError
+
+    with classroom_mosquitto(tmp_path, ["r01"]) as (paths, _, tls_port):
         password = read_credentials(paths["credentials"])["host-r01"]
         link = RigLink("r01", f"mqtts://127.0.0.1:{tls_port}", "host-r01", password, str(paths["ca"]))
         link.connect(timeout_s=5)
         link.close()
         with pytest.raises(RigLinkError):  # without the classroom CA the broker is not trusted
             RigLink("r01", f"mqtts://127.0.0.1:{tls_port}", "host-r01", password).connect(timeout_s=2)
-    finally:
-        process.kill()
-        process.wait()
 
 
 @needs("openssl")
@@ -193,54 +204,32 @@ def test_a_new_address_reissues_the_server_certificate_from_the_same_ca(tmp_path
 @needs("openssl", "mosquitto")
 def test_tls_reaches_the_broker_through_another_address_it_names(tmp_path):
     """127.0.0.2 plays the room's address a second laptop uses: named with --address, the link checks it."""
-    from pendkit.link.broker import free_port, read_credentials, wait_for_port
+    from pendkit.link.broker import read_credentials
 
-    port, tls_port = free_port(), free_port()
-    paths = write_classroom_config(["r01"], tmp_path, port, "127.0.0.2", tls_port=tls_port, addresses=["127.0.0.2"])
-    if os.geteuid() == 0:
-        with paths["conf"].open("a") as conf:
-            conf.write("user root\n")
-    process = subprocess.Popen([mosquitto_binary(), "-c", str(paths["conf"])], stdout=subprocess.DEVNULL,
-                               stderr=subprocess.PIPE)
-    try:
-        assert wait_for_port("127.0.0.2", tls_port)
+    with classroom_mosquitto(tmp_path, ["r01"], "127.0.0.2", addresses=["127.0.0.2"]) as (paths, _, tls_port):
         password = read_credentials(paths["credentials"])["host-r01"]
         link = RigLink("r01", f"mqtts://127.0.0.2:{tls_port}", "host-r01", password, str(paths["ca"]))
         link.connect(timeout_s=5)
         link.close()
-    finally:
-        process.kill()
-        process.wait()
 
 
 @needs("openssl", "mosquitto")
 def test_each_failed_connection_names_its_cause_in_one_line(tmp_path):
     """A name the certificate lacks, no CA, plain MQTT to the TLS port, TLS to the plain port, no broker."""
-    from pendkit.link.broker import free_port, read_credentials, wait_for_port
+    from pendkit.link.broker import free_port, read_credentials
     from pendkit.link.driver import RigLinkError
 
-    port, tls_port = free_port(), free_port()
-    paths = write_classroom_config(["r01"], tmp_path, port, "127.0.0.2", tls_port=tls_port)  # not naming .2
-    if os.geteuid() == 0:
-        with paths["conf"].open("a") as conf:
-            conf.write("user root\n")
-    process = subprocess.Popen([mosquitto_binary(), "-c", str(paths["conf"])], stdout=subprocess.DEVNULL,
-                               stderr=subprocess.PIPE)
-    password = read_credentials(paths["credentials"])["host-r01"]
-    cases = [(f"mqtts://127.0.0.2:{tls_port}", str(paths["ca"]), "certificate does not name 127.0.0.2"),
-             (f"mqtts://127.0.0.2:{tls_port}", None, "not trusted"),
-             (f"mqtt://127.0.0.2:{tls_port}", None, "speaks TLS: connect with mqtts://"),
-             (f"mqtts://127.0.0.2:{port}", str(paths["ca"]), "does not speak TLS"),
-             (f"mqtt://127.0.0.2:{free_port()}", None, "nothing listens at")]
-    try:
-        assert wait_for_port("127.0.0.2", tls_port)
+    with classroom_mosquitto(tmp_path, ["r01"], "127.0.0.2") as (paths, port, tls_port):  # not naming .2
+        password = read_credentials(paths["credentials"])["host-r01"]
+        cases = [(f"mqtts://127.0.0.2:{tls_port}", str(paths["ca"]), "certificate does not name 127.0.0.2"),
+                 (f"mqtts://127.0.0.2:{tls_port}", None, "not trusted"),
+                 (f"mqtt://127.0.0.2:{tls_port}", None, "speaks TLS: connect with mqtts://"),
+                 (f"mqtts://127.0.0.2:{port}", str(paths["ca"]), "does not speak TLS"),
+                 (f"mqtt://127.0.0.2:{free_port()}", None, "nothing listens at")]
         for url, ca, cause in cases:
             with pytest.raises(RigLinkError) as refused:
                 RigLink("r01", url, "host-r01", password, ca).connect(timeout_s=1.5)
             assert cause in str(refused.value) and "\n" not in str(refused.value), (url, str(refused.value))
-    finally:
-        process.kill()
-        process.wait()
 
 
 @needs("openssl", "mosquitto")
@@ -249,37 +238,25 @@ def test_one_virtual_rig_process_logs_two_rigs_in_from_the_credentials_file_over
     own user, no password on the command line; each team's host then sees its own rig's observations."""
     import sys
 
-    from pendkit.link.broker import free_port, read_credentials, wait_for_port
+    from pendkit.link.broker import read_credentials
 
-    port, tls_port = free_port(), free_port()
-    paths = write_classroom_config(["r01", "r02"], tmp_path, port, "127.0.0.2", tls_port=tls_port,
-                                   addresses=["127.0.0.2"])
-    if os.geteuid() == 0:
-        with paths["conf"].open("a") as conf:
-            conf.write("user root\n")
-    broker = subprocess.Popen([mosquitto_binary(), "-c", str(paths["conf"])], stdout=subprocess.DEVNULL,
-                              stderr=subprocess.PIPE)
-    url = f"mqtts://127.0.0.2:{tls_port}"
-    rigs = None
-    try:
-        assert wait_for_port("127.0.0.2", tls_port)
+    with classroom_mosquitto(tmp_path, ["r01", "r02"], "127.0.0.2", addresses=["127.0.0.2"]) as (paths, _, tls_port):
+        url = f"mqtts://127.0.0.2:{tls_port}"
         rigs = subprocess.Popen([sys.executable, "-m", "pendkit.cli", "virtual-rig", "--rig", "r01", "--rig", "r02",
                                  "--broker", url, "--credentials", str(paths["credentials"]), "--tls-ca",
                                  str(paths["ca"])], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        credentials = read_credentials(paths["credentials"])
-        for rig in ("r01", "r02"):
-            link = RigLink(rig, url, f"host-{rig}", credentials[f"host-{rig}"], str(paths["ca"]))
-            link.connect(timeout_s=5)
-            deadline = time.monotonic() + 30
-            while link.newest is None and time.monotonic() < deadline and rigs.poll() is None:
-                link.publish("h")
-                time.sleep(0.05)
-            link.close()
-            assert link.newest is not None, rigs.stdout.read() if rigs.poll() is not None else rig
-        assert rigs.poll() is None  # both logged in and still serving
-    finally:
-        if rigs is not None:
+        try:
+            credentials = read_credentials(paths["credentials"])
+            for rig in ("r01", "r02"):
+                link = RigLink(rig, url, f"host-{rig}", credentials[f"host-{rig}"], str(paths["ca"]))
+                link.connect(timeout_s=5)
+                deadline = time.monotonic() + 30
+                while link.newest is None and time.monotonic() < deadline and rigs.poll() is None:
+                    link.publish("h")
+                    time.sleep(0.05)
+                link.close()
+                assert link.newest is not None, rigs.stdout.read() if rigs.poll() is not None else rig
+            assert rigs.poll() is None  # both logged in and still serving
+        finally:
             rigs.kill()
             rigs.wait()
-        broker.kill()
-        broker.wait()
