@@ -11,7 +11,6 @@ from collections.abc import Callable
 from pendkit.deploy.on_twin import DeployError
 from pendkit.device.commands import frame_command
 from pendkit.device.onboard import blob_chunks
-from pendkit.link.diagnose import why_rig_silent
 from pendkit.link.rig_backend import is_servo_counts_range
 
 HEARTBEAT_S = 0.05  # a third of the watchdog (150 ms by default): one or two lost heartbeats do not stop it
@@ -61,8 +60,7 @@ def controller_status(session: RigSession) -> dict:
         if not isinstance(status, dict) or status.get("protocol") != 1:
             status = {}
     if not status:
-        raise DeployError(why_rig_silent(session.link.rig, session.link.username, session.link.connected,
-                                         str(session.link.address)))
+        raise DeployError(session.link.why_silent())
     if "controller" not in status:
         raise DeployError(f"rig {session.link.rig} runs firmware without on-device controllers (protocol "
                           f"{str(status.get('protocol', '?'))[:20]}): flash the kit's firmware (docs/on-device.md)")

@@ -8,6 +8,7 @@ to tell the causes apart, and where nothing can tell, say what is likely and how
 
 from __future__ import annotations
 
+import json
 import socket
 import ssl
 
@@ -78,14 +79,31 @@ def _plain_problem(raw: socket.socket, host: str, where: str) -> str:
                 "port? (Mosquitto's log says why it dropped a client)")
 
 
-def why_rig_silent(rig: str, username: str | None, connected: bool, address: str) -> str:
-    """A rig that does not answer on a working broker: what MQTT cannot tell apart, and how to check."""
+def why_rig_silent(rig: str, username: str | None, connected: bool, address: str, status: str | None = None,
+                   rigs_seen: list[str] | None = None) -> str:
+    """A rig that does not answer on a working broker: what MQTT cannot tell apart, and how to check.
+    `status`: the rig's retained status as the broker holds it (None: it has none); `rigs_seen`: the rigs whose
+    status this user can read on the broker (`RigLink.rigs_reporting`), None when not asked."""
     mismatch = rig_user_mismatch(rig, username)
     if mismatch is not None:
         return mismatch
     if not connected:
         return f"rig {rig} did not answer, and the link to {address} is down (reconnecting): check the broker"
+    if _says_offline(status):
+        return (f"rig {rig} is offline: the broker at {address} holds its last will (it lost power or WiFi, or was "
+                "stopped); power it on and watch its serial console for `mqtt connected`")
+    if status is None and rigs_seen:
+        return (f"no rig {rig!r} has ever reported to {address} (rigs that have: {', '.join(sorted(rigs_seen)[:12])}): "
+                "check the id on the rig's label, or in its serial console's `status`")
     return (f"rig {rig} did not answer on {address}: it is off or not on this broker, or its id is not {rig!r} "
             "(the id is on the rig's label and in its serial console's `status`), or the broker's ACL does not let "
             f"your user reach {rig} (an ACL drops messages silently; the instructor's `mosquitto_sub -t "
             f"'pendulum-r/status/{rig}'` shows whether the rig is there)")
+
+
+def _says_offline(status: str | None) -> bool:
+    try:
+        parsed = json.loads(status) if status else None
+    except ValueError:
+        return False
+    return isinstance(parsed, dict) and parsed.get("online") is False

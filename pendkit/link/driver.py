@@ -20,7 +20,7 @@ from pendkit.device.log import EpisodeLog
 from pendkit.device.protocol import ANY_DEVICE, ProtocolError, ReadingLimits, ReceivedObservation, parse_observation
 from pendkit.errors import ConfigError, PendkitError
 from pendkit.link import DEFAULT_BROKER
-from pendkit.link.diagnose import rig_user_mismatch, why_no_connection
+from pendkit.link.diagnose import rig_user_mismatch, why_no_connection, why_rig_silent
 
 LOG = logging.getLogger("pendkit.link")
 # While the stream is live, an observation older than the newest (time or v2 sequence) or further ahead than
@@ -188,6 +188,29 @@ class RigLink:
         """One upload chunk on the rig's controller topic (QoS 0, as commands: a lost one is resent)."""
         info = self.client.publish(controller_topic(self.rig), chunk, qos=0)
         return info.rc == mqtt.MQTT_ERR_SUCCESS
+
+    def rigs_reporting(self, wait_s: float = 1.0) -> list[str]:
+        """The rigs whose retained status this user may read on the broker (all of them for the instructor,
+        its own rig for a host user): how a typo in a rig id is told from a rig that is off."""
+        seen: set[str] = set()
+        wildcard = self.status_topic.rsplit("/", 1)[0] + "/+"
+
+        def on_status(client, userdata, message) -> None:
+            seen.add(message.topic.rsplit("/", 1)[-1])
+            if message.topic == self.status_topic:
+                self._on_message(client, userdata, message)
+
+        self.client.message_callback_add(wildcard, on_status)
+        self.client.subscribe(wildcard, 0)
+        time.sleep(wait_s)
+        self.client.unsubscribe(wildcard)
+        self.client.message_callback_remove(wildcard)
+        return sorted(seen)
+
+    def why_silent(self) -> str:
+        """One line on why this rig does not answer (`pendkit.link.diagnose.why_rig_silent`)."""
+        seen = self.rigs_reporting() if self.connected and self.status is None else None
+        return why_rig_silent(self.rig, self.username, self.connected, str(self.address), self.status, seen)
 
     def close(self) -> None:
         self.client.loop_stop()
