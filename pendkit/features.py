@@ -19,6 +19,8 @@ VELOCITY_PENALTY_WEIGHT = 0.5
 
 # "Upright" everywhere in the kit (benchmarks' solved rule, CLI evaluation, widgets, labs): within this of the top.
 UPRIGHT_RAD = 0.3
+# The solved rule's tail: an episode is solved when its last this many control steps stay upright.
+SOLVED_TAIL_STEPS = 200
 
 
 def holds_upright(angles_from_upright_rad, tail_steps: int) -> bool:

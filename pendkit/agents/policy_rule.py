@@ -76,9 +76,9 @@ class PolicyVerdict:
             shown[kind] = f"{sum(outcomes)}/{len(outcomes)}"
         return shown
 
-    def summary(self) -> str:
+    def summary(self, label: str = "policy") -> str:
         """`policy_solved=K/N (yes|no)`, N = the episodes run (10 unless a check stopped early)."""
-        return f"policy_solved={self.held}/{len(self.starts)} ({'yes' if self.solved else 'no'})"
+        return f"{label}_solved={self.held}/{len(self.starts)} ({'yes' if self.solved else 'no'})"
 
 
 def rule_starts(on_twin: bool = True) -> tuple[str | None, ...]:

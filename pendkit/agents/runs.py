@@ -15,9 +15,9 @@ from pendkit.agents.inputs import StepInputs
 from pendkit.agents.learners import build_learner, learner
 from pendkit.env import OBSERVED_SOURCES
 from pendkit.errors import ConfigError
+from pendkit.features import SOLVED_TAIL_STEPS
 
 WEIGHTS_FORMAT = "pendkit-weights/1"
-SOLVED_TAIL_STEPS = 200
 OBSERVERS = ("base", "rig", "bank")  # RunSpec.observer: what a learner's observer is designed for
 SOLVED_SEED = 123  # one greedy episode's default start seed (the rule's training starts begin here too)
 

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import click
@@ -11,6 +12,7 @@ from pendkit.cli.broker_login import broker_login_options, login_from
 from pendkit.control.names import CONTROLLER_NAMES
 
 CONTROLLER_CHOICES = CONTROLLER_NAMES
+STALE_TELEMETRY_S = 0.5  # an older reading says nothing of the pendulum now
 
 
 def _rig_params(params_path: Path | None):
@@ -20,7 +22,10 @@ def _rig_params(params_path: Path | None):
 
 
 def _learned_blob(run_dir: Path | None, policy_name: str | None, params_path: Path | None):
-    """A trained policy as the device runs it, from RUN_DIR or a shipped policy."""
+    """A trained policy as the device runs it, from RUN_DIR or a shipped policy, and the rig it was made for
+    (--params, else the servo preset it was trained on)."""
+    from pendkit.rig import RigParams
+
     from pendkit.agents.runs import load_weights
     from pendkit.deploy.learned_blob import learned_policy_blob
     from pendkit.errors import ConfigError
@@ -35,23 +40,27 @@ def _learned_blob(run_dir: Path | None, policy_name: str | None, params_path: Pa
             raise click.ClickException(f"no weights in {run_dir} (final.pt or checkpoint.pt): train one with "
                                        "`pendkit train --algo r-dqn`")
         spec, state = load_weights(weights)
+    made_for = (_rig_params(params_path) if params_path is not None
+                else RigParams.preset(spec.preset) if spec.preset else RigParams())
     try:
-        return learned_policy_blob(spec, state, None if params_path is None else _rig_params(params_path))
+        return learned_policy_blob(spec, state, None if params_path is None else made_for), made_for
     except ConfigError as error:
         raise click.ClickException(str(error)) from None
 
 
 def _blob(run_dir: Path | None, policy_name: str | None, controller: str | None, params_path: Path | None):
+    """(the blob, the rig parameters it was made for)."""
     if sum(x is not None for x in (run_dir, policy_name, controller)) != 1:
         raise click.UsageError("give one of RUN_DIR, --policy NAME or --controller energy|trajopt")
     if controller is None:
         return _learned_blob(run_dir, policy_name, params_path)
     from pendkit.deploy.swingup_design import design_swing_up
 
-    blob = design_swing_up(_rig_params(params_path), controller)
+    params = _rig_params(params_path)
+    blob = design_swing_up(params, controller)
     if controller == "trajopt" and not blob.plan_steps:
         click.echo("no swing-up from rest within 40 steps for this rig: the blob pumps energy from the start")
-    return blob
+    return blob, params
 
 
 def _describe(blob) -> str:
@@ -90,7 +99,7 @@ def export(run_dir, policy_name, controller, params_path, out_path: Path) -> Non
     """Write a controller (RUN_DIR, --policy NAME or --controller NAME) as a blob for the device."""
     from pendkit.device.controller_blob import pack
 
-    blob = _blob(run_dir, policy_name, controller, params_path)
+    blob, _ = _blob(run_dir, policy_name, controller, params_path)
     data = pack(blob)
     out_path.parent.mkdir(parents=True, exist_ok=True)
     out_path.write_bytes(data)
@@ -111,7 +120,9 @@ def deploy(run_dir, policy_name, controller, params_path, blob_path, rig_id: str
            seconds: float | None, username, password, tls_ca) -> None:
     """Upload a controller to a rig, start it, stream its telemetry; Ctrl-C stops it (so does the rig's
     watchdog if this laptop goes away)."""
-    from pendkit.deploy.on_rig import RigSession, run_on_rig, servo_range_problem, upload_to_rig
+    from pendkit.deploy.on_rig import (RigSession, angle_from_upright_rad, deploy_verdict, run_on_rig,
+                                       servo_range_problem, upload_to_rig)
+    from pendkit.rig import RigParams
     from pendkit.device.controller_blob import BlobError, pack, parse
     from pendkit.link import DEFAULT_BROKER
     from pendkit.link.driver import RigLink, check_rig_id
@@ -127,19 +138,28 @@ def deploy(run_dir, policy_name, controller, params_path, blob_path, rig_id: str
             raise click.ClickException(f"{blob_path} is not a controller a rig takes: {error}") from None
         designed_for = None  # a blob file does not say which rig it was designed for
     else:
-        data = pack(_blob(run_dir, policy_name, controller, params_path))
-        designed_for = _rig_params(params_path)
+        blob, designed_for = _blob(run_dir, policy_name, controller, params_path)
+        data = pack(blob)
     link = RigLink(rig_id, broker or DEFAULT_BROKER, **login_from(username, password, tls_ca).link_arguments())
     link.connect()
     try:
         session = RigSession(link)
-        problem = servo_range_problem(session.status(), designed_for) if designed_for is not None else None
+        problem = (servo_range_problem(session.status(), designed_for, f"rig {rig_id}") if designed_for is not None
+                   else None)
         if problem is not None:
             raise click.ClickException(f"not uploaded to {rig_id}: {problem}")
         chunks = upload_to_rig(session, data)
         click.echo(f"uploaded {len(data)} bytes to {rig_id} in {chunks} chunks; starting it (Ctrl-C stops)")
-        outcome = run_on_rig(session, seconds, report=click.echo)
+        samples: list[tuple[float, float]] = []
+
+        def sample(elapsed_s: float) -> None:
+            if link.newest is not None and time.monotonic() - link.newest.receive_time_s < STALE_TELEMETRY_S:
+                samples.append((elapsed_s, angle_from_upright_rad(link)))
+
+        outcome = run_on_rig(session, seconds, report=click.echo, on_heartbeat=sample)
         click.echo(f"stopped after {outcome['seconds']} s; telemetry received: {outcome['telemetry']}")
+        click.echo(deploy_verdict(samples, designed_for.control_step_ms / 1000 if designed_for is not None
+                                  else RigParams().control_step_ms / 1000))
     finally:
         link.close()
 

@@ -10,6 +10,7 @@ from pathlib import Path
 import click
 
 from pendkit.cli.broker_login import broker_login_options, login_from
+from pendkit.control.names import CONTROLLER_NAMES
 from pendkit.link import DEFAULT_BROKER
 from pendkit.sim.fidelity import FIDELITY_PRESETS
 
@@ -120,6 +121,8 @@ def _train_on_rig(spec, out_dir, rig_id, broker, seconds, login) -> None:
 @click.command("eval")
 @click.argument("run_dir", type=click.Path(exists=True, file_okay=False, path_type=Path), required=False)
 @click.option("--policy", "policy_name", default=None, help="A shipped policy (`pendkit policies list`).")
+@click.option("--controller", type=click.Choice(CONTROLLER_NAMES), default=None,
+              help="A classical swing-up run from this laptop, designed for --params/--preset (default the kit's rig).")
 @click.option("--episodes", type=click.IntRange(1), default=10, show_default=True,
               help="Greedy episodes; the kit's rule judges the first 10 of --start rule.")
 @click.option("--backend", type=click.Choice(("sim", "rig")), default="sim", show_default=True,
@@ -127,31 +130,38 @@ def _train_on_rig(spec, out_dir, rig_id, broker, seconds, login) -> None:
 @click.option("--rig", "rig_id", default="r01", show_default=True, help="With --backend rig.")
 @click.option("--broker", default=None, help=f"With --backend rig (default {DEFAULT_BROKER}).")
 @click.option("--preset", type=click.Choice(_preset_names()), default=None,
-              help="On the twin: this servo preset instead of the one trained on.")
+              help="On the twin: this servo preset instead of the one trained on; with --controller: the servo "
+                   "it is designed for.")
 @click.option("--params", "params_path", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
-              help="On the twin: a rig saved by RigParams.save (e.g. identified by pendkit adapt).")
+              help="On the twin: a rig saved by RigParams.save (e.g. identified by pendkit adapt); with "
+                   "--controller: the rig it is designed for.")
 @click.option("--start", type=click.Choice(("rule", "random", "rest")), default="rule", show_default=True,
               help="On the twin: the kit's rule (hanging still and the authors' random starts in turn), only random "
                    "starts, or only hanging still (a rig starts as it is).")
 @click.option("--seed", type=int, default=None,
               help="Seed of the first episode's start (default: the rule's reporting starts, never trained on).")
 @broker_login_options
-def evaluate(run_dir: Path | None, policy_name: str | None, episodes: int, backend: str, rig_id: str,
-             broker: str | None, preset: str | None, params_path: Path | None, start: str, seed: int,
+def evaluate(run_dir: Path | None, policy_name: str | None, controller: str | None, episodes: int, backend: str,
+             rig_id: str, broker: str | None, preset: str | None, params_path: Path | None, start: str, seed: int,
              username, password, tls_ca) -> None:
     """Greedy episodes of a trained run or a shipped policy, on the twin or a rig. Prints the kit's rule and,
     from the first 10 episodes of --start rule, whether the policy is solved by it (`policy_solved=K/10`);
     the last line is `solved=K/N median_upright_s=X` over every episode (an episode is solved when within
-    0.3 rad of upright for its last 200 steps)."""
+    0.3 rad of upright for its last 200 steps). `--controller` does the same for a classical swing-up."""
     _torch_or_exit()
+    if sum(x is not None for x in (run_dir, policy_name, controller)) != 1:
+        raise click.UsageError("give one of RUN_DIR, --policy NAME or --controller energy|trajopt")
+    if controller is not None:
+        from pendkit.cli.controller_eval import evaluate_controller
+
+        return evaluate_controller(controller, episodes, backend, rig_id, broker, preset, params_path, start, seed,
+                                   login_from(username, password, tls_ca))
     import dataclasses
 
     from pendkit.agents.policy_rule import REPORT_SEED, RULE_STARTS, RULE_TEXT, PolicyVerdict
     from pendkit.agents.runs import build_run, evaluate_agent, load_weights, make_env
     from pendkit.errors import ConfigError
 
-    if (run_dir is None) == (policy_name is None):
-        raise click.UsageError("give a RUN_DIR or --policy NAME (one of them)")
     try:
         if policy_name is not None:
             from pendkit.agents.pretrained import policy_weights

@@ -9,9 +9,10 @@ import time
 from collections.abc import Callable
 
 from pendkit.deploy.on_twin import DeployError
+from pendkit.features import SOLVED_TAIL_STEPS, UPRIGHT_RAD
 from pendkit.device.commands import frame_command
 from pendkit.device.onboard import blob_chunks
-from pendkit.link.rig_backend import is_servo_counts_range
+from pendkit.link.rig_backend import is_servo_counts_range, servo_mismatch
 
 HEARTBEAT_S = 0.05  # a third of the watchdog (150 ms by default): one or two lost heartbeats do not stop it
 CHUNK_PAUSE_S = 0.002  # a rig's MQTT buffer takes one chunk at a time
@@ -75,18 +76,14 @@ def controller_status(session: RigSession) -> dict:
     return controller
 
 
-def servo_range_problem(status: dict, params) -> str | None:
+def servo_range_problem(status: dict, params, rig: str = "the rig") -> str | None:
     """Why a controller designed for `params` must not drive the rig whose status this is (None: it may)."""
     device_range = status.get("servo_counts_range") if isinstance(status, dict) else None
     if device_range is None:
         return None  # the authors' firmware does not say: nothing to compare
     if not is_servo_counts_range(device_range):
         return f"its status says servo_counts_range {str(device_range)[:40]}, not [min, max] counts (malformed)"
-    if device_range != [params.servo_min_counts, params.servo_max_counts]:
-        return (f"its firmware drives servo counts {device_range[0]}..{device_range[1]}, the controller was designed "
-                f"for {params.servo_min_counts}..{params.servo_max_counts} ({params.servo_name}): design it for "
-                "this rig with --params RIG.json")
-    return None
+    return servo_mismatch(device_range, params, rig, "the controller was designed")
 
 
 def upload_to_rig(session: RigSession, blob: bytes, rounds: int = 10, chunker=blob_chunks) -> int:
@@ -199,6 +196,26 @@ def device_episode(session: RigSession, steps: int, step_s: float, speed: float 
         angles.append(angle_from_upright_rad(link))
     stop(session)
     return angles
+
+
+def deploy_verdict(samples: list[tuple[float, float]], control_step_s: float) -> str:
+    """The kit's rule on one deployed run, from (seconds since start, angle from upright) samples: held when
+    every sample of the rule's tail (its last 200 control steps, 4 s at 20 ms) is within 0.3 rad of upright.
+    The line ends as `pendkit eval`'s does: `solved=K/1 median_upright_s=X`."""
+    tail_s = SOLVED_TAIL_STEPS * control_step_s
+    if not samples:
+        return "verdict: not judged (no telemetry arrived); solved=0/1 median_upright_s=-"
+    times = [t for t, _ in samples]
+    outside = [t for t, angle in samples if abs(angle) >= UPRIGHT_RAD]
+    upright_since = samples[0][0] if not outside else next((t for t in times if t > outside[-1]), None)
+    ran_s = times[-1] - times[0]
+    held = upright_since is not None and times[-1] - upright_since >= tail_s
+    if held:
+        return (f"verdict: held (within {UPRIGHT_RAD:g} rad of upright from {upright_since:.2f} s to the end, "
+                f"{ran_s:.1f} s run); solved=1/1 median_upright_s={upright_since:.2f}")
+    why = (f"ran {ran_s:.1f} s, the rule needs the last {tail_s:g} s upright: give --seconds longer" if
+           ran_s < tail_s else f"not within {UPRIGHT_RAD:g} rad of upright for the last {tail_s:g} s")
+    return f"verdict: not held ({why}); solved=0/1 median_upright_s=-"
 
 
 def _telemetry_line(link, elapsed_s: float) -> str:

@@ -24,7 +24,7 @@ from pendkit.device.scheduler import PROTOCOLS
 from pendkit.errors import ConfigError
 from pendkit.link.driver import DEFAULT_BROKER, RigLink, RigLinkError
 from pendkit.network import CLASSROOM_WIFI, mcu_timing, median_latency_ms
-from pendkit.rig import RigParams
+from pendkit.rig import SERVO_PRESETS, RigParams
 
 SETTLED_REV_S = 0.05
 SETTLE_HOLD_S = 1.0
@@ -38,6 +38,23 @@ def is_servo_counts_range(value) -> bool:
     return (isinstance(value, list) and len(value) == 2
             and all(isinstance(n, int) and not isinstance(n, bool) for n in value)
             and 0 <= value[0] < value[1] <= 65535)
+
+
+def servo_mismatch(device_range: list[int], params: RigParams, rig: str,
+                   what: str = "the host's parameters are set") -> str | None:
+    """Why `params` (what a controller or policy was designed for) must not drive a rig whose firmware reports
+    `device_range`, naming both servos and what to use instead; None when they agree."""
+    designed = [params.servo_min_counts, params.servo_max_counts]
+    if list(device_range) == designed:
+        return None
+    fitting = [name for name in SERVO_PRESETS if [RigParams.preset(name).servo_min_counts,
+                                                   RigParams.preset(name).servo_max_counts] == list(device_range)]
+    its_servo = f" (the range of the {', '.join(fitting)} preset{'s' if len(fitting) > 1 else ''})" if fitting else ""
+    use = f"--preset {fitting[0]}, or " if fitting else ""
+    return (f"{rig}'s firmware drives servo counts {device_range[0]}..{device_range[-1]}{its_servo}, but {what} "
+            f"for {designed[0]}..{designed[1]} ({params.servo_name}): use the "
+            f"rig's own servo: {use}--params RIG.json (`pendkit adapt` writes one; in Python "
+            "params=RigParams.load(...))")
 
 
 class RigBackend:
@@ -146,11 +163,9 @@ class RigBackend:
             raise RigLinkError(f"rig {self.rig}'s status says servo_counts_range {str(device_range)[:40]}, not "
                                "[min, max] counts: a malformed or forged status (anyone may publish on an open "
                                "broker: use the classroom broker's ACLs, docs/protocol.md); restart the rig")
-        if device_range != host_range:
-            raise ConfigError(f"rig {self.rig}'s firmware drives servo counts {device_range[0]}..{device_range[-1]}, "
-                              f"but the host's RigParams say {host_range[0]}..{host_range[1]} "
-                              f"({self.params.servo_name}): pass params=RigParams.preset(...) for the servo "
-                              "the rig was built and flashed with")
+        mismatch = servo_mismatch(device_range, self.params, f"rig {self.rig}")
+        if mismatch is not None:
+            raise ConfigError(mismatch)
 
     def emergency_stop(self) -> None:
         """Stop the servo now and keep it stopped: every later step sends stop instead of its action."""
