@@ -1,9 +1,11 @@
-"""The broker login every command that talks to a rig takes: `--username`, `--password` (better from the
-environment: `PENDKIT_MQTT_USERNAME`, `PENDKIT_MQTT_PASSWORD`, never echoed) and `--tls-ca` (the classroom
-CA for an `mqtts://` broker, `pendkit broker-config --tls`)."""
+"""The broker login every command that talks to a rig takes: `--username` (or `PENDKIT_MQTT_USERNAME`), the
+password from the environment (`PENDKIT_MQTT_PASSWORD`) or a file (`--password-file`), never the command line
+(every user of a machine can read a command line with `ps`), and `--tls-ca` (the classroom CA for an
+`mqtts://` broker, `pendkit broker-config --tls`)."""
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -26,20 +28,58 @@ class BrokerLogin:
         return {"username": self.username, "password": self.password, "tls_ca": self.tls_ca}
 
 
-def broker_login_options(function):
-    """Add the three options; the command receives them as `login: BrokerLogin`."""
+def _password_from_environment(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
+    if value is not None and ctx.get_parameter_source(param.name) == click.core.ParameterSource.COMMANDLINE:
+        raise click.BadParameter("a password on the command line is visible to every user of this machine (`ps`): "
+                                 "set PENDKIT_MQTT_PASSWORD in the environment, or give --password-file FILE",
+                                 param_hint="--password")
+    return value
 
-    function = click.option("--tls-ca", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
-                            help="The classroom CA (broker/ca.crt) for an mqtts:// broker.")(function)
-    function = click.option("--password", envvar="PENDKIT_MQTT_PASSWORD", default=None, show_envvar=True,
-                            help="MQTT password (safer in the environment variable: a command line is visible "
-                                 "to other users of this machine).")(function)
-    function = click.option("--username", envvar="PENDKIT_MQTT_USERNAME", default=None, show_envvar=True,
-                            help="MQTT user on a classroom broker (host-r01 for rig r01).")(function)
-    return function
+
+def _password_file(ctx: click.Context, param: click.Parameter, value: Path | None) -> str | None:
+    """The first line of the file (its own line ending dropped)."""
+    if value is None:
+        return None
+    try:
+        lines = value.read_text(encoding="utf-8").splitlines()
+    except (OSError, UnicodeDecodeError) as error:
+        raise click.BadParameter(f"cannot read {value}: {error}", param_hint="--password-file") from None
+    if not lines or not lines[0]:
+        raise click.BadParameter(f"{value} is empty: its first line is the password", param_hint="--password-file")
+    return lines[0]
+
+
+def password_options(function):
+    """`--password` taken from PENDKIT_MQTT_PASSWORD only (refused on the command line) and `--password-file`;
+    the command receives `password` and `password_file` (the file's password)."""
+    function = click.option("--password-file", type=click.Path(exists=True, dir_okay=False, path_type=Path),
+                            default=None, callback=_password_file,
+                            help="A file whose first line is the MQTT password (instead of PENDKIT_MQTT_PASSWORD)."
+                            )(function)
+    return click.option("--password", envvar="PENDKIT_MQTT_PASSWORD", default=None, show_envvar=True, hidden=True,
+                        callback=_password_from_environment, expose_value=True)(function)
+
+
+def broker_login_options(function):
+    """Add the login options; the command receives `username`, `password` (from the environment or
+    --password-file) and `tls_ca`."""
+
+    @functools.wraps(function)
+    def with_one_password(*args, password_file: str | None = None, password: str | None = None, **kwargs):
+        if password_file is not None and password is not None:
+            raise click.UsageError("the password comes from PENDKIT_MQTT_PASSWORD or --password-file, not both")
+        return function(*args, password=password_file if password_file is not None else password, **kwargs)
+
+    command = click.option("--tls-ca", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
+                           help="The classroom CA (broker/ca.crt) for an mqtts:// broker.")(with_one_password)
+    command = password_options(command)
+    return click.option("--username", envvar="PENDKIT_MQTT_USERNAME", default=None, show_envvar=True,
+                        help="MQTT user on a classroom broker (host-r01 for rig r01); its password from "
+                             "PENDKIT_MQTT_PASSWORD or --password-file.")(command)
 
 
 def login_from(username: str | None, password: str | None, tls_ca: Path | None) -> BrokerLogin:
     if password is not None and username is None:
-        raise click.UsageError("--password needs --username (or PENDKIT_MQTT_USERNAME)")
+        raise click.UsageError("a password (PENDKIT_MQTT_PASSWORD or --password-file) needs --username "
+                               "(or PENDKIT_MQTT_USERNAME)")
     return BrokerLogin(username, password, str(tls_ca) if tls_ca is not None else None)

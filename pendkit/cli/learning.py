@@ -190,8 +190,10 @@ def evaluate(run_dir: Path | None, policy_name: str | None, controller: str | No
     agent.load_state_dict(state)
     seed = REPORT_SEED if seed is None else seed
     starts = [RULE_STARTS[k % len(RULE_STARTS)] for k in range(episodes)] if start == "rule" else start
-    outcome = evaluate_agent(env, agent, inputs, episodes, seed, starts if backend == "sim" else None)
-    env.close()
+    try:
+        outcome = evaluate_agent(env, agent, inputs, episodes, seed, starts if backend == "sim" else None)
+    finally:
+        env.close()  # on a classroom broker a link left open would be kicked by (and kick) the team's next one
     click.echo(f"mean return {outcome.mean_return:.1f} over {episodes} episodes")
     click.echo(f"rule: {RULE_TEXT}")
     if start == "rule" and episodes >= len(RULE_STARTS):
@@ -349,18 +351,21 @@ def policies_build(names: tuple[str, ...]) -> None:
 @click.option("--identification-restarts", "restarts", type=click.IntRange(1, 10), default=3, show_default=True,
               help="Identify this many times from the same recordings (laptop time only, about a minute each) "
                    "and keep the twin that matches them best.")
+@click.option("--deploy-untrusted", is_flag=True, default=False,
+              help="Deploy even from an identification whose matching cost is hardly better than a pendulum that "
+                   "never moved (without: its report and figure, nothing deployable, exit 1).")
 @click.option("--seed", type=int, default=0, show_default=True)
 @broker_login_options
 def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, fine_tune, twin_episodes, twin_tolerance,
-          evaluation_episodes, policy_name, candidates, measured_network, device_trials, loop_episodes, restarts, seed,
-          username, password, tls_ca) -> None:
+          evaluation_episodes, policy_name, candidates, measured_network, device_trials, loop_episodes, restarts,
+          deploy_untrusted, seed, username, password, tls_ca) -> None:
     """Fit the kit to one rig in a few of its episodes: excite it, identify its twin from the encoder, design
     the device's swing-up for it, train on that twin, fine-tune on the rig; report every route."""
     _torch_or_exit()
     from pendkit.adapt.rigs import mqtt_rig, twin_rig
     from pendkit.adapt.session import AdaptConfig
     from pendkit.adapt.session import adapt as run_adaptation
-    from pendkit.errors import ConfigError
+    from pendkit.errors import ConfigError, IdentificationError, RecordingError
     from pendkit.rig import RigParams
 
     try:  # the settings checked before the rig is reached
@@ -370,6 +375,7 @@ def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, f
                              evaluation_episodes=evaluation_episodes, policy=policy_name,
                              candidates=chosen_candidates(candidates), measured_network=measured_network,
                              device_trials=device_trials, identification_restarts=restarts, seed=seed,
+                             deploy_untrusted=deploy_untrusted,
                              **({} if loop_episodes is None else {"loop_episodes": loop_episodes}))
         if backend == "sim":
             if params_path is None:
@@ -378,8 +384,10 @@ def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, f
         else:
             rig = mqtt_rig(rig_id, broker, login_from(username, password, tls_ca))
         report = run_adaptation(rig, out_dir, config, say=click.echo)
-    except ConfigError as error:
+    except (ConfigError, IdentificationError) as error:
         raise click.ClickException(str(error)) from None
+    except RecordingError as error:  # refused before anything was written
+        raise click.ClickException(f"{error} (nothing written to {out_dir})") from None
     click.echo(f"rig time {report['rig_s_adaptation']:.0f} s to adapt, wall clock {report['wall_s_adaptation']:.0f} s; "
                f"report in {out_dir / 'report.md'}")
     click.echo(f"policy: {report['policy_on_rig']['summary']}")

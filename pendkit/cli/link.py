@@ -8,6 +8,7 @@ from pathlib import Path
 
 import click
 
+from pendkit.cli.broker_login import password_options
 from pendkit.link import DEFAULT_BROKER
 from pendkit.network import IMPAIRMENTS
 from pendkit.rig import SERVO_PRESETS
@@ -78,10 +79,9 @@ def broker_config(rig_ids: tuple[str, ...], out_dir: Path, port: int, bind: str,
                                  "user with its own password (no password on the command line).")
 @click.option("--tls-ca", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
               help="The classroom CA (broker/ca.crt) for an mqtts:// broker.")
-@click.option("--username", default=None, help="MQTT user of a single rig (default: the rig id).")
-@click.option("--password", envvar="PENDKIT_MQTT_PASSWORD", default=None, show_envvar=True,
-              help="MQTT password of a single rig's user (from the environment: a command line is visible to "
-                   "other users of this machine).")
+@click.option("--username", default=None, help="MQTT user of a single rig (default: the rig id); its password "
+                                                "from PENDKIT_MQTT_PASSWORD or --password-file.")
+@password_options
 @click.option("--encoder-fault", type=click.Choice(("stuck", "garbage")), default=None,
               help="Simulate a seized or broken encoder (safety demos).")
 @click.option("--protocol", type=click.Choice(("v1", "v2")), default="v2", show_default=True,
@@ -90,8 +90,8 @@ def broker_config(rig_ids: tuple[str, ...], out_dir: Path, port: int, bind: str,
               help="The servo (and its counts range) of the simulated rig.")
 @click.option("--params", "params_path", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
               help="The whole rig from a RigParams.save file (servo, masses, pendulum, pulses); replaces --preset.")
-def virtual_rig(rig_ids, broker_url, speed, impairment, credentials_path, tls_ca, username, password, encoder_fault,
-                protocol, preset, params_path) -> None:
+def virtual_rig(rig_ids, broker_url, speed, impairment, credentials_path, tls_ca, username, password, password_file,
+                encoder_fault, protocol, preset, params_path) -> None:
     """Run virtual rigs: the twin with the firmware's logic, speaking the rig protocol over MQTT."""
     from pendkit.errors import ConfigError
     from pendkit.link.driver import RigLinkError, check_rig_id
@@ -107,7 +107,9 @@ def virtual_rig(rig_ids, broker_url, speed, impairment, credentials_path, tls_ca
         params = RigParams.load(params_path) if params_path is not None else RigParams.preset(preset)
     except ConfigError as error:
         raise click.BadParameter(str(error), param_hint="--params") from None
-    logins = _rig_logins(rig_ids, credentials_path, username, password)
+    if password is not None and password_file is not None:
+        raise click.UsageError("the password comes from PENDKIT_MQTT_PASSWORD or --password-file, not both")
+    logins = _rig_logins(rig_ids, credentials_path, username, password_file or password)
     rigs = [VirtualRig(rig, broker_url, params=params, impairment=impairment, encoder_fault=encoder_fault,
                        username=logins[rig][0], password=logins[rig][1], protocol=int(protocol[1]),
                        tls_ca=str(tls_ca) if tls_ca else None) for rig in rig_ids]
@@ -133,7 +135,7 @@ def _rig_logins(rig_ids, credentials_path: Path | None, username: str | None,
 
     if credentials_path is not None:
         if username or password:
-            raise click.UsageError("give either --credentials or --username/--password, not both")
+            raise click.UsageError("give either --credentials or --username and a password, not both")
         known = read_credentials(credentials_path)
         missing = [rig for rig in rig_ids if rig not in known]
         if missing:
