@@ -266,11 +266,13 @@ class RigParams:
         return dataclasses.asdict(self)
 
     def save(self, path) -> None:
-        """Write these parameters as JSON (e.g. a rig's identified values, for the twin and later labs)."""
+        """Write these parameters as JSON (e.g. a rig's identified values, for the twin and later labs), whole
+        or not at all, never through a link planted at `path` (`pendkit.safe_write`)."""
         import json
-        from pathlib import Path
 
-        Path(path).write_text(json.dumps(self.to_dict(), indent=1) + "\n")
+        from pendkit.safe_write import write_text
+
+        write_text(path, json.dumps(self.to_dict(), indent=1) + "\n")
 
     @classmethod
     def load(cls, path) -> RigParams:

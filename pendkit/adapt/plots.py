@@ -12,6 +12,7 @@ from pendkit.adapt.identify import PRIOR_LATENCY_MS, Identification, simulate
 from pendkit.adapt.replay import replay
 from pendkit.encoder import wrapped_rad
 from pendkit.rig import RigParams
+from pendkit.safe_write import replacing
 
 SHOWN = 3
 
@@ -51,5 +52,6 @@ def plot_identification(recordings: list[Recording], identification: Identificat
     path = Path(path)
     alt = (f"Pendulum angle of {len(shown)} excitation episodes on the rig, with the prior and the identified "
            f"twins given the same actions; the identified twin follows the rig more closely.")
-    figure.savefig(path, dpi=90, metadata={"Description": alt})
+    with replacing(path, binary=True) as handle:  # never through a link planted there
+        figure.savefig(handle, format="png", dpi=90, metadata={"Description": alt})
     return path

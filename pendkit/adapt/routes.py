@@ -320,7 +320,9 @@ def policy_on_device(rig, run: AgentRun | None, identification: Identification, 
         return {"summary": "not evaluated"}
     blob = device_blob(run, identification)
     if blob_path is not None:
-        blob_path.write_bytes(blob)
+        from pendkit.safe_write import write_bytes
+
+        write_bytes(blob_path, blob)
     return _as_report(judged(rig.run_on_device(blob, episodes), identification.params.control_step_ms / 1000))
 
 

@@ -41,6 +41,7 @@ from pendkit.control.names import SWING_UP_CONTROLLERS
 from pendkit.env_name import EPISODE_STEPS
 from pendkit.errors import ConfigError
 from pendkit.rig import RigParams
+from pendkit.safe_write import check_no_links, write_bytes, write_text
 
 
 @dataclass
@@ -128,15 +129,17 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     """Run the whole adaptation; write rig.json, policy.pt, report.json, report.md and plots to `out_dir`."""
     config = config or AdaptConfig()
     out = Path(out_dir)
+    for name in OUTPUTS:  # a link planted where an output goes is refused before any rig time is spent
+        check_no_links(out / name)
     out.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
     report: dict = {"rig": rig.name, "config": dataclasses.asdict(config)}
 
-    env = rig.make_env(stream=EXCITATION_STREAM, log_dir=str(out / "excitation-logs"), **Excitation.env_kwargs())
+    env = rig.make_env(stream=EXCITATION_STREAM, log_dir=str(out / EXCITATION_LOGS), **Excitation.env_kwargs())
     recordings = [record(env, excitation, seed=config.seed + k)
                   for k, excitation in enumerate(schedule(config.excitation_episodes, config.loop_episodes))]
     env.close()
-    (out / "excitation.json").write_text(json.dumps([r.as_dict() for r in recordings]))
+    write_text(out / "excitation.json", json.dumps([r.as_dict() for r in recordings]))
     report["rig_s_excitation"] = rig.seconds()
     say(f"(a) {len(recordings)} excitation episodes: {report['rig_s_excitation']:.0f} s of rig time")
 
@@ -203,8 +206,8 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     say(f"deploy: {report['recommended'] or 'nothing solved this rig (docs/rl.md: what a class should expect)'}")
 
     report["plots"] = [str(plot_identification(recordings, identification, out / "identification.png"))]
-    (out / "report.json").write_text(json.dumps(report, indent=1, default=float))
-    (out / "report.md").write_text(report_markdown(report))
+    write_text(out / "report.json", json.dumps(report, indent=1, default=float))
+    write_text(out / "report.md", report_markdown(report))
     return report
 
 
@@ -269,12 +272,15 @@ def device_trials(rig: Rig, params: RigParams, config: AdaptConfig, left_s: floa
 def save_device_design(chosen: Design, out: Path, report: dict) -> None:
     """The chosen design as a blob `pendkit deploy --blob` takes, and the twin it was designed on."""
     chosen.params.save(out / "device-design-rig.json")
-    (out / DEVICE_BLOB).write_bytes(chosen.blob)
+    write_bytes(out / DEVICE_BLOB, chosen.blob)
     report["device_blob"] = DEVICE_BLOB
 
 
 DEVICE_BLOB = "device-controller.pkcb"
 DEVICE_POLICY_BLOB = "device-policy.pkcb"
+EXCITATION_LOGS = "excitation-logs"
+OUTPUTS = (EXCITATION_LOGS, "excitation.json", "rig.json", "policy.pt", DEVICE_POLICY_BLOB, DEVICE_BLOB,
+           "device-design-rig.json", "identification.png", "report.json", "report.md")
 SWING_UPS = SWING_UP_CONTROLLERS  # the controllers' names in prose
 ROUTES = {"the device design chosen by the trials": ("classical_on_device", "tried"),
           "energy swing-up + LQR on the rig's device": ("classical_on_device", "energy"),

@@ -8,7 +8,6 @@ from an older pendkit that pickled numpy objects, is refused in one line that na
 
 from __future__ import annotations
 
-import os
 import pickle
 from pathlib import Path
 from typing import Any
@@ -46,12 +45,13 @@ def from_data(value: Any) -> Any:
 
 
 def save_data(path: str | Path, value: Any) -> Path:
-    """Write `value` atomically (a kill leaves the old file or the new one, never half of one)."""
+    """Write `value` atomically (a kill leaves the old file or the new one, never half of one), never through
+    a link planted at `path` (`pendkit.safe_write`)."""
+    from pendkit.safe_write import replacing
+
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(path.name + ".tmp")
-    torch.save(to_data(value), temporary)
-    os.replace(temporary, path)
+    with replacing(path, binary=True) as handle:
+        torch.save(to_data(value), handle)
     return path
 
 

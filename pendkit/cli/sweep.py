@@ -43,6 +43,7 @@ def sweep() -> None:
 def run(spec_path: Path, out: Path, address: str | None, resume: bool, cpus_per_trial: float,
         cpus: int | None, seeds: tuple[int, ...]) -> None:
     """Run SPEC's trials through Ray Tune into --out, then print the summary."""
+    from pendkit.safe_write import write_text
     from pendkit.sweep.ray_runner import run_sweep
     from pendkit.sweep.report import report
     from pendkit.sweep.spec import load_spec
@@ -52,7 +53,7 @@ def run(spec_path: Path, out: Path, address: str | None, resume: bool, cpus_per_
     if cpus is not None and address is not None:
         raise click.UsageError("--cpus sizes a local Ray; a cluster at --address has its own")
     facts = run_sweep(spec, out, address, resume, cpus_per_trial, say=click.echo, num_cpus=cpus)
-    (Path(out) / "command.txt").write_text(shlex.join(["pendkit", "sweep", *sys.argv[2:]]) + "\n")
+    write_text(Path(out) / "command.txt", shlex.join(["pendkit", "sweep", *sys.argv[2:]]) + "\n")
     click.echo(f"ran {facts['ran']} trials, skipped {facts['skipped']} finished ones; Ray's start-up "
                f"{facts['ray_start_s']:.1f} s")
     report(out, say=click.echo)
@@ -67,8 +68,11 @@ def run(spec_path: Path, out: Path, address: str | None, resume: bool, cpus_per_
 def report_command(out: Path, more: tuple[Path, ...], delay_sweep_json: Path | None, no_figure: bool) -> None:
     """Gather DIR's trials (and MORE_DIRS', a class's runs side by side) into DIR's table.csv/table.json,
     print the summary lines, draw summary.png."""
+    from pendkit.safe_write import check_no_links, write_text
     from pendkit.sweep.report import delay_sweep_record, report
 
+    if delay_sweep_json is not None:
+        check_no_links(delay_sweep_json)
     rows = report(out, say=click.echo, figure=not no_figure, more=list(more))
     if delay_sweep_json is not None:
         command_file = Path(out) / "command.txt"
@@ -77,8 +81,7 @@ def report_command(out: Path, more: tuple[Path, ...], delay_sweep_json: Path | N
         for where in (str(Path(out).resolve()), str(out)):  # the folder's name on this machine says nothing
             command = command.replace(where, "DIR")
         record = delay_sweep_record(rows, command)
-        delay_sweep_json.parent.mkdir(parents=True, exist_ok=True)
-        delay_sweep_json.write_text(json.dumps(record, indent=1) + "\n")
+        write_text(delay_sweep_json, json.dumps(record, indent=1) + "\n")
         click.echo(f"wrote {delay_sweep_json}")
 
 

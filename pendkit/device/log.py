@@ -29,9 +29,10 @@ class EpisodeLog:
     """Append-only writer; use as a context manager or call `close()`."""
 
     def __init__(self, path: str | Path) -> None:
+        from pendkit.safe_write import open_new
+
         self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._file = self.path.open("w")
+        self._file = open_new(self.path)  # never through a link planted there
         self._lock = threading.Lock()  # the link's network thread writes too
 
     def write(self, t_s: float, direction: str, topic: str, payload: str) -> None:

@@ -68,9 +68,10 @@ def build_autograder(zip_path: Path, lab: str, hidden_dir: Path | None, repo: Pa
 def run(root: Path, lab: str) -> dict:
     """Grade the one submission in `root/submission`; write `root/results/results.json`; return it."""
     from pendkit.grading.report import grade_folder, gradescope_results
+    from pendkit.safe_write import check_no_links, write_text
 
     results_dir = root / "results"
-    results_dir.mkdir(parents=True, exist_ok=True)
+    check_no_links(results_dir / "results.json", root)
     with tempfile.TemporaryDirectory() as work:
         grades = grade_folder(root / "submission", Path(work) / "out", lab, root / "source" / "hidden",
                               120.0, 900.0, progress=False, one_student=True)
@@ -82,7 +83,7 @@ def run(root: Path, lab: str) -> dict:
         if len(grades) > 1:
             result["output"] = f"{len(grades)} notebooks were uploaded; graded {Path(best.notebook).name}.\n" \
                                + result["output"]
-    (results_dir / "results.json").write_text(json.dumps(result, indent=2) + "\n")
+    write_text(results_dir / "results.json", json.dumps(result, indent=2) + "\n", base=root)
     return result
 
 

@@ -21,6 +21,7 @@ from pendkit.grading.process_guard import carrying, end_processes, new_run_token
 from pendkit.grading.runner import SubmissionGrade, grade_notebook, zero_grade
 from pendkit.grading.sandbox import isolation_problem
 from pendkit.grading.submissions import Submission, find_submissions
+from pendkit.safe_write import check_no_links, write_text
 
 
 def gradescope_results(grade: SubmissionGrade) -> dict:
@@ -46,12 +47,12 @@ def gradescope_results(grade: SubmissionGrade) -> dict:
 
 def write_reports(grades: list[SubmissionGrade], out: Path) -> Path:
     """One results.json per student under `out/<student>/`, and `out/grades.csv`; returns the CSV path.
-    Each file is written whole or not at all (a temporary file, then a rename)."""
+    Each file is written whole or not at all (a temporary file, then a rename), never through a link planted
+    in `out` (refused: `pendkit.safe_write`)."""
     out.mkdir(parents=True, exist_ok=True)
     for grade in grades:
-        folder = out / report_folder(grade.student)
-        folder.mkdir(parents=True, exist_ok=True)
-        _write_atomically(folder / "results.json", json.dumps(gradescope_results(grade), indent=2) + "\n")
+        path = out / report_folder(grade.student) / "results.json"
+        write_text(path, json.dumps(gradescope_results(grade), indent=2) + "\n", base=out, newline="")
     task_ids = list(dict.fromkeys(t.task for g in grades for t in g.tasks))  # lab order
     questions = list(dict.fromkeys(a.question for g in grades for a in g.written))
     buffer = io.StringIO()
@@ -66,8 +67,15 @@ def write_reports(grades: list[SubmissionGrade], out: Path) -> Path:
                          *["" if q.id in answered else "0 (no answer)" for q in questions],
                          grade.notebook, " | ".join(grade.notes)])
     csv_path = out / "grades.csv"
-    _write_atomically(csv_path, buffer.getvalue())
+    write_text(csv_path, buffer.getvalue(), base=out, newline="")
     return csv_path
+
+
+def check_report_paths(submissions: list[Submission], out: Path) -> None:
+    """Refuse, before any notebook runs, a link planted where a report would go (LinkRefused, one line)."""
+    check_no_links(out / "grades.csv", out)
+    for submission in submissions:
+        check_no_links(out / report_folder(submission.student) / "results.json", out)
 
 
 def report_folder(student: str) -> str:
@@ -76,17 +84,6 @@ def report_folder(student: str) -> str:
     if first == "grades.csv" or first.startswith("."):
         first = f"student-{first.lstrip('.')}"
     return "/".join([first, *rest])
-
-
-def _write_atomically(path: Path, text: str) -> None:
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(handle, "w", newline="") as file:
-            file.write(text)
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
 
 
 def read_hidden_sources(hidden_dir: Path | None, labs: set[str]) -> dict[str, list[tuple[Path, bytes]]]:
@@ -129,6 +126,7 @@ def grade_folder(folder: Path, out: Path, lab: str | None, hidden_dir: Path | No
         raise ConfigError(f"the grades' folder {out} is inside the submissions' folder {folder}, where a student's "
                           "notebook could read or write them: choose --out outside it")
     submissions = find_submissions(folder, lab, one_student)
+    check_report_paths(submissions, Path(out))
     if isolate is None and not one_student:
         _refuse_a_class_without_sandbox(submissions)
     sources = read_hidden_sources(hidden_dir, {s.lab for s in submissions if s.lab is not None and not s.problem})

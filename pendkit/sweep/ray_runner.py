@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 
 from pendkit.errors import ConfigError
+from pendkit.safe_write import write_text
 from pendkit.sweep.spec import SweepSpec, Trial
 from pendkit.sweep.trial import RESULT, run_trial
 
@@ -50,8 +51,8 @@ def prepare_folder(spec: SweepSpec, out: Path, resume: bool) -> list[Trial]:
             raise ConfigError(f"{out} holds another sweep than this spec's; resume it with its own spec, or "
                               "choose another --out")
     out.mkdir(parents=True, exist_ok=True)
-    copy.write_text(json.dumps({"name": spec.name, "source": spec.source,
-                                "trials": [t.to_dict() for t in spec.trials]}, indent=1) + "\n")
+    write_text(copy, json.dumps({"name": spec.name, "source": spec.source,
+                                 "trials": [t.to_dict() for t in spec.trials]}, indent=1) + "\n")
     return [t for t in spec.trials if not (out / "trials" / t.trial_id / RESULT).exists()]
 
 
@@ -149,8 +150,7 @@ def trial_lines_callback(out: Path, say, total: int):
             path = out / "trials" / trial_id / RESULT
             row = (trial.last_result or {}).get("row")
             if not path.exists() and row:  # run on a node that does not share DIR: its row, not its files
-                path.parent.mkdir(parents=True, exist_ok=True)
-                path.write_text(row + "\n")
+                write_text(path, row + "\n", base=out)
             if path.exists():  # above the bar, not through it
                 self.bar.clear()
                 say(trial_line(json.loads(path.read_text())))

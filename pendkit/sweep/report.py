@@ -10,6 +10,7 @@ from pathlib import Path
 
 from pendkit.agents.policy_rule import RULE_TEXT
 from pendkit.errors import ConfigError
+from pendkit.safe_write import check_no_links, replacing, write_text
 from pendkit.sweep.ray_runner import SPEC_COPY, trial_line
 from pendkit.sweep.trial import RESULT
 
@@ -99,13 +100,17 @@ def _checked_row(row, trial: dict) -> dict:
     return row
 
 
+OUTPUTS = ("table.csv", "table.json", "summary.png")  # what a report writes into its folder
+
+
 def write_table(out: str | Path, rows: list[dict]) -> None:
+    """table.csv and table.json, each replaced whole; a link planted at either is refused, never followed."""
     out = Path(out)
-    with (out / "table.csv").open("w", newline="") as handle:
+    with replacing(out / "table.csv", newline="") as handle:
         writer = csv.DictWriter(handle, COLUMNS, extrasaction="ignore")
         writer.writeheader()
         writer.writerows(rows)
-    (out / "table.json").write_text(json.dumps([{k: row.get(k) for k in COLUMNS} for row in rows], indent=1) + "\n")
+    write_text(out / "table.json", json.dumps([{k: row.get(k) for k in COLUMNS} for row in rows], indent=1) + "\n")
 
 
 def summary_lines(rows: list[dict], missing: list[str]) -> list[str]:
@@ -188,7 +193,8 @@ def plot_summary(rows: list[dict], path: str | Path) -> Path:
     axis.set_ylim(-0.05, 1.05)
     axis.legend()
     figure.tight_layout()
-    figure.savefig(path, dpi=120)
+    with replacing(path, binary=True) as handle:
+        figure.savefig(handle, format="png", dpi=120)
     plt.close(figure)
     return Path(path)
 
@@ -242,6 +248,8 @@ def report(out: str | Path, say=print, figure: bool = True, more: list[Path] = (
     """Gather, write table.csv/json (and summary.png) into `out`, print the summary lines; returns the rows.
     With `more` folders, their trials join `out`'s in one table (a class's seeds side by side)."""
     out = Path(out)
+    for name in OUTPUTS:  # said before anything is read or written
+        check_no_links(out / name)
     skipped: list[str] = []
     if more:  # DIR may be a sweep of its own or just where the class's table goes
         out.mkdir(parents=True, exist_ok=True)

@@ -21,6 +21,7 @@ import socket
 import time
 from pathlib import Path
 
+from pendkit.safe_write import write_text
 from pendkit.sweep.spec import Trial
 
 RESULT = "result.json"
@@ -102,9 +103,7 @@ def run_trial(trial: Trial, folder: str | Path) -> dict:
               "policy_solved": f"{held_out.held}/{len(held_out.starts)}", "held_out_solved": held_out.solved,
               "episodes": len(returns), "wall_s": round(time.perf_counter() - started, 1),
               "resumed_from_episode": resumed_from, "curve": f"trials/{folder.name}/curve.csv", **where_am_i()}
-    temporary = folder / (RESULT + ".tmp")
-    temporary.write_text(json.dumps(result, indent=1) + "\n")
-    os.replace(temporary, folder / RESULT)  # atomic: a trial is finished or it is not
+    write_text(folder / RESULT, json.dumps(result, indent=1) + "\n")  # atomic: a trial is finished or it is not
     return result
 
 
