@@ -15,7 +15,7 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "pendkit"
 LAYERS = (
-    ("pendkit", "errors", "env_name", "backend_contract", "gl_backend"),
+    ("pendkit", "errors", "env_name", "backend_contract", "gl_backend", "safe_write"),
     ("rig", "encoder", "features", "wiring", "bom", "network"),
     ("device",),
     ("control", "firmware_constants"),
