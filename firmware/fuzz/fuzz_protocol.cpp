@@ -1,10 +1,12 @@
 // libFuzzer target: arbitrary bytes as a command through the device's one command path (the Scheduler),
 // then as frames and loop times, and the observation and status formatters into buffers of every small
-// size. Any crash or sanitizer report is a bug; so is a servo outside its range.
+// size; and the same bytes as serial-console lines into the CA paste and as a whole PEM. Any crash or
+// sanitizer report is a bug; so is a servo outside its range.
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
 
+#include "broker_tls.h"
 #include "scheduler.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -24,5 +26,16 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     scheduler.observation_line(obs, line, 1 + (data[i] % sizeof line));
     if (obs.servo_counts < pend::kServoMinCounts || obs.servo_counts > pend::kServoMaxCounts) __builtin_trap();
   }
+  static pend::CaConsole console;
+  const char* text = reinterpret_cast<const char*>(data);
+  for (size_t start = 0, end = 0; start < size; start = end + 1) {
+    for (end = start; end < size && text[end] != '\n';) ++end;
+    if (console.feed(text + start, end - start, now_ms) == pend::CaCommand::kAccepted &&
+        console.pem_length() > pend::kMaxCaPemBytes) {
+      __builtin_trap();
+    }
+  }
+  pend::CaInfo info;
+  pend::check_ca_pem(text, size, info);
   return 0;
 }

@@ -46,13 +46,25 @@ def broker_names(extra: list[str] | tuple[str, ...] = ()) -> list[str]:
 
 
 def _subject_names(names: list[str]) -> list[str]:
+    """subjectAltName entries. An IPv4 address is listed twice, as IP and as DNS text: a rig's Mbed TLS 2.x
+    (arduino-esp32 2.x) compares the host it was given only with DNS entries, so a rig set up with the broker's
+    IP address could not check an IP-only certificate (Mbed-TLS/mbedtls#5082). OpenSSL clients (hosts, paho)
+    match an IP against IP entries only, so the DNS twin changes nothing for them."""
     subject_names = []
     for name in names:
         try:
-            subject_names.append(f"IP:{ipaddress.ip_address(name.split('%')[0])}")
+            address = ipaddress.ip_address(name.split('%')[0])
         except ValueError:
             subject_names.append(f"DNS:{name}")
+            continue
+        subject_names.append(f"IP:{address}")
+        if address.version == 4:
+            subject_names.append(f"DNS:{address}")
     return subject_names
+
+
+def _san_line(names: list[str]) -> str:
+    return "subjectAltName=" + ",".join(_subject_names(names)) + "\n"
 
 
 def make_classroom_ca(out: str | Path, names: list[str] | None = None, extra_names: list[str] | tuple = (),
@@ -75,7 +87,9 @@ def make_classroom_ca(out: str | Path, names: list[str] | None = None, extra_nam
             raise ConfigError(f"{paths['ca_key']} is missing, and the server certificate must be issued again (for "
                               f"{', '.join(sorted(set(wanted) - named)) or 'its key'}): put ca.key back and run "
                               "again, or pass --new-ca to make a new CA (every rig and host then needs the new ca.crt)")
-    if set(wanted) <= named and all(path.exists() for path in paths.values()):
+    san_file = out / "san.ext"
+    current = san_file.exists() and san_file.read_text() == _san_line(sorted(named))  # else issued before the DNS twins
+    if set(wanted) <= named and current and all(path.exists() for path in paths.values()):
         return paths  # adding a rig keeps the CA and the certificate every rig and host already trusts
 
     def run(*args: str) -> None:
@@ -90,7 +104,7 @@ def make_classroom_ca(out: str | Path, names: list[str] | None = None, extra_nam
                 "/CN=pendkit classroom CA", "-keyout", "ca.key", "-out", "ca.crt")
         run("req", "-newkey", "rsa:2048", "-nodes", "-subj", "/CN=pendkit classroom broker", "-keyout", "server.key",
             "-out", "server.csr")
-        (out / "san.ext").write_text("subjectAltName=" + ",".join(_subject_names(wanted)) + "\n")
+        san_file.write_text(_san_line(wanted))
         run("x509", "-req", "-in", "server.csr", "-CA", "ca.crt", "-CAkey", "ca.key", "-CAcreateserial", "-days",
             str(CERT_DAYS), "-extfile", "san.ext", "-out", "server.crt")
     finally:
