@@ -24,11 +24,10 @@ def _rig_params(params_path: Path | None):
 def _learned_blob(run_dir: Path | None, policy_name: str | None, params_path: Path | None):
     """A trained policy as the device runs it, from RUN_DIR or a shipped policy, and the rig it was made for
     (--params, else the servo preset it was trained on)."""
-    from pendkit.rig import RigParams
-
     from pendkit.agents.runs import load_weights
     from pendkit.deploy.learned_blob import learned_policy_blob
     from pendkit.errors import ConfigError
+    from pendkit.rig import RigParams
 
     if policy_name is not None:
         from pendkit.agents.pretrained import policy_weights
@@ -120,12 +119,18 @@ def deploy(run_dir, policy_name, controller, params_path, blob_path, rig_id: str
            seconds: float | None, username, password, tls_ca) -> None:
     """Upload a controller to a rig, start it, stream its telemetry; Ctrl-C stops it (so does the rig's
     watchdog if this laptop goes away)."""
-    from pendkit.deploy.on_rig import (RigSession, angle_from_upright_rad, deploy_verdict, run_on_rig,
-                                       servo_range_problem, upload_to_rig)
-    from pendkit.rig import RigParams
+    from pendkit.deploy.on_rig import (
+        RigSession,
+        angle_from_upright_rad,
+        deploy_verdict,
+        run_on_rig,
+        servo_range_problem,
+        upload_to_rig,
+    )
     from pendkit.device.controller_blob import BlobError, pack, parse
     from pendkit.link import DEFAULT_BROKER
     from pendkit.link.driver import RigLink, check_rig_id
+    from pendkit.rig import RigParams
 
     check_rig_id(rig_id)
     if blob_path is not None:

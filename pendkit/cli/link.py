@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from pendkit.cli.broker_login import password_options
+from pendkit.cli.broker_login import broker_login_options, login_from, password_options
 from pendkit.link import DEFAULT_BROKER
 from pendkit.network import IMPAIRMENTS
 from pendkit.rig import SERVO_PRESETS
@@ -62,8 +62,16 @@ def broker_config(rig_ids: tuple[str, ...], out_dir: Path, port: int, bind: str,
         names = (paths["ca"].parent / "server-names.txt").read_text().split()
         click.echo(f"TLS on port {tls_port}: the certificate names {', '.join(names)}; give hosts and rigs "
                    f"{paths['ca']}; keep {paths['ca_key']} private")
-    click.echo(f"passwords for rigs, hosts and the instructor: {paths['credentials']} (keep it private)")
+    click.echo(f"passwords for rigs, hosts and the instructor: {paths['credentials']} (keep it private); each "
+               f"user's alone in {paths['logins']}/USER.txt: give a team its host-rNN.txt for --password-file")
     click.echo(f"start it with: mosquitto -c {paths['conf']}")
+    from pendkit.link.secret_files import folder_closed_to_broker
+
+    closed = folder_closed_to_broker(paths["conf"].parent)
+    if closed is not None:
+        click.echo(f"warning: Mosquitto drops to its own user, who cannot enter {closed}: it would not read the "
+                   "password file or the key; write the configuration in a folder others may enter (e.g. "
+                   "/srv/pendkit-broker) or let them pass (chmod o+x)")
 
 
 @click.command("virtual-rig")
@@ -125,7 +133,30 @@ def virtual_rig(rig_ids, broker_url, speed, impairment, credentials_path, tls_ca
     group.stop()
 
 
-COMMANDS = (broker, broker_config, virtual_rig)
+@click.command()
+@click.option("--broker", "broker_url", default=DEFAULT_BROKER, show_default=True)
+@click.option("--expect", "expected", multiple=True, help="A rig that should be there (repeatable): named if absent.")
+@broker_login_options
+def rigs(broker_url: str, expected: tuple[str, ...], username, password, tls_ca) -> None:
+    """The room's roll call: every rig the broker has heard from, online or not, with what its firmware drives
+    (log in as the instructor to see them all; a team's user sees its own rig)."""
+    from pendkit.link.roll_call import is_online, rig_line, roll_call
+
+    login = login_from(username, password, tls_ca)
+    statuses = roll_call(broker_url, **login.link_arguments())
+    for rig, status in statuses.items():
+        click.echo(rig_line(rig, status))
+    missing = [rig for rig in expected if rig not in statuses]
+    for rig in missing:
+        click.echo(f"{rig:<8} never reported to this broker: is it set up with its user and password (and the CA "
+                   "for TLS), and is its id on its label?")
+    online = sum(is_online(status) for status in statuses.values())
+    click.echo(f"{online} of {len(statuses) + len(missing)} rigs online on {broker_url}")
+    if missing or online < len(statuses):
+        raise SystemExit(1)
+
+
+COMMANDS = (broker, broker_config, virtual_rig, rigs)
 
 
 def _rig_logins(rig_ids, credentials_path: Path | None, username: str | None,

@@ -9,9 +9,9 @@ import time
 from collections.abc import Callable
 
 from pendkit.deploy.on_twin import DeployError
-from pendkit.features import SOLVED_TAIL_STEPS, UPRIGHT_RAD
 from pendkit.device.commands import frame_command
 from pendkit.device.onboard import blob_chunks
+from pendkit.features import SOLVED_TAIL_STEPS, UPRIGHT_RAD
 from pendkit.link.rig_backend import is_servo_counts_range, servo_mismatch
 
 HEARTBEAT_S = 0.05  # a third of the watchdog (150 ms by default): one or two lost heartbeats do not stop it

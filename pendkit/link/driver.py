@@ -189,14 +189,15 @@ class RigLink:
         info = self.client.publish(controller_topic(self.rig), chunk, qos=0)
         return info.rc == mqtt.MQTT_ERR_SUCCESS
 
-    def rigs_reporting(self, wait_s: float = 1.0) -> list[str]:
+    def rigs_reporting(self, wait_s: float = 1.0) -> dict[str, str]:
         """The rigs whose retained status this user may read on the broker (all of them for the instructor,
-        its own rig for a host user): how a typo in a rig id is told from a rig that is off."""
-        seen: set[str] = set()
+        its own rig for a host user), each with that status: how a typo in a rig id is told from a rig that
+        is off, and the room's roll call (`pendkit rigs`)."""
+        seen: dict[str, str] = {}
         wildcard = self.status_topic.rsplit("/", 1)[0] + "/+"
 
         def on_status(client, userdata, message) -> None:
-            seen.add(message.topic.rsplit("/", 1)[-1])
+            seen[message.topic.rsplit("/", 1)[-1]] = message.payload.decode("utf-8", errors="replace")[:2000]
             if message.topic == self.status_topic:
                 self._on_message(client, userdata, message)
 
@@ -205,12 +206,13 @@ class RigLink:
         time.sleep(wait_s)
         self.client.unsubscribe(wildcard)
         self.client.message_callback_remove(wildcard)
-        return sorted(seen)
+        return dict(sorted(seen.items()))
 
     def why_silent(self) -> str:
         """One line on why this rig does not answer (`pendkit.link.diagnose.why_rig_silent`)."""
         seen = self.rigs_reporting() if self.connected and self.status is None else None
-        return why_rig_silent(self.rig, self.username, self.connected, str(self.address), self.status, seen)
+        return why_rig_silent(self.rig, self.username, self.connected, str(self.address), self.status,
+                              None if seen is None else list(seen))
 
     def close(self) -> None:
         self.client.loop_stop()

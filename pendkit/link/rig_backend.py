@@ -156,7 +156,6 @@ class RigBackend:
         except json.JSONDecodeError:
             return
         device_range = status.get("servo_counts_range") if isinstance(status, dict) else None
-        host_range = [self.params.servo_min_counts, self.params.servo_max_counts]
         if device_range is None:
             return
         if not is_servo_counts_range(device_range):

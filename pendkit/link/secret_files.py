@@ -60,3 +60,21 @@ def write_private(path: str | Path, text: str, broker_reads: bool = False) -> No
         file.write(text)
     keep_private(temporary, broker_reads)
     os.replace(temporary, path)
+
+
+def folder_closed_to_broker(folder: str | Path) -> Path | None:
+    """The first folder on the way to `folder` that Mosquitto's own user cannot enter, where it will run as that
+    user (this runs as root and the user exists); None when it can enter them all, or runs as whoever we are."""
+    if not hasattr(os, "geteuid") or os.geteuid() != 0:
+        return None
+    try:
+        import grp
+
+        gid = grp.getgrnam(BROKER_GROUP).gr_gid
+    except (ImportError, KeyError):
+        return None
+    for step in reversed([Path(folder).resolve(), *Path(folder).resolve().parents]):
+        mode, owner_gid = step.stat().st_mode, step.stat().st_gid
+        if not (mode & 0o001 or (owner_gid == gid and mode & 0o010)):
+            return step
+    return None

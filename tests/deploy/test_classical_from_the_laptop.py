@@ -38,7 +38,7 @@ def test_one_source_only():
 @pytest.mark.parametrize("samples, expected", [
     ([(0.05 * k, 2.0 if k < 40 else 0.1) for k in range(200)], "verdict: held"),  # up at 2 s, 10 s run
     ([(0.05 * k, 0.1 if k < 150 else 1.0) for k in range(200)], "verdict: not held (not within 0.3 rad"),
-    ([(0.05 * k, 0.1) for k in range(40)], "verdict: not held (ran 2.0 s, the rule needs the last 4 s"),  # too short to judge
+    ([(0.05 * k, 0.1) for k in range(40)], "verdict: not held (ran 2.0 s, the rule needs the last 4 s"),  # too short
     ([], "verdict: not judged (no telemetry"),
 ])
 def test_the_deploy_verdict_follows_the_rules_tail(samples, expected):
