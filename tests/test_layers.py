@@ -15,7 +15,8 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "pendkit"
 LAYERS = (
-    ("pendkit", "errors", "env_name", "backend_contract", "gl_backend", "safe_write"),
+    ("pendkit", "errors", "env_name", "backend_contract", "gl_backend"),
+    ("safe_write",),
     ("rig", "encoder", "features", "wiring", "bom", "network"),
     ("device",),
     ("control", "firmware_constants"),
