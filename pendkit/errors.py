@@ -22,3 +22,13 @@ class FrameError(PendkitError, ValueError):
 
 class MissingExtraError(PendkitError, ImportError):
     """An optional dependency is missing; the message names the install command."""
+
+
+class RecordingError(PendkitError, ValueError):
+    """A rig's recording failed a check before identification (a stuck or jumping encoder, a device clock gone
+    back, readings lost, a servo range the status misreports); the message names the sensor or the clock."""
+
+
+class IdentificationError(PendkitError):
+    """An identification too poor to deploy from (its matching cost not finite, or hardly better than a
+    pendulum that never moved); the message says which."""

@@ -30,22 +30,27 @@ class DeviceTrace:
     unwrapped) and the servo counts applied;
     `loops_ms`: for each change of the target, the time from its send to the first reading that shows it
     (the host's clock; empty when the changes cannot be told apart); `host_ms`: when each reading arrived
-    (the host's clock, ms; empty in recordings made before it was kept)."""
+    (the host's clock, ms; empty in recordings made before it was kept); `clock_back_ms`: (from, to) device
+    times wherever the device's clock went back in the log (the readings after it are not kept above: a device
+    that restarted; `pendkit.adapt.recording_checks` refuses such a recording)."""
 
     ms: tuple[float, ...]
     pendulum_rad: tuple[float, ...]
     servo_counts: tuple[int, ...]
     loops_ms: tuple[float, ...] = ()
     host_ms: tuple[float, ...] = ()
+    clock_back_ms: tuple[tuple[float, float], ...] = ()
 
     def as_dict(self) -> dict:
         return {"ms": list(self.ms), "pendulum_rad": list(self.pendulum_rad), "servo_counts": list(self.servo_counts),
-                "loops_ms": list(self.loops_ms), "host_ms": list(self.host_ms)}
+                "loops_ms": list(self.loops_ms), "host_ms": list(self.host_ms),
+                "clock_back_ms": [list(pair) for pair in self.clock_back_ms]}
 
     @classmethod
     def from_dict(cls, record: dict) -> DeviceTrace:
         return cls(tuple(record["ms"]), tuple(record["pendulum_rad"]), tuple(int(c) for c in record["servo_counts"]),
-                   tuple(record["loops_ms"]), tuple(record.get("host_ms", ())))
+                   tuple(record["loops_ms"]), tuple(record.get("host_ms", ())),
+                   tuple((float(a), float(b)) for a, b in record.get("clock_back_ms", ())))
 
     def changes(self) -> list[tuple[float, int]]:
         """(ms, counts) of each change of the servo target, placed midway between the readings around it."""
@@ -61,6 +66,7 @@ def trace_from_log(records: list[LogRecord], start: int, encoder_counts: int = 1
         return None
     millis = np.concatenate([before.millis[-1:], during.millis])
     kept = np.concatenate([[True], millis[1:] > np.maximum.accumulate(millis)[:-1]])  # a device clock gone back
+    went_back = tuple((float(millis[k]), float(millis[k + 1])) for k in np.nonzero(np.diff(millis) < 0)[0])
     host_s = np.concatenate([before.host_time_s[-1:], during.host_time_s])[kept]
     positions = np.concatenate([before.position_counts[-1:], during.position_counts])[kept]
     counts = np.concatenate([before.servo_counts[-1:], during.servo_counts])[kept]
@@ -69,7 +75,7 @@ def trace_from_log(records: list[LogRecord], start: int, encoder_counts: int = 1
     angles = np.unwrap(positions * (2 * np.pi / encoder_counts))
     return DeviceTrace(tuple(float(m) for m in millis[kept]), tuple(float(a) for a in angles),
                        tuple(int(c) for c in counts), loops_ms(targets_sent(records, start), host_s, counts),
-                       tuple(float(t * 1000) for t in host_s))
+                       tuple(float(t * 1000) for t in host_s), went_back)
 
 
 def targets_sent(records: list[LogRecord], start: int) -> list[tuple[float, float]]:

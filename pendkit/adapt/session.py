@@ -23,10 +23,12 @@ from pathlib import Path
 
 import numpy as np
 
-from pendkit.adapt.excitation import EXCITATION_STREAM, Excitation, record, rest_offset_counts, schedule
+from pendkit.adapt.excitation import rest_offset_counts, schedule
+from pendkit.adapt.identification_trust import distrust, untrusted_markdown
 from pendkit.adapt.identify import PRIOR_LATENCY_MS, Identification, identify_best, refine_servo, rig_values
 from pendkit.adapt.network_fit import described, measured_network
 from pendkit.adapt.plots import plot_identification
+from pendkit.adapt.recording_checks import record_checked
 from pendkit.adapt.routes import (
     choose_on_twin,
     classical_on_device,
@@ -39,7 +41,7 @@ from pendkit.adapt.trials import Design, identified_design, trial_steps, try_on_
 from pendkit.adapt.uncertainty import fit_spread, spread_table
 from pendkit.control.names import SWING_UP_CONTROLLERS
 from pendkit.env_name import EPISODE_STEPS
-from pendkit.errors import ConfigError
+from pendkit.errors import ConfigError, IdentificationError
 from pendkit.rig import RigParams
 from pendkit.safe_write import check_no_links, write_bytes, write_text
 
@@ -102,6 +104,9 @@ class AdaptConfig:
     identification_evaluations: int = 1200
     identification_restarts: int = 3  # from the same recordings; the best match is kept (docs/results/transfer.md)
     refinement_evaluations: int = 300  # the servo refined over the loop episodes too, when there are any
+    # deploy from an identification `identification_trust.distrust` refuses (its matching cost hardly better than
+    # a pendulum that never moved): off, its report and figure are written and nothing deployable
+    deploy_untrusted: bool = False
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -131,19 +136,19 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     out = Path(out_dir)
     for name in OUTPUTS:  # a link planted where an output goes is refused before any rig time is spent
         check_no_links(out / name)
-    out.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
     report: dict = {"rig": rig.name, "config": dataclasses.asdict(config)}
 
-    env = rig.make_env(stream=EXCITATION_STREAM, log_dir=str(out / EXCITATION_LOGS), **Excitation.env_kwargs())
-    recordings = [record(env, excitation, seed=config.seed + k)
-                  for k, excitation in enumerate(schedule(config.excitation_episodes, config.loop_episodes))]
-    env.close()
+    # checked before anything is written: a refused recording (RecordingError) leaves no output behind
+    recordings, prior, logs = record_checked(rig, schedule(config.excitation_episodes, config.loop_episodes),
+                                             config.seed)
+    out.mkdir(parents=True, exist_ok=True)
+    for name, contents in logs.items():
+        write_bytes(out / EXCITATION_LOGS / name, contents, base=out)
     write_text(out / "excitation.json", json.dumps([r.as_dict() for r in recordings]))
     report["rig_s_excitation"] = rig.seconds()
     say(f"(a) {len(recordings)} excitation episodes: {report['rig_s_excitation']:.0f} s of rig time")
 
-    prior = rig.prior()
     jumps = recordings[:config.excitation_episodes]
     identification = identify_best(jumps, prior, config.identification_evaluations,
                                    seeds=[config.seed + k for k in range(config.identification_restarts)])
@@ -152,6 +157,12 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
         identification = refine_servo(identification, recordings, prior, config.refinement_evaluations)
         report["servo_refined"] = {"loop_episodes": len(recordings) - len(jumps),
                                    "before": rig_values(before.params, before.latency_ms)}
+    doubt = distrust(identification, recordings if "servo_refined" in report else jumps)
+    if doubt is not None and not config.deploy_untrusted:
+        not_deployed(identification, prior, recordings, report, out, doubt)
+    if doubt is not None:
+        report["untrusted"] = doubt
+        say(f"(b) deploying all the same (--deploy-untrusted), though {doubt}")
     identification = recalibrated(rig, recordings, identification, report, say)
     if config.measured_network:
         identification = with_measured_network(identification, recordings, report, say)
@@ -209,6 +220,19 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     write_text(out / "report.json", json.dumps(report, indent=1, default=float))
     write_text(out / "report.md", report_markdown(report))
     return report
+
+
+def not_deployed(identification: Identification, prior: RigParams, recordings, report: dict, out: Path,
+                 doubt: str) -> None:
+    """An identification not trusted (`doubt`): its report and the figure of its swings written, nothing
+    deployable (no rig.json, policy or blobs); raises IdentificationError."""
+    report.update(untrusted=doubt, identified=identification.values(), prior=rig_values(prior, PRIOR_LATENCY_MS),
+                  matching_cost={"prior": identification.prior_cost, "identified": identification.cost})
+    plot_identification(recordings, identification, out / "identification.png")
+    write_text(out / "report.json", json.dumps(report, indent=1, default=float))
+    write_text(out / "report.md", untrusted_markdown(report))
+    raise IdentificationError(f"identification not trusted: {doubt} Nothing deployed (the report and a figure of the "
+                              f"swings are in {out}; --deploy-untrusted deploys from it anyway)")
 
 
 def with_measured_network(identification: Identification, recordings, report: dict,
@@ -361,7 +385,10 @@ def report_markdown(report: dict) -> str:
     uncertain = report.get("uncertain", {})
     rows = "\n".join(f"| {name} | {report['prior'].get(name, float('nan')):.4g} | {value:.4g} | "
                      f"{_allowed(uncertain.get(name))} |" for name, value in report["identified"].items())
+    untrusted = report.get("untrusted")
     return (f"# Adaptation of {report['rig']}\n\n"
+            + (f"**Deployed from an identification not trusted** (`--deploy-untrusted`): {untrusted}\n\n"
+               if untrusted else "") +
             f"Rig time: {report['rig_s_adaptation']:.0f} s to adapt ({report['rig_s_excitation']:.0f} s of "
             f"excitation), {report['rig_s_total']:.0f} s with the evaluation; wall clock to adapt: "
             f"{report['wall_s_adaptation']:.0f} s.\n\n"
