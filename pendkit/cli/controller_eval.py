@@ -1,11 +1,17 @@
-"""`pendkit eval --controller energy|trajopt`: a classical swing-up run from the laptop on the twin or a rig,
-judged by the kit's rule (the `eval` command itself lives in `pendkit.cli.learning`)."""
+"""`pendkit eval --controller energy|trajopt`: a classical swing-up (energy pumping + LQR, or the minimum-time
+plan) run from the laptop on the twin or a rig, judged by the kit's rule as a learned policy is (the `eval`
+command itself lives in `pendkit.cli.learning`). The controller is designed for the env it runs on (its step,
+delays and servo), as the demo does; on a rig that is the rig's parameters (`--params` or a preset) behind
+the assumed network latency."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import click
+
+from pendkit.rig import RigParams
 
 
 def evaluate_controller(name: str, episodes: int, backend: str, rig_id: str, broker: str | None,
@@ -13,8 +19,6 @@ def evaluate_controller(name: str, episodes: int, backend: str, rig_id: str, bro
     """Print the rule, each episode's outcome, the verdict (`controller: controller_solved=K/10 (yes|no)`) and the
     summary line `solved=K/N median_upright_s=X`."""
     from pendkit.agents.policy_rule import REPORT_SEED, RULE_STARTS, RULE_TEXT
-    from pendkit.control.judge import controller_env, judge_controller, rule_verdict
-    from pendkit.rig import RigParams
 
     if preset is not None and params_path is not None:
         raise click.UsageError("give --preset or --params, not both")
@@ -45,3 +49,51 @@ def evaluate_controller(name: str, episodes: int, backend: str, rig_id: str, bro
         shown = " ".join(f"{k}={v}" for k, v in verdict.held_by_start().items())
         click.echo(f"controller: {verdict.summary('controller')}" + (f" {shown}" if shown else ""))
     click.echo(outcome.summary())
+
+
+def controller_env(params: RigParams, backend: str = "sim", rig: str = "r01", broker: str | None = None,
+                   rig_options: dict | None = None):
+    """The env a classical controller runs on: continuous actions, no env filter (the controller smooths its own
+    targets); the realistic twin, or the rig over MQTT."""
+    import pendkit
+
+    options = {"backend": "rig", "rig": rig, "broker": broker, "rig_options": rig_options} if backend == "rig" else {}
+    return pendkit.make(action_mode="continuous", filter_coefficient=0.0, fidelity="realistic", params=params,
+                        **options)
+
+
+def judge_controller(env, name: str, starts: list[str | None], seed: int,
+                     say: Callable[[str], None] | None = None):
+    """One episode per entry of `starts` (None: as the env starts, e.g. a rig hanging still), episode k from
+    seed `seed + k`; each judged by the rule's tail (held within 0.3 rad of upright for its last 200 steps)."""
+    from pendkit.agents.runs import SOLVED_TAIL_STEPS, Evaluation, held_fraction
+    from pendkit.demo import CONTROLLERS
+    from pendkit.episode import run_episode
+    from pendkit.features import holds_upright, time_to_upright_s
+
+    controller = CONTROLLERS[name](env)
+    outcome = Evaluation([], [], [], [])
+    for k, start in enumerate(starts):
+        trace = run_episode(env, controller, seed=seed + k, options={"start": start} if start else None)
+        angles = trace.pendulum_from_upright_rad
+        held = holds_upright(angles, SOLVED_TAIL_STEPS)
+        upright_s = time_to_upright_s(angles, env.unwrapped.dt)
+        outcome += Evaluation([held], [upright_s], [trace.episode_return], [held_fraction(angles)])
+        if say is not None:
+            where = f"from {start}" if start else "from rest"
+            shown = f"held, upright after {upright_s:.2f} s" if held else "not held"
+            say(f"episode {k + 1}/{len(starts)} {where}: {shown}")
+    return outcome
+
+
+def rule_verdict(outcome, starts: list[str | None], seed: int):
+    """The rule's verdict (a `PolicyVerdict`) over the first ten episodes when they are the rule's starts (or a
+    rig's, all from rest); None when fewer were run."""
+    from pendkit.agents.policy_rule import RULE_STARTS, PolicyVerdict
+    from pendkit.agents.runs import Evaluation
+
+    if len(starts) < len(RULE_STARTS):
+        return None
+    first = Evaluation(*(getattr(outcome, name)[:len(RULE_STARTS)]
+                         for name in ("solved", "upright_s", "returns", "held_fractions")))
+    return PolicyVerdict(first, tuple(starts[:len(RULE_STARTS)]), seed)
