@@ -2,7 +2,7 @@
 top of a file or inside a function, and no modules import each other in a circle.
 
 A new package takes a row here; the order is what the kit is built on (the rig's facts, the device's
-model, the controllers, the twin, the link, the env, the episode, the learners, deployment, the tools
+model, the controllers, the twin, the link, the env, the episode, the learners, deployment, the rig queue, the tools
 around them, the labs and adapt, the command line). The network model sits with the rig's facts: the twin
 and the link both build on it."""
 
@@ -26,6 +26,7 @@ LAYERS = (
     ("episode",),
     ("agents",),
     ("deploy",),
+    ("queue",),
     ("demo", "sweep", "grading", "widgets"),
     ("labs", "adapt"),
     ("cli",),
