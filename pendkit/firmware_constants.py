@@ -10,6 +10,8 @@ from __future__ import annotations
 from pendkit.device.logic import STUCK_BAD_FRAMES, STUCK_TRAVEL_COUNTS
 from pendkit.rig import RigParams
 
+FLOAT32_MAX = 3.4028234663852886e38
+
 
 def render_header(params: RigParams | None = None) -> str:
     p = params or RigParams()
@@ -38,5 +40,31 @@ def render_header(params: RigParams | None = None) -> str:
     for name, kind, value, comment in values:
         literal = repr(float(value)) if kind == "double" else str(int(value))
         lines.append(f"constexpr {kind} {name} = {literal};  // {comment}")
-    lines += ["", "}  // namespace pend", ""]
+    lines += ["", *model_range_lines(), "", "}  // namespace pend", ""]
     return "\n".join(lines)
+
+
+def model_range_lines() -> list[str]:
+    """An observer model's physical ranges, in MODEL_FIELDS' order (pendkit.device.physical_ranges: the kit's
+    rig with margins, whatever the servo the header is written for), so both parsers refuse the same blobs."""
+    from pendkit.device.physical_ranges import MODEL_RANGES, SWING_UP_RANGES
+    from pendkit.device.swingup_blob import SCALARS
+
+    unbounded = (-FLOAT32_MAX, FLOAT32_MAX)  # a controller's gains: any finite float
+    swing_up = [SWING_UP_RANGES.get(name, unbounded) for name in SCALARS]
+    return ["// An observer model's physical ranges (pendkit/device/physical_ranges.py), in MODEL_FIELDS' order:",
+            "// arm, pendulum and long-axis inertias, coupling, gravity torque, pendulum and arm damping, kp, kv,",
+            "// stall torque, servo range",
+            *_array("kObserverModelMin", [low for low, _ in MODEL_RANGES.values()]),
+            *_array("kObserverModelMax", [high for _, high in MODEL_RANGES.values()]),
+            "// A swing-up blob's scalars' ranges, in SCALARS' order (pendkit/device/swingup_blob.py): its model's",
+            "// terms physical, its gains any finite float",
+            *_array("kSwingUpScalarMin", [low for low, _ in swing_up]),
+            *_array("kSwingUpScalarMax", [high for _, high in swing_up])]
+
+
+def _array(name: str, values: list[float]) -> list[str]:
+    """A constexpr array of doubles, a few to a line."""
+    literals = [repr(float(value)) for value in values]
+    rows = [", ".join(literals[k:k + 4]) for k in range(0, len(literals), 4)]
+    return [f"constexpr double {name}[{len(values)}] = {{", *[f"    {row}," for row in rows], "};"]

@@ -17,6 +17,9 @@ from pendkit.errors import ConfigError
 
 GRAVITY_M_S2 = 9.81
 KG_CM_TO_N_M = GRAVITY_M_S2 / 100.0
+# Allowed ranges of fields a device blob carries too (pendkit.device.physical_ranges reads them)
+PENDULUM_DAMPING_RANGE_N_M_S_PER_RAD = (0.0, 1.0)
+SERVO_RANGE_RANGE_DEG = (1.0, 180.0)
 
 
 @dataclass(frozen=True)
@@ -111,10 +114,11 @@ class RigParams:
                 raise ConfigError(f"{field.name} must be > 0, got {value!r}")
             if isinstance(value, float) and not math.isfinite(value):
                 raise ConfigError(f"{field.name} must be finite, got {value!r}")
-        _check_range("pendulum_damping_n_m_s_per_rad", self.pendulum_damping_n_m_s_per_rad, 0.0, 1.0)
+        _check_range("pendulum_damping_n_m_s_per_rad", self.pendulum_damping_n_m_s_per_rad,
+                     *PENDULUM_DAMPING_RANGE_N_M_S_PER_RAD)
         _check_range("encoder_counts", self.encoder_counts, 2, 1 << 16)
         _check_range("encoder_offset_counts", self.encoder_offset_counts, 0, self.encoder_counts - 1)
-        _check_range("servo_range_deg", self.servo_range_deg, 1.0, 180.0)
+        _check_range("servo_range_deg", self.servo_range_deg, *SERVO_RANGE_RANGE_DEG)
         _check_range("servo_damping_ratio", self.servo_damping_ratio, 0.0, 5.0)
         _check_range("servo_reflected_inertia_kg_m2", self.servo_reflected_inertia_kg_m2, 0.0, 1.0)
         _check_range("servo_min_counts", self.servo_min_counts, 0, self.pwm_resolution_counts - 1)

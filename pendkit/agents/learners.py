@@ -97,6 +97,10 @@ def check_agent_settings(name: str, settings: dict) -> None:
     if unknown:
         raise ConfigError(f"agent: {', '.join(map(str, unknown))} is not a setting of {name}; its settings: "
                           f"{', '.join(sorted(known))}")
+    from pendkit.agents.spec_checks import check_agent_types, check_agent_values
+
+    check_agent_values(settings)  # sizes in their bounds
+    check_agent_types(config_class, settings)
     try:
         config_class(**settings)
     except (TypeError, ValueError) as error:

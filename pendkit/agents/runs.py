@@ -12,7 +12,7 @@ from pathlib import Path
 
 from pendkit.agents.base import Agent
 from pendkit.agents.inputs import StepInputs
-from pendkit.agents.learners import build_learner, learner
+from pendkit.agents.learners import build_learner, check_agent_settings, learner
 from pendkit.env import OBSERVED_SOURCES
 from pendkit.errors import ConfigError
 from pendkit.features import SOLVED_TAIL_STEPS
@@ -43,23 +43,30 @@ class RunSpec:
     observer: str = "base"
 
     def __post_init__(self) -> None:
-        learner(self.learner)  # a clear error for an unknown name
-        if self.observer not in OBSERVERS:
+        from pendkit.agents.spec_checks import check_run_spec
+
+        check_run_spec(self)  # every field's type and range (a run folder is input like any other)
+        learner(self.learner)  # an unknown name, with the known ones
+        if not isinstance(self.observer, str) or self.observer not in OBSERVERS:
             raise ConfigError(f"observer must be one of {', '.join(OBSERVERS)}, got {self.observer!r}")
-        if self.delay_steps < 0:
-            raise ConfigError(f"delay_steps must be >= 0, got {self.delay_steps}")
 
     def to_dict(self) -> dict:
         return asdict(self)
 
     @classmethod
     def from_dict(cls, record: dict) -> RunSpec:
-        """From `to_dict`'s output (or a run's config.json, whose older form said "algo")."""
+        """From `to_dict`'s output (or a run's config.json, whose older form said "algo"), every field and agent
+        setting checked (`pendkit.agents.spec_checks`)."""
+        if not isinstance(record, dict):
+            raise ConfigError(f"a run spec is an object of named fields, got {type(record).__name__}")
         known = {f.name for f in fields(cls)}
         values = {key: value for key, value in record.items() if key in known}
         if "learner" not in values and "algo" in record:
             values["learner"] = record["algo"]
-        return cls(**values)
+        spec = cls(**values)
+        if spec.agent:
+            check_agent_settings(spec.learner, spec.agent)  # the agent's own names and types (imports torch)
+        return spec
 
 
 def make_env(spec: RunSpec, **env_options):
@@ -115,12 +122,12 @@ def load_weights(path: str | Path) -> tuple[RunSpec, dict]:
     record = load_data(path)
     try:
         if isinstance(record, dict) and record.get("format") == WEIGHTS_FORMAT:
-            return RunSpec.from_dict(dict(record["spec"])), record["agent"]
+            return RunSpec.from_dict(record["spec"]), record["agent"]
         config = path.parent / "config.json"
         if isinstance(record, dict) and "agent" in record and config.exists():
             return RunSpec.from_dict(json.loads(config.read_text())), record["agent"]
     except (TypeError, ValueError, KeyError) as error:
-        raise ConfigError(f"{path}: its run spec is not one the kit can build ({error})") from None
+        raise ConfigError(f"{path}: its run spec is not one the kit can build: {error}") from None
     raise ConfigError(f"{path} is neither a weights file ({WEIGHTS_FORMAT}) nor a checkpoint beside its config.json")
 
 

@@ -159,17 +159,17 @@ def evaluate(run_dir: Path | None, policy_name: str | None, controller: str | No
     import dataclasses
 
     from pendkit.agents.policy_rule import REPORT_SEED, RULE_STARTS, RULE_TEXT, PolicyVerdict
-    from pendkit.agents.runs import build_run, evaluate_agent, load_weights, make_env
+    from pendkit.agents.run_folder import load_run, restore
+    from pendkit.agents.runs import build_run, evaluate_agent, make_env
     from pendkit.errors import ConfigError
 
     try:
         if policy_name is not None:
             from pendkit.agents.pretrained import policy_weights
 
-            spec, state = policy_weights(policy_name)
+            (spec, state), source = policy_weights(policy_name), f"policy {policy_name}"
         else:
-            weights = run_dir / "final.pt" if (run_dir / "final.pt").exists() else run_dir / "checkpoint.pt"
-            spec, state = load_weights(weights)
+            spec, state, source = load_run(run_dir)  # checked: a crafted folder is one line (issue 72)
         spec = dataclasses.replace(spec, preset=preset or spec.preset, randomize="")
         login = login_from(username, password, tls_ca)
         options = ({"backend": "rig", "rig": rig_id, "broker": broker, "rig_options": login.rig_options() or None}
@@ -186,8 +186,12 @@ def evaluate(run_dir: Path | None, policy_name: str | None, controller: str | No
         env = make_env(spec, **options)
     except ConfigError as error:
         raise click.ClickException(str(error)) from None
-    _, agent, inputs = build_run(spec, env)
-    agent.load_state_dict(state)
+    try:
+        _, agent, inputs = build_run(spec, env)
+        restore(agent, state, source)
+    except ConfigError:
+        env.close()
+        raise
     seed = REPORT_SEED if seed is None else seed
     starts = [RULE_STARTS[k % len(RULE_STARTS)] for k in range(episodes)] if start == "rule" else start
     try:

@@ -10,14 +10,16 @@ DEVICE_LEARNERS = {"r-dqn": 1, "r-td3+both": 2}
 
 
 def learned_policy_blob(spec, state: dict | None, params=None, observer=None, trained_timing=None, run=None,
-                        timing=None):
+                        timing=None, source: str = "the policy's weights"):
     """The `PolicyBlob` of a trained agent (`spec`, its policy state) for a rig of `params` (default: the
     learner's own twin). Layout 2: `observer`, the rig or the bank of rigs its observers are designed for
     (default what the laptop would give it on a rig nobody identified, `pendkit.agents.rig_suite`), on the
     delays `observer_timing` chooses; `trained_timing`: the `BackendTiming` its observers had in training
     (default its own twin's); `timing`: the delays to design them for instead (a study's). `run`: (env, agent,
-    inputs) already built and loaded, in place of `state` (the env is closed here)."""
+    inputs) already built and loaded, in place of `state` (the env is closed here); `source`: where `state` came
+    from, named when it does not fit (`pendkit.agents.run_folder.restore`)."""
     from pendkit.agents.rig_suite import unknown_rig_observer
+    from pendkit.agents.run_folder import restore
     from pendkit.agents.runs import build_run
     from pendkit.deploy.export import observed_policy_blob, policy_blob
 
@@ -27,7 +29,11 @@ def learned_policy_blob(spec, state: dict | None, params=None, observer=None, tr
                           "run (docs/on-device.md says what exists)")
     if run is None:
         env, agent, inputs = build_run(spec)
-        agent.load_policy(state)
+        try:
+            restore(agent, state, source, policy_only=True)
+        except ConfigError:
+            env.close()
+            raise
     else:
         env, agent, inputs = run
     env.close()

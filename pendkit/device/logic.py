@@ -134,7 +134,7 @@ class McuLogic:
         self._onboard_was_running = self.onboard.running
         policy_runs = self.onboard.running and self.onboard.runs_a_policy
         if policy_runs:
-            action = self.onboard.runtime.tick(self.last_observation, now_ms)
+            action = self.onboard.policy_tick(self.last_observation, now_ms)
             if action is None:
                 pass
             elif self.onboard.runtime.continuous:  # a target, already through its own filter
@@ -143,7 +143,8 @@ class McuLogic:
                 self.command = discrete_command(action, p)
         if self.onboard.running and raw_counts is not None and not self.onboard.runs_a_policy:
             target_rad = self.onboard.tick(self.pendulum_rad(raw_counts), p.servo_counts_to_rad(self.servo_counts))
-            wanted = round_half_up(p.servo_centre_counts + target_rad / p.servo_rad_per_count)
+            counts = p.servo_centre_counts + target_rad / p.servo_rad_per_count
+            wanted = round_half_up(counts) if math.isfinite(counts) else self.servo_counts  # diverged: hold
         elif self.command.mode == "continuous":
             c = 0.0 if policy_runs else self.device_filter
             self._filtered_unit = c * self._filtered_unit + (1 - c) * self.command.target_unit

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pendkit.device.blob_parts import BlobError, f32
+from pendkit.device.physical_ranges import model_problem
 
 MODEL_FIELDS = ("arm_inertia_kg_m2", "pendulum_inertia_kg_m2", "pendulum_long_axis_inertia_kg_m2", "coupling_kg_m2",
                 "gravity_torque_n_m", "pendulum_damping_n_m_s_per_rad", "arm_damping_n_m_s_per_rad",
@@ -61,5 +62,9 @@ def parse_observers(reader) -> ObserverSection:
     models = np.stack(models)
     if np.any(models[:, [0, 1, 2, 4, 9, 10]] <= 0):
         raise BlobError("an observer's model needs positive inertias, gravity torque, stall torque and range")
+    for k, model in enumerate(models):
+        problem = model_problem(model)  # each term in its physical range (the firmware's parser agrees)
+        if problem is not None:
+            raise BlobError(f"observer {k + 1} of {count}: {problem}")
     return ObserverSection(models, np.stack(gains), float(actuation_s), float(reading_s), float(forgetting),
                            float(coefficient), int(seen))

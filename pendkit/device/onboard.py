@@ -14,11 +14,13 @@ command (the host takes over). The safety stops act after the controller, as on 
 
 from __future__ import annotations
 
+import math
 import struct
 import zlib
 
 from pendkit.device.controller_blob import MAX_BLOB_BYTES, BlobError, parse
 
+DIVERGED = (ArithmeticError, ValueError)  # math.sin(inf) and friends: NaN in the C++ core
 CHUNK_MAGIC = b"PKUP"
 CHUNK_HEADER = struct.Struct("<4sII")
 MAX_CHUNK_BYTES = 1024
@@ -117,8 +119,20 @@ class OnboardController:
         self.running = False
 
     def tick(self, pendulum_rad: float, target_in_force_rad: float) -> float:
-        """A swing-up's acting tick: the target (rad) to hold."""
-        return self.runtime.tick(pendulum_rad, target_in_force_rad)
+        """A swing-up's acting tick: the target (rad) to hold; NaN where its arithmetic failed (Python raises
+        where the C++ core's floats go NaN: the device then holds the servo, as the firmware does)."""
+        try:
+            return self.runtime.tick(pendulum_rad, target_in_force_rad)
+        except DIVERGED:
+            return math.nan
+
+    def policy_tick(self, observation, now_ms: float):
+        """A policy's acting tick: its decision, or None (none this tick, or its arithmetic failed: the servo
+        holds its target, as in the C++ core)."""
+        try:
+            return self.runtime.tick(observation, now_ms)
+        except DIVERGED:
+            return None
 
     @property
     def runs_a_policy(self) -> bool:

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pendkit.device.blob_parts import BlobError, f32
+from pendkit.device.physical_ranges import swing_up_problem
 
 HEADER = struct.Struct("<HHHH")
 SCALARS = ("period_s", "acting_period_s", "observer_angle_gain", "observer_rate_gain", "natural_frequency_rad_s",
@@ -79,6 +80,9 @@ def parse_payload(reader) -> SwingUpBlob:
             raise BlobError(f"{name} must be positive")
     if values["period_s"] < values["acting_period_s"] or not 0 <= values["filter_coefficient"] < 1:
         raise BlobError("the control step must be at least one acting tick, the filter coefficient in [0, 1)")
+    problem = swing_up_problem(values)  # the model's terms in their physical ranges (the firmware's parser agrees)
+    if problem is not None:
+        raise BlobError(f"the swing-up's {problem}")
     blob = SwingUpBlob(values, reader.floats(5), reader.floats(5),
                        reader.floats(steps), reader.floats(steps, 5), reader.floats(steps, 5), settle, warmup)
     return blob

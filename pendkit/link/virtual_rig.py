@@ -74,6 +74,7 @@ class VirtualRig:
         self._outbox: list[tuple[float, int, str]] = []
         self._sent = 0
         self.lost_observations = self.lost_commands = self.published = 0
+        self._refusals_said = 0  # uploads the device refused, already logged
         # Rig time as the rig sees it: messages that reached it on its command topic, and when the first
         # and the last arrived (host bookkeeping never enters this count).
         self.commands_received = 0
@@ -180,6 +181,7 @@ class VirtualRig:
         if ticks > 0:
             self.device.run(ticks, self._emit)
             self.device.handle_events_now(self._emit)  # a reading due at this very tick leaves now
+        self._log_refusals()
         if self.device.scheduler.status_requested:
             self.device.scheduler.status_requested = False
             self.publish_status()
@@ -187,6 +189,13 @@ class VirtualRig:
             _, _, line = heapq.heappop(self._outbox)
             self.client.publish(self.obs_topic, line, qos=0)
             self.published += 1
+
+    def _log_refusals(self) -> None:
+        """One log line per uploaded controller the device refused (its status says why, too)."""
+        onboard = self.device.mcu.onboard
+        if onboard.blobs_refused != self._refusals_said:
+            self._refusals_said = onboard.blobs_refused
+            LOG.warning("virtual rig %s refused an uploaded controller: %s", self.rig, onboard.last_refusal)
 
     def _emit(self, now_ms: float, observation: McuObservation) -> None:
         delivery_ms = self._network.observation_delivery_ms(now_ms)
@@ -220,6 +229,7 @@ class VirtualRigGroup:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.late_ticks = 0
+        self._failures: dict[str, tuple[str, str]] = {}  # each rig's last failure, logged once
 
     def start(self, connect_timeout_s: float = 5.0) -> VirtualRigGroup:
         for rig in self.rigs:
@@ -238,8 +248,11 @@ class VirtualRigGroup:
             for rig in self.rigs:
                 try:
                     rig.advance(now)
-                except Exception:  # one rig's bug must not stop the others
-                    LOG.exception("virtual rig %s failed a tick", rig.rig)
+                except Exception as error:  # one rig's bug must not stop the others, nor fill the log every tick
+                    said = (type(error).__name__, str(error))
+                    if self._failures.get(rig.rig) != said:
+                        self._failures[rig.rig] = said
+                        LOG.exception("virtual rig %s failed a tick (said once until the failure changes)", rig.rig)
             wake = min(rig.next_wake_s() for rig in self.rigs)
             pause = wake - time.monotonic()
             if pause > 0:

@@ -230,8 +230,11 @@ def _setting_value(kind: str, value, folder: Path):
             raise ConfigError(f"fidelities: unknown {value!r}; choose from {', '.join(FIDELITY_PRESETS)}")
         return value
     if kind == "delay_steps":
-        if not isinstance(value, int) or isinstance(value, bool) or value < 0:
-            raise ConfigError(f"delay_steps: whole steps >= 0, got {value!r}")
+        from pendkit.agents.spec_checks import SPEC_BOUNDS, is_whole
+
+        high = SPEC_BOUNDS["delay_steps"][1]  # as a run's spec takes it
+        if not is_whole(value) or not 0 <= value <= high:
+            raise ConfigError(f"delay_steps: whole steps >= 0 and <= {high}, got {value!r}")
         return value
     if kind == "delay_ms":
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < 10_000:

@@ -186,6 +186,7 @@ def upload_scenarios() -> list[dict]:
         "garbage and a chunk past the end": [b"PKUP", b"hello", CHUNK_HEADER.pack(CHUNK_MAGIC, 0, 10) + bytes(20)],
         "a second upload replaces the first": chunks + chunks,
         "a restart at offset 0 drops the partial one": chunks[:2] + chunks,
+        **physical_range_scenarios(),
     }
     out = []
     for name, sequence in scenarios.items():
@@ -196,6 +197,39 @@ def upload_scenarios() -> list[dict]:
             statuses.append({key: device.status()[key] for key in STATUS_KEYS})
         out.append({"name": name, "chunks": [chunk.hex() for chunk in sequence], "status_after": statuses})
     return out
+
+
+def observed_blob(changes: dict[str, float] | None = None):
+    """A small layout-2 policy (no GRU, one tanh layer of zeros) whose one observer is the kit's rig with
+    `changes` to its model (MODEL_FIELDS' names)."""
+    from pendkit.deploy.export import observer_section
+    from pendkit.device.observer_blob import MODEL_FIELDS
+    from pendkit.device.policy_blob import PolicyBlob
+    from pendkit.rig import RigParams
+
+    params = RigParams()
+    section = observer_section([params], params, 0.85)
+    models = section.models.copy()
+    for name, value in (changes or {}).items():
+        models[:, MODEL_FIELDS.index(name)] = value
+    network = NetworkBlob(np.zeros(15, np.float32), np.ones(15, np.float32), 5.0,
+                          [DenseLayer(np.zeros((1, 15), np.float32), np.zeros(1, np.float32), "tanh")], None,
+                          "continuous")
+    return PolicyBlob(network, params.control_step_ms / 1000, params.acting_period_ms / 1000, 1, 2,
+                      dataclasses.replace(section, models=models))
+
+
+def physical_range_scenarios() -> dict[str, list[bytes]]:
+    """Blobs whose rig parameters no rig has, refused by both parsers (pendkit.device.physical_ranges), beside
+    the same blob with the kit's own rig, accepted."""
+    swing_up = design_swing_up(None, "energy")
+    stiff = dataclasses.replace(swing_up, scalars={**swing_up.scalars, "servo_kp_per_inertia": 1e30})
+    return {"an observer of the kit's rig": blob_chunks(pack(observed_blob())),
+            "an observer of a 1e-38 kg m^2 pendulum": blob_chunks(pack(observed_blob(
+                {"pendulum_inertia_kg_m2": 1e-38}))),
+            "an observer whose mass matrix no rigid body has": blob_chunks(pack(observed_blob(
+                {"coupling_kg_m2": 0.0075}))),
+            "a swing-up of servo gain 1e30 per unit of inertia": blob_chunks(pack(stiff))}
 
 
 def write_pktv(path: Path, rows: np.ndarray) -> None:

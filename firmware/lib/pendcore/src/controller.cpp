@@ -1,5 +1,6 @@
 #include "controller.h"
 
+#include "rig_constants.h"
 #include "swingup.h"
 
 #include <cmath>
@@ -7,6 +8,9 @@
 #include <initializer_list>
 
 namespace pend {
+
+static_assert(sizeof kSwingUpScalarMin / sizeof kSwingUpScalarMin[0] == kScalarCount,
+              "rig_constants.h's swing-up ranges are pendkit.device.swingup_blob.SCALARS'");
 
 namespace {
 
@@ -135,6 +139,9 @@ BlobStatus parse_swing_up(const uint8_t* payload, size_t length, SwingUpParams& 
   }
   if (value[kPeriodS] < value[kActingPeriodS] || !(value[kFilterCoefficient] >= 0.0f && value[kFilterCoefficient] < 1.0f)) {
     return BlobStatus::kBadShape;
+  }
+  for (size_t i = 0; i < kScalarCount; ++i) {  // the model's terms in their physical ranges, as the Python parser
+    if (!(value[i] >= kSwingUpScalarMin[i] && value[i] <= kSwingUpScalarMax[i])) return BlobStatus::kBadShape;
   }
   for (size_t i = 0; i < kScalarCount; ++i) out.scalar[i] = value[i];
   for (size_t i = 0; i < 5; ++i) {

@@ -118,7 +118,8 @@ int32_t Device::act(uint32_t now_ms, int32_t raw_counts) {
   }
   if (onboard_.running() && !onboard_.runs_policy() && raw_counts >= 0) {
     const float target_rad = onboard_.tick(pendulum_rad(raw_counts), servo_rad(servo_counts_));
-    wanted = round_half_up(kServoCentreCounts + static_cast<double>(target_rad) * kServoSpanCounts / (2 * kServoRangeRad));
+    const double counts = kServoCentreCounts + static_cast<double>(target_rad) * kServoSpanCounts / (2 * kServoRangeRad);
+    wanted = std::isfinite(counts) ? round_half_up(counts) : servo_counts_;  // diverged (NaN): hold where it is
   } else if (!discrete_) {
     const double c = policy_runs ? 0.0 : device_filter_;
     filtered_unit_ = c * filtered_unit_ + (1 - c) * target_unit_;

@@ -4,7 +4,12 @@
 #include <cstring>
 #include <initializer_list>
 
+#include "rig_constants.h"
+
 namespace pend {
+
+static_assert(sizeof kObserverModelMin / sizeof kObserverModelMin[0] == kObserverModelFields,
+              "rig_constants.h's observer ranges are pendkit.device.observer_blob.MODEL_FIELDS'");
 
 namespace {
 
@@ -19,6 +24,19 @@ float read_f32(const uint8_t* p) {
   std::memcpy(&value, &bits, sizeof value);
   return value;
 }
+
+// Each model term in its physical range and a mass matrix positive at every pendulum angle, as the Python
+// parser checks them (pendkit/device/physical_ranges.py): a pendulum of 1e-38 kg m^2 is refused, not divided by.
+bool physically_possible(const uint8_t* model) {
+  double value[kObserverModelFields];
+  for (size_t i = 0; i < kObserverModelFields; ++i) {
+    value[i] = read_f32(model + 4 * i);
+    if (!(value[i] >= kObserverModelMin[i] && value[i] <= kObserverModelMax[i])) return false;
+  }
+  const double arm = value[0], pendulum = value[1], long_axis = value[2], coupling = value[3];
+  return arm * pendulum > coupling * coupling && arm + pendulum > long_axis;
+}
+
 // Python's floored modulo (the result takes the divisor's sign).
 double floored_mod(double value, double by) {
   const double m = std::fmod(value, by);
@@ -160,6 +178,7 @@ size_t ObserverBank::check(const uint8_t* data, size_t length, uint16_t& actions
     for (size_t i : {0u, 1u, 2u, 4u, 9u, 10u}) {  // inertias, gravity torque, stall torque, range
       if (!(read_f32(at + 4 * i) > 0)) return 0;
     }
+    if (!physically_possible(at)) return 0;
   }
   actions_seen = seen;
   return bytes;
