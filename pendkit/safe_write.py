@@ -116,9 +116,9 @@ def make_folder(path: str | Path, base: str | Path | None = None) -> Path:
 
 @contextlib.contextmanager
 def replacing(path: str | Path, base: str | Path | None = None, binary: bool = False,
-              newline: str | None = None) -> Iterator[io.IOBase]:
+              newline: str | None = None, mode: int = 0o666) -> Iterator[io.IOBase]:
     """A file to write `path`'s new contents into, put in its place when the block ends without an error
-    (its folders made as `make_folder` does)."""
+    (its folders made as `make_folder` does); `mode` as os.open's (the umask applies)."""
     path = Path(path)
     base, names = _levels(path, None if base is None else Path(base))
     *folders, name = names
@@ -128,7 +128,7 @@ def replacing(path: str | Path, base: str | Path | None = None, binary: bool = F
             raise refusal(path, path)
         temporary = f".{name}.{secrets.token_hex(4)}.tmp"
         flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | _NOFOLLOW | getattr(os, "O_BINARY", 0)
-        handle = os.open(temporary if fd is not None else where / temporary, flags, 0o666,
+        handle = os.open(temporary if fd is not None else where / temporary, flags, mode,
                          **({"dir_fd": fd} if fd is not None else {}))
         try:
             with (os.fdopen(handle, "wb") if binary else
@@ -146,8 +146,9 @@ def replacing(path: str | Path, base: str | Path | None = None, binary: bool = F
             raise
 
 
-def write_text(path: str | Path, text: str, base: str | Path | None = None, newline: str | None = None) -> Path:
-    with replacing(path, base, newline=newline) as file:
+def write_text(path: str | Path, text: str, base: str | Path | None = None, newline: str | None = None,
+               mode: int = 0o666) -> Path:
+    with replacing(path, base, newline=newline, mode=mode) as file:
         file.write(text)
     return Path(path)
 

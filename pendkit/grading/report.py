@@ -52,7 +52,7 @@ def write_reports(grades: list[SubmissionGrade], out: Path) -> Path:
     out.mkdir(parents=True, exist_ok=True)
     for grade in grades:
         path = out / report_folder(grade.student) / "results.json"
-        write_text(path, json.dumps(gradescope_results(grade), indent=2) + "\n", base=out, newline="")
+        write_text(path, json.dumps(gradescope_results(grade), indent=2) + "\n", base=out, newline="", mode=0o600)
     task_ids = list(dict.fromkeys(t.task for g in grades for t in g.tasks))  # lab order
     questions = list(dict.fromkeys(a.question for g in grades for a in g.written))
     buffer = io.StringIO()
@@ -67,7 +67,7 @@ def write_reports(grades: list[SubmissionGrade], out: Path) -> Path:
                          *["" if q.id in answered else "0 (no answer)" for q in questions],
                          grade.notebook, " | ".join(grade.notes)])
     csv_path = out / "grades.csv"
-    write_text(csv_path, buffer.getvalue(), base=out, newline="")
+    write_text(csv_path, buffer.getvalue(), base=out, newline="", mode=0o600)  # grades: the instructor's eyes only
     return csv_path
 
 
