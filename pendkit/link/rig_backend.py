@@ -220,8 +220,8 @@ class RigBackend:
             age = "none yet" if newest is None else f"the last {now - newest.receive_time_s:.2f} s ago"
             state = "connected" if self.link.connected else "NOT connected (reconnecting)"
             if newest is None and self.link.connected:  # never heard from: name the likely cause
-                raise RigLinkError(f"no observation from rig {self.rig} within {self.observation_timeout_s:g} s: "
-                                   f"{self.link.why_silent()}")
+                raise RigLinkError(f"no observation from rig {self.rig} within {self.observation_timeout_s:g} s "
+                                   f"(none yet): {self.link.why_silent()}")
             raise RigLinkError(f"no observation from rig {self.rig} within {self.observation_timeout_s:g} s ({age}); "
                                f"the link to {self.link.address} is {state}. Check that the rig is powered and "
                                "online, and the broker running; the env works again once observations flow.")

@@ -9,7 +9,7 @@ from pendkit.link.broker import MosquittoBroker
 from tests.system_needs import needs
 
 RIG_COMMANDS = [["eval", "--policy", "dqn-ideal", "--backend", "rig"], ["deploy", "--controller", "energy"],
-                ["train", "--backend", "rig"], ["adapt", "--out", "unused"], ["virtual-rig"]]
+                ["train", "--backend", "rig"], ["adapt", "--out", "unused"], ["virtual-rig"], ["rigs"]]
 
 
 def every_command_with_a_password_option():
@@ -24,7 +24,8 @@ def test_every_command_with_a_password_is_covered():
 
 @pytest.mark.parametrize("command", RIG_COMMANDS, ids=lambda c: c[0])
 def test_a_password_on_the_command_line_is_refused_before_anything_runs(command):
-    result = CliRunner().invoke(main, [*command, "--rig", "r01", "--username", "r01", "--password", "s3cret"])
+    rig = [] if command[0] == "rigs" else ["--rig", "r01"]
+    result = CliRunner().invoke(main, [*command, *rig, "--username", "r01", "--password", "s3cret"])
     assert result.exit_code == 2, result.output
     assert "visible to every user of this machine" in result.output and "PENDKIT_MQTT_PASSWORD" in result.output
 
