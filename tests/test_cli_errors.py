@@ -25,6 +25,7 @@ BAD = {
     "labs": ["labs", "build", "--solutions", "not-a-run"],
     "plot": ["plot", "not-a-run"],
     "policies": ["policies", "build", "no-such-policy"],
+    "queue": ["queue", "submit", "--controller", "energy", "--excitation"],
     "rigs": ["rigs", "--broker", "mqtt://127.0.0.1:0"],
     "sweep": ["sweep", "no-such-spec.yaml", "--out", "s"],
     "train": ["train", "--episodes", "0"],
@@ -51,6 +52,17 @@ MORE_BAD = [
     (["sweep", "report", "not-a-run"], "not a sweep folder"),
     (["adapt", "--backend", "sim", "--out", "o", "--loop-episodes", "-1"], "not in the range"),
     (["adapt", "--backend", "sim", "--out", "o", "--candidate", "r-td3-bank-robst"], "not a shipped policy"),
+    (["queue", "serve", "--tls-cert", "not-a-run"], "is a directory"),
+    (["queue", "serve", "--db", "nosuchdialect://x"], "queue database"),
+    (["queue", "submit", "--controller", "energy", "--blob", "x.pkcb"], "does not exist"),
+    (["queue", "submit", "--policy", "r-dqn-realistic", "--controller", "energy"], "give one of"),
+    (["queue", "submit", "--excitation", "--token", "a-secret"], "visible to every user"),
+    (["queue", "submit", "--excitation", "--server", "ftp://10.0.0.5"], "http://HOST:PORT"),
+    (["queue", "status", "--server", "http://127.0.0.1:1"], "no team token"),
+    (["queue", "result", "x", "--out", "o"], "not a valid integer"),
+    (["queue", "cancel", "0"], "x>=1"),
+    (["queue", "teams", "--credentials", "not-a-run"], "is a directory"),
+    (["queue", "rigs", "--db", "queue.db", "--put-back", "r99"], "no rig 'r99'"),
 ]
 
 

@@ -163,7 +163,7 @@ class QueueServer:
 
     def job_reply(self, job_id: int, team: str, part: str | None) -> Reply:
         job = self.own_job(job_id, team)
-        result = self.store.result(job_id) if job.state in ("done", "failed", "cancelled") else None
+        result = self.store.result(job_id) if job.state in views.FINISHED else None
         if part is None:
             return json_reply(views.job_view(job, result))
         if part == "telemetry.csv":
@@ -232,6 +232,7 @@ class _Handler(BaseHTTPRequestHandler):
                                          "server's log"}, 500)
         if self._unread_body():
             self.close_connection = True  # what the client sent would be read as its next request
+        if self.close_connection:
             reply.headers["Connection"] = "close"
         self._send(reply)
         who = f" team={self._team}" if self._team else ""
@@ -260,7 +261,7 @@ class _Handler(BaseHTTPRequestHandler):
                 raise HttpError(405, f"{method} /api/jobs: use GET (your jobs) or POST (a new job)")
             team, instructor = self._authorised()
             if method == "GET":
-                return json_reply({"jobs": [views.job_view(job) for job in self.queue.store.jobs(team)]})
+                return json_reply({"jobs": views.team_jobs(self.queue.store, team)})
             return self.queue.submit(team, instructor, *self._job_request())
         if match := JOB_ROUTE.fullmatch(path):
             job_id, part = int(match.group(1)), match.group(2)
@@ -286,11 +287,10 @@ class _Handler(BaseHTTPRequestHandler):
         return token.strip() if scheme.lower() == "bearer" else None
 
     def _body(self) -> bytes:
-        if "chunked" in self.headers.get("Transfer-Encoding", "").lower():
-            raise HttpError(411, "send the body with a Content-Length, not chunked")
         length = self.headers.get("Content-Length", "")
-        if not length.isdigit():
-            raise HttpError(411, "a job's body needs a Content-Length")
+        if "Transfer-Encoding" in self.headers or not length.isdigit():
+            self.close_connection = True  # where its body ends is unknown
+            raise HttpError(411, "send a job's body with a Content-Length (not chunked)")
         size = int(length)
         if size > self.queue.max_upload_bytes:
             raise HttpError(413, f"the request is {size} bytes; the queue takes at most "
@@ -342,6 +342,8 @@ class _Handler(BaseHTTPRequestHandler):
         """The standard library's refusals (a garbled request line, an unknown method, huge headers) as one
         line of JSON too; the request itself is never logged."""
         self.close_connection = True
+        if self.request_version not in ("HTTP/1.0", "HTTP/1.1"):
+            self.request_version = "HTTP/1.1"  # a request line we could not read still gets a status line
         said = {501: "that method is not served here: use GET, POST or DELETE",
                 414: "the request's address is too long", 431: "the request's headers are too large"}
         self._send(json_reply({"error": said.get(code, f"malformed request ({code}): send HTTP/1.1")}, code,

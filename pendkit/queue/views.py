@@ -18,7 +18,8 @@ from pendkit.queue.fair import Waiting, next_job
 from pendkit.queue.store import Job, QueueStore, jobs, results, teams
 
 FINISHED_SHOWN = 100  # the class page lists every waiting and running job and this many finished ones
-TYPICAL_JOB_RIG_S = 120.0  # a job's rig time when placing waiting jobs, before any finished today
+TYPICAL_JOB_RIG_S = 120.0
+FINISHED = ("done", "failed", "cancelled")  # a job's rig time when placing waiting jobs, before any finished today
 
 
 def public_state(store: QueueStore, now: float | None = None) -> dict:
@@ -31,7 +32,7 @@ def public_state(store: QueueStore, now: float | None = None) -> dict:
                jobs.c.submitted_at, jobs.c.servo_min, jobs.c.servo_max)
     with store.engine.connect() as db:
         open_rows = list(db.execute(sa.select(*columns).where(jobs.c.state.in_(("waiting", "running")))))
-        finished_rows = list(db.execute(sa.select(*columns).where(jobs.c.state.in_(("done", "failed", "cancelled")))
+        finished_rows = list(db.execute(sa.select(*columns).where(jobs.c.state.in_(FINISHED))
                                         .order_by(jobs.c.id.desc()).limit(FINISHED_SHOWN)))
         quotas = {r.name: r.quota_rig_s for r in db.execute(sa.select(teams.c.name, teams.c.quota_rig_s))
                   if r.quota_rig_s is not None}
@@ -61,17 +62,30 @@ def queue_places(waiting_rows, used_rig_s: dict[str, float], quota_rig_s: dict[s
 
 
 def job_view(job: Job, result: dict | None = None) -> dict:
-    """A job as its own team sees it: no payload (its size only); the summary once there is a result."""
+    """A job as its own team sees it: no payload (its size only); with `result` ({"summary", "telemetry_csv",
+    "plot_png"}, the last two as data or as whether there is any), its summary and figures."""
     view = {"id": job.id, "team": job.team, "kind": job.kind, "state": job.state, "rig": job.rig,
             "attempts": job.attempts, "reason": job.reason, "time_limit_s": job.time_limit_s,
             "submitted_at": job.submitted_at, "started_at": job.started_at, "finished_at": job.finished_at,
             "rig_s": round(job.rig_s, 1), "spec": job.spec, "payload_bytes": len(job.payload or b""),
             "servo_range": list(job.servo_range) if job.servo_range else None,
             "summary": None, "figures": None, "telemetry": False, "plot": False}
-    if result is not None:
+    if result is not None and job.state in FINISHED:
         view.update(summary=result["summary"], figures=figures(result["summary"]),
                     telemetry=bool(result["telemetry_csv"]), plot=bool(result["plot_png"]))
     return view
+
+
+def team_jobs(store: QueueStore, team: str) -> list[dict]:
+    """A team's jobs with their summaries (not their telemetry or plots, which are fetched one by one)."""
+    query = (sa.select(results.c.job_id, results.c.summary,
+                       (sa.func.length(results.c.telemetry_csv) > 0).label("telemetry_csv"),
+                       results.c.plot_png.is_not(None).label("plot_png"))
+             .join(jobs, jobs.c.id == results.c.job_id).where(jobs.c.team == team))
+    with store.engine.connect() as db:
+        found = {row.job_id: {"summary": json.loads(row.summary), "telemetry_csv": row.telemetry_csv,
+                              "plot_png": row.plot_png} for row in db.execute(query)}
+    return [job_view(job, found.get(job.id)) for job in store.jobs(team)]
 
 
 def figures(summary: dict) -> dict | None:
