@@ -45,14 +45,11 @@ def _open_store(db: str):
 @click.option("--port", type=click.IntRange(1, 65535), default=8790, show_default=True)
 @click.option("--max-upload-kb", type=click.IntRange(1, 65536), default=1024, show_default=True,
               help="The largest job request accepted.")
-@click.option("--max-time-limit-s", type=click.FloatRange(1, 7200), default=600.0, show_default=True,
-              help="The longest time limit a job may ask for (and the default).")
 @click.option("--tls-cert", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
               help="Serve https with this certificate (broker-config --tls's broker/server.crt).")
 @click.option("--tls-key", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
               help="Its key (broker/server.key).")
-def serve(db: str, bind: str, port: int, max_upload_kb: int, max_time_limit_s: float, tls_cert: Path | None,
-          tls_key: Path | None) -> None:
+def serve(db: str, bind: str, port: int, max_upload_kb: int, tls_cert: Path | None, tls_key: Path | None) -> None:
     """Serve the queue's API and class page until Ctrl-C (one log line per request, never a token)."""
     from pendkit.queue.server import QueueServer
 
@@ -60,8 +57,8 @@ def serve(db: str, bind: str, port: int, max_upload_kb: int, max_time_limit_s: f
         raise click.UsageError("give --tls-cert and --tls-key together")
     store = _open_store(db)
     tls = (str(tls_cert), str(tls_key)) if tls_cert is not None else None
-    server = QueueServer(store, bind, port, max_upload_kb * 1024, max_time_limit_s,
-                         log=lambda line: click.echo(line, err=True), tls=tls)
+    server = QueueServer(store, bind, port, max_upload_kb * 1024, log=lambda line: click.echo(line, err=True),
+                         tls=tls)
     stop = threading.Event()
     signal.signal(signal.SIGINT, lambda *_: stop.set())
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
@@ -126,14 +123,16 @@ def _client(server: str, token: str | None, token_file: Path | None, tls_ca: Pat
 @click.option("--preset", type=click.Choice(sorted(SERVO_PRESETS)), default=None, help="With --controller: the servo.")
 @click.option("--params", "params_path", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
               help="With --controller: the rig's parameters (RigParams.save, e.g. from pendkit adapt).")
-@click.option("--episodes", type=click.IntRange(1, 50), default=None, help="With --controller: episodes to run.")
+@click.option("--episodes", type=click.IntRange(min=1), default=None,
+              help="With --controller: episodes to run (the kit's rule: 10).")
 @click.option("--blob", "blob_path", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
               help="A device blob (.pkcb, pendkit export) to judge on a rig.")
 @click.option("--policy", "policy_name", default=None, help="A shipped policy (pendkit policies list).")
 @click.option("--excitation", is_flag=True, help="Record pendkit adapt's excitation (about 40 s) on a rig.")
 @click.option("--priority", type=click.IntRange(-10, 10), default=0, help="The instructor's only: higher runs first.")
-@click.option("--time-limit-s", type=click.FloatRange(1, 7200), default=None,
-              help="Stop the job after this long (default: the queue's).")
+@click.option("--time-limit-s", type=click.FloatRange(min=0, min_open=True), default=None,
+              help="Stop the job after this many of the rig's seconds (default: its episodes and resets at the "
+                   "longest).")
 @_client_options
 def submit(controller, preset, params_path, episodes, blob_path, policy_name, excitation, priority, time_limit_s,
            server, token, token_file, tls_ca) -> None:

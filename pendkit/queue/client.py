@@ -72,13 +72,13 @@ class QueueClient:
     def submit(self, kind: str, options: dict | None = None, payload: bytes | None = None, priority: int = 0,
                time_limit_s: float | None = None) -> int:
         """Queue a job; its id."""
-        request = {"kind": kind, "options": options or {}}
+        request = {"kind": kind, "options": dict(options or {})}
         if payload is not None:
             request["payload_base64"] = base64.b64encode(payload).decode("ascii")
         if priority:
             request["priority"] = priority
-        if time_limit_s is not None:
-            request["time_limit_s"] = time_limit_s
+        if time_limit_s is not None:  # in the job's rig seconds
+            request["options"]["time_limit_s"] = time_limit_s
         return int(self._json("POST", "/api/jobs", request)["id"])
 
     def submit_controller(self, controller: str, preset: str | None = None, params: dict | None = None,
@@ -134,7 +134,8 @@ class QueueClient:
             time.sleep(poll_s)
 
     def download(self, job_id: int, out_dir: str | Path) -> dict[str, Path]:
-        """The job's summary (job.json), telemetry.csv and plot.png, as far as it has them, into `out_dir`."""
+        """The job's summary (job-N.json), telemetry (CSV) and plot (PNG), as far as it has them, and an
+        excitation's recordings (job-N-excitation.json), into `out_dir`."""
         job = self.job(job_id)
         if job["state"] not in FINISHED:
             raise QueueRequestError(f"job {job_id} is {job['state']}: its result comes when it has run "
@@ -146,6 +147,10 @@ class QueueClient:
                                               base=out)
         if job.get("plot"):
             written["plot"] = write_bytes(out / f"job-{job_id}-plot.png", self.plot_png(job_id), base=out)
+        if isinstance(job.get("summary"), dict) and "excitation" in job["summary"]:
+            # the recordings as `pendkit adapt` writes its excitation.json, for identification on the laptop
+            written["excitation"] = write_text(out / f"job-{job_id}-excitation.json",
+                                               json.dumps(job["summary"]["excitation"]), base=out)
         return written
 
     # --- public ---

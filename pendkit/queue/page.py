@@ -229,20 +229,27 @@ function renderLeaderboard(board) {
   }), "No judged job has finished yet.");
 }
 
+let finishedSeen = null;
+
+async function refreshBoard() {
+  try { renderLeaderboard(await getJSON("/api/leaderboard")); } catch (error) { /* the state line says why */ }
+}
+
 async function pollClass() {
   const updated = document.getElementById("updated");
   try {
-    renderState(await getJSON("/api/state"));
+    const state = await getJSON("/api/state");
+    renderState(state);
     updated.textContent = "Updated at " + new Date().toLocaleTimeString() + "; updates every 2 s.";
+    const finished = state.jobs.filter((job) => job.state === "done").map((job) => job.id).join(",");
+    if (finished !== finishedSeen) {  // a job finished: the leaderboard may have changed
+      finishedSeen = finished;
+      refreshBoard();
+    }
   } catch (error) {
     updated.textContent = "Cannot reach the queue (" + error.message + "); trying again.";
   }
   setTimeout(pollClass, 2000);
-}
-
-async function pollBoard() {
-  try { renderLeaderboard(await getJSON("/api/leaderboard")); } catch (error) { /* the state line says why */ }
-  setTimeout(pollBoard, 10000);
 }
 
 function classPage() {
@@ -252,7 +259,6 @@ function classPage() {
     if (/^[0-9]+$/.test(jobId)) window.location.assign("/jobs/" + jobId);
   });
   pollClass();
-  pollBoard();
 }
 
 // --- a job's page ---
@@ -272,6 +278,7 @@ function shown(value) {
   if (value === false) return "no";
   if (typeof value === "number") return Number.isInteger(value) ? String(value) : value.toFixed(2);
   if (value === null || value === undefined) return null;
+  if (Array.isArray(value)) return value.length ? value.map(String).join(", ") : "none";
   return typeof value === "object" ? JSON.stringify(value) : String(value);
 }
 
@@ -284,7 +291,7 @@ function renderEpisodes(episodes) {
   head.replaceChildren(...["episode", ...keys].map((key) => {
     const th = document.createElement("th");
     th.scope = "col";
-    th.textContent = key.replaceAll("_", " ");
+    th.textContent = key.replace(/_s$/, " (s)").replace(/_rad$/, " (rad)").replaceAll("_", " ");
     return th;
   }));
   fill(table, rows.map((episode, index) => {
@@ -314,14 +321,16 @@ function renderJob(job) {
   if (figures) {
     const verdict = document.createElement("span");
     verdict.className = "state state-" + (figures.solved ? "solved" : "unsolved");
-    verdict.textContent = figures.verdict + (figures.solved ? " (solved)" : " (not solved)");
+    verdict.textContent = figures.verdict;
     fact(facts, "Verdict", verdict);
+    fact(facts, "Solved", figures.solved ? "yes" : "no");
     fact(facts, "Episodes held", `${figures.held} of ${figures.episodes}`);
     fact(facts, "Time to upright (s)", seconds(figures.time_to_upright_s) || "none held");
     if (figures.pushes) fact(facts, "Twin with pushes", figures.pushes);
-  } else if (job.summary) {
-    fact(facts, "Summary", JSON.stringify(job.summary));
+  } else if (job.summary && "recorded_episodes" in job.summary) {
+    fact(facts, "Recorded episodes", job.summary.recorded_episodes);
   }
+  if (job.summary && job.summary.stopped) fact(facts, "Stopped", job.summary.stopped);
   fact(facts, "Rig time (s)", job.rig_s);
   if (job.reason) fact(facts, "Reason", job.reason);
   renderEpisodes(job.summary ? job.summary.episodes : []);

@@ -97,15 +97,19 @@ def figures(summary: dict) -> dict | None:
     held = summary.get("held")
     if not isinstance(held, int) or isinstance(held, bool):
         held = sum(1 for e in episodes if isinstance(e, dict) and e.get("held") is True)
-    count = summary.get("episodes_run", len(episodes))
+    asked = _asked(summary.get("verdict"), summary.get("episodes_run", len(episodes)))
+    solved = summary.get("solved") if isinstance(summary.get("solved"), bool) else None
     upright_s = _number(summary.get("time_to_upright_s"))
     if upright_s is None:
-        times = [_number(e.get("time_to_upright_s")) for e in episodes if isinstance(e, dict)]
+        times = [_number(e.get("time_to_upright_s")) for e in episodes if isinstance(e, dict) and e.get("held")]
         times = [t for t in times if t is not None]
         upright_s = statistics.median(times) if times else None
-    return {"verdict": str(summary.get("verdict", f"{held}/{count} held")), "solved": bool(summary.get("solved")),
-            "held": held, "episodes": count if isinstance(count, int) else len(episodes),
-            "time_to_upright_s": upright_s, "pushes": _pushes(summary.get("pushes"))}
+    if solved is None:
+        verdict = f"{held}/{asked} held (fewer episodes than the rule's: not judged)"
+    else:
+        verdict = f"{'solved' if solved else 'not solved'}: {held}/{asked} held"
+    return {"verdict": verdict, "solved": solved, "held": held, "episodes": asked, "time_to_upright_s": upright_s,
+            "pushes": _pushes(summary.get("pushes"))}
 
 
 def leaderboard(store: QueueStore) -> list[dict]:
@@ -132,7 +136,16 @@ def leaderboard(store: QueueStore) -> list[dict]:
 def _rank_key(found: dict) -> tuple:
     share = found["held"] / found["episodes"] if found["episodes"] else 0.0
     upright_s = found["time_to_upright_s"]
-    return (found["solved"], share, -upright_s if upright_s is not None else -math.inf)
+    return (found["solved"] is True, share, -upright_s if upright_s is not None else -math.inf)
+
+
+def _asked(verdict, run) -> int:
+    """The episodes a job asked for: N of the runner's "K/N" verdict, else those it ran."""
+    if isinstance(verdict, str) and verdict.count("/") == 1:
+        asked = verdict.split("/")[1].split()[0] if verdict.split("/")[1].split() else ""
+        if asked.isdigit():
+            return int(asked)
+    return run if isinstance(run, int) and not isinstance(run, bool) else 0
 
 
 def _number(value) -> float | None:
@@ -142,9 +155,11 @@ def _number(value) -> float | None:
 
 
 def _pushes(value) -> str | None:
-    """The twin-with-pushes figure as text: a runner's text as it is, {"held": k, "episodes": n} as k/n."""
+    """The twin-with-pushes figure as text: the runner's line as it is (while it is judged, or why it was
+    skipped), its figures ({"held", "episodes", "solved", ...}) as `K/N held`."""
     if isinstance(value, str):
         return value[:200]
     if isinstance(value, dict) and isinstance(value.get("held"), int) and isinstance(value.get("episodes"), int):
-        return f"{value['held']}/{value['episodes']} held"
+        solved = {True: ", solved", False: ", not solved"}.get(value.get("solved"), "")
+        return f"{value['held']}/{value['episodes']} held{solved}"
     return None

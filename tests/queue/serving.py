@@ -87,10 +87,15 @@ def one_line_error(body: bytes) -> str:
     return answer["error"]
 
 
-RESULT = {"verdict": "controller_solved=9/10 (yes)", "solved": True, "held": 9, "time_to_upright_s": 1.84,
-          "episodes": [{"held": index != 3, "time_to_upright_s": 1.7 + index / 100 if index != 3 else None}
-                       for index in range(10)],
-          "pushes": {"held": 7, "episodes": 10}}
+RESULT = {  # as the runner writes it (pendkit/queue/job_results.py)
+    "kind": "controller", "rig": "r01", "verdict": "9/10", "solved": True, "held": 9, "episodes_run": 10,
+    "time_to_upright_s": 1.84, "episode_steps": 500, "control_step_s": 0.06,
+    "episodes": [{"held": index != 3, "steps": 500, "time_to_upright_s": 1.7 + index / 100 if index != 3 else None,
+                  "held_fraction": 0.9 if index != 3 else 0.1, "flags": [] if index != 3 else ["overspin"]}
+                 for index in range(10)],
+    "pushes": {"verdict": "7/10", "held": 7, "episodes": 10, "solved": False, "time_to_upright_s": 2.1,
+               "size": "hand", "per_episode": 2}}
+VERDICT = "solved: 9/10 held"
 
 
 def plot_png() -> bytes:

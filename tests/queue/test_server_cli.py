@@ -76,7 +76,7 @@ def test_a_team_follows_downloads_and_cancels_its_own_jobs(tmp_path):
 
         listed = invoke(["status"], **as_a)
         assert listed.exit_code == 0, listed.output
-        assert f"job {done} (controller): done on r01; controller_solved=9/10 (yes)" in listed.output
+        assert f"job {done} (controller): done on r01; solved: 9/10 held upright_s=1.84" in listed.output
         assert f"job {waiting} (controller): waiting" in listed.output and f"job {theirs} " not in listed.output
 
         out = tmp_path / "results"
@@ -100,6 +100,18 @@ def test_a_team_follows_downloads_and_cancels_its_own_jobs(tmp_path):
 
         for result in (listed, fetched, refused, cancelled, followed):
             assert TOKENS["team-a"] not in result.output
+
+
+def test_an_excitations_recordings_come_back_for_identification(tmp_path):
+    recordings = [{"t_s": [0.0, 0.06], "servo_counts": [300, 340], "angle_rad": [3.14, 3.13]}]
+    with served_queue(tmp_path) as queue:
+        job_id = run_to_result(queue.store, "team-a", {"excitation": recordings, "recorded_episodes": 1},
+                               "episode,t_s\n1,0.0\n")
+        result = invoke(["result", str(job_id), "--out", str(tmp_path / "out"), "--server", queue.url],
+                        PENDKIT_QUEUE_TOKEN=TOKENS["team-a"])
+    assert result.exit_code == 0, result.output
+    assert json.loads((tmp_path / "out" / f"job-{job_id}-excitation.json").read_text()) == recordings
+    assert f"job {job_id} (controller): done on r01; -" in result.output
 
 
 def test_a_token_on_the_command_line_is_refused():

@@ -6,7 +6,8 @@ import json
 
 import pytest
 
-from tests.queue.serving import RESULT, TOKENS, one_line_error, plot_png, run_to_result, served_queue
+from tests.queue.serving import RESULT, TOKENS, VERDICT, one_line_error, plot_png, run_to_result, served_queue
+from tests.system_needs import needs
 
 pytest.importorskip("sqlalchemy")
 
@@ -103,8 +104,30 @@ def test_the_public_state_and_leaderboard_hold_no_payload_and_no_result(queue):
     status, _, body = queue.call("GET", "/api/leaderboard")
     assert status == 200 and "SECRET" not in body.decode()
     (entry,) = json.loads(body)["leaderboard"]
-    assert entry == {"rank": 1, "team": "team-a", "job_id": done, "verdict": RESULT["verdict"], "solved": True,
-                     "held": 9, "episodes": 10, "time_to_upright_s": 1.84, "pushes": "7/10 held"}
+    assert entry == {"rank": 1, "team": "team-a", "job_id": done, "verdict": VERDICT, "solved": True,
+                     "held": 9, "episodes": 10, "time_to_upright_s": 1.84, "pushes": "7/10 held, not solved"}
+
+
+def test_the_leaderboard_ranks_each_teams_best_judged_job(queue):
+    queue.store.add_team("team-c", "token-of-team-c")
+
+    def judged(held, upright_s, asked=10):
+        solved = held >= 9 if asked == 10 else None
+        return {"verdict": f"{held}/{asked}", "held": held, "solved": solved, "time_to_upright_s": upright_s,
+                "episodes_run": asked, "episodes": []}
+
+    run_to_result(queue.store, "team-a", judged(9, 2.0))
+    run_to_result(queue.store, "team-a", judged(6, 1.0))  # worse: its best stays
+    run_to_result(queue.store, "team-b", judged(10, 2.5))
+    run_to_result(queue.store, "team-b", {"excitation": [], "recorded_episodes": 6})  # no verdict: not ranked
+    run_to_result(queue.store, "team-c", judged(9, 1.5))  # as many held as team-a, quicker
+    run_to_result(queue.store, "instructor", judged(3, None, asked=4))
+    board = queue.json("GET", "/api/leaderboard")[1]["leaderboard"]
+    assert [(e["team"], e["verdict"], e["time_to_upright_s"]) for e in board] == [
+        ("team-b", "solved: 10/10 held", 2.5), ("team-c", "solved: 9/10 held", 1.5),
+        ("team-a", "solved: 9/10 held", 2.0),
+        ("instructor", "3/4 held (fewer episodes than the rule's: not judged)", None)]
+    assert [e["rank"] for e in board] == [1, 2, 3, 4]
 
 
 def test_a_stored_result_reaches_its_team_only(queue):
@@ -114,7 +137,7 @@ def test_a_stored_result_reaches_its_team_only(queue):
 
     status, job = queue.json("GET", f"/api/jobs/{job_id}", "team-a")
     assert status == 200 and job["state"] == "done" and job["summary"] == RESULT
-    assert job["figures"]["verdict"] == RESULT["verdict"] and job["figures"]["held"] == 9
+    assert job["figures"]["verdict"] == VERDICT and job["figures"]["held"] == 9
     assert job["telemetry"] and job["plot"]
     status, headers, body = queue.call("GET", f"/api/jobs/{job_id}/telemetry.csv", "team-a")
     assert status == 200 and body.decode() == csv and headers["Content-Type"].startswith("text/csv")
@@ -133,3 +156,24 @@ def test_a_waiting_job_has_no_result_to_download(queue):
     assert (status, job["summary"], job["telemetry"], job["plot"]) == (200, None, False, False)
     status, _, body = queue.call("GET", f"/api/jobs/{job_id}/plot.png", "team-a")
     assert status == 404 and "waiting" in one_line_error(body)
+
+
+@needs("openssl")
+def test_over_https_with_the_classrooms_certificate_a_token_never_crosses_in_clear(tmp_path):
+    from pendkit.link.tls import make_classroom_ca
+    from pendkit.queue.client import QueueClient, QueueRequestError
+
+    (tmp_path / "broker").mkdir()
+    tls = make_classroom_ca(tmp_path / "broker")
+    with served_queue(tmp_path, tls=(str(tls["cert"]), str(tls["key"]))) as queue:
+        assert queue.url.startswith("https://127.0.0.1:")
+        job_id = queue.store.submit("team-a", "controller", {"controller": "energy"})
+        client = QueueClient(queue.url, token=TOKENS["team-a"], tls_ca=tls["ca"])
+        assert [job["id"] for job in client.jobs()] == [job_id]
+        with pytest.raises(QueueRequestError, match="cannot reach the queue"):  # a server it cannot check
+            QueueClient(queue.url, token=TOKENS["team-a"]).jobs()
+        plain = queue.raw(b"GET /api/jobs HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer "
+                          + TOKENS["team-a"].encode() + b"\r\n\r\n")
+        assert b"job" not in plain  # plain http to the https port gets nothing back
+        assert client.state()["jobs"][0]["id"] == job_id
+    assert not any("Traceback" in line for line in queue.log)
