@@ -46,6 +46,10 @@ def _password_file(ctx: click.Context, param: click.Parameter, value: Path | Non
         raise click.BadParameter(f"cannot read {value}: {error}", param_hint="--password-file") from None
     if not lines or not lines[0]:
         raise click.BadParameter(f"{value} is empty: its first line is the password", param_hint="--password-file")
+    if lines[0].startswith("user,password") or ":$7$" in lines[0]:
+        kind = "credentials table" if "," in lines[0] else "hashed password file"
+        raise click.BadParameter(f"{value} is broker-config's {kind}, not one password: use broker/logins/USER.txt",
+                                 param_hint="--password-file")
     return lines[0]
 
 

@@ -147,8 +147,11 @@ def rigs(broker_url: str, expected: tuple[str, ...], username, password, tls_ca)
     for rig, status in statuses.items():
         click.echo(rig_line(rig, status))
     missing = [rig for rig in expected if rig not in statuses]
+    hidden = username.startswith("host-") if username else False
     for rig in missing:
-        click.echo(f"{rig:<8} never reported to this broker: is it set up with its user and password (and the CA "
+        click.echo(f"{rig:<8} not seen by user {username}, which reads only rig {username[5:]}: log in as the "
+                   "instructor for the room's roll call" if hidden and rig != username[5:] else
+                   f"{rig:<8} never reported to this broker: is it set up with its user and password (and the CA "
                    "for TLS), and is its id on its label?")
     online = sum(is_online(status) for status in statuses.values())
     click.echo(f"{online} of {len(statuses) + len(missing)} rigs online on {broker_url}")

@@ -126,8 +126,12 @@ def read_credentials(path: str | Path) -> dict[str, str]:
         return {}
     try:
         with path.open(newline="") as handle:
-            return {row["user"]: row["password"] for row in csv.DictReader(handle) if row.get("user")}
-    except (OSError, KeyError, csv.Error) as error:
+            reader = csv.DictReader(handle)
+            if reader.fieldnames is not None and not {"user", "password"} <= set(reader.fieldnames):
+                raise KeyError("its first line is not user,password,role: the hashed `passwords` file or a single "
+                               "login is not it")
+            return {row["user"]: row["password"] for row in reader if row.get("user")}
+    except (OSError, KeyError, csv.Error, UnicodeDecodeError) as error:
         raise ConfigError(f"{path} is not the credentials file broker-config writes ({error}): move it away or "
                           "pass another --out") from None
 

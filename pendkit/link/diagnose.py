@@ -25,18 +25,23 @@ def rig_user_mismatch(rig: str, username: str | None) -> str | None:
 
 
 def why_no_connection(host: str, port: int, tls: bool, tls_ca: str | None, username: str | None,
-                      refused: str | None) -> str:
-    """The likely cause of a failed connection to `host:port`, with its fix."""
+                      refused: str | None, has_password: bool = True, tls_asked: bool = False) -> str:
+    """The likely cause of a failed connection to `host:port`, with its fix. `tls_asked`: TLS because a CA was
+    given with a plain mqtt:// address."""
     where = f"{host}:{port}"
     if refused is not None:
         if any(words in refused.lower() for words in REFUSED_LOGIN):
+            if username and not has_password:
+                return (f"the broker at {where} refused user {username!r} ({refused}): no password was given; set "
+                        "PENDKIT_MQTT_PASSWORD or pass --password-file (a team's is its host-rNN.txt)")
             who = f"user {username!r}" if username else "a login without a username"
-            return (f"the broker at {where} refused {who} ({refused}): the username or password is wrong; check "
-                    "its row in the instructor's credentials.csv (or PENDKIT_MQTT_USERNAME / PENDKIT_MQTT_PASSWORD)")
+            return (f"the broker at {where} refused {who} ({refused}): the username or password is wrong, or no such "
+                    "user is set up; check the password given (PENDKIT_MQTT_PASSWORD, or --password-file: a team's is "
+                    "its host-rNN.txt, the instructor has every user's in broker/logins/ and credentials.csv)")
         return f"the broker at {where} refused the connection ({refused})"
     try:
         with socket.create_connection((host, port), timeout=PROBE_TIMEOUT_S) as raw:
-            return _tls_problem(raw, host, where, tls_ca) if tls else _plain_problem(raw, host, where)
+            return _tls_problem(raw, host, where, tls_ca, tls_asked) if tls else _plain_problem(raw, host, where)
     except ConnectionRefusedError:
         return (f"nothing listens at {where}: start the broker there (`pendkit broker`, or the classroom's "
                 "`mosquitto -c broker/mosquitto.conf`), or check the address and port")
@@ -47,7 +52,7 @@ def why_no_connection(host: str, port: int, tls: bool, tls_ca: str | None, usern
                 "the room's network, and that the broker's firewall lets the port in")
 
 
-def _tls_problem(raw: socket.socket, host: str, where: str, tls_ca: str | None) -> str:
+def _tls_problem(raw: socket.socket, host: str, where: str, tls_ca: str | None, tls_asked: bool = False) -> str:
     context = ssl.create_default_context(cafile=tls_ca)
     try:
         with context.wrap_socket(raw, server_hostname=host):
@@ -59,12 +64,17 @@ def _tls_problem(raw: socket.socket, host: str, where: str, tls_ca: str | None) 
             return (f"the broker's certificate does not name {host}: on the broker's machine run `pendkit "
                     f"broker-config --tls --address {host}` (with the same --rigs) and restart Mosquitto, or connect "
                     "by a name the certificate lists")
-        fix = ("pass --tls-ca broker/ca.crt (the classroom's CA)" if tls_ca is None else
+        fix = ("pass --tls-ca with the classroom's CA (the ca.crt the instructor gave you; broker/ca.crt on the "
+               "broker's machine)" if tls_ca is None else
                f"{tls_ca} is not the CA that signed this broker's certificate: use the broker's own ca.crt")
         return f"the broker at {where} is not trusted ({message}): {fix}"
     except (ssl.SSLError, ConnectionResetError, OSError) as error:
-        return (f"{where} does not speak TLS ({getattr(error, 'reason', None) or error}): use mqtt://{where} for a "
-                "plain port, or the broker's TLS port (mqtts://HOST:8883)")
+        why = getattr(error, "reason", None) or error
+        if tls_asked:
+            return (f"{where} does not speak TLS ({why}), and --tls-ca turns TLS on: drop --tls-ca for this plain "
+                    "port, or use the broker's TLS port (mqtts://HOST:8883)")
+        return (f"{where} does not speak TLS ({why}): use mqtt://{where} for a plain port, or the broker's TLS port "
+                "(mqtts://HOST:8883)")
 
 
 def _plain_problem(raw: socket.socket, host: str, where: str) -> str:

@@ -149,7 +149,7 @@ class RigLink:
         mismatch = rig_user_mismatch(rig, username) if check_user else None
         if mismatch is not None:
             raise RigLinkError(mismatch)
-        self.username, self._tls_ca = username, tls_ca
+        self.username, self._tls_ca, self._has_password = username, tls_ca, password is not None
         self.client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, client_id=f"pendkit-host-{rig}-{id(self):x}")
         if username is not None:
             self.client.username_pw_set(username, password)
@@ -172,7 +172,8 @@ class RigLink:
         if not self._connected.wait(timeout_s):
             self.close()
             cause = why_no_connection(self.address.host, self.address.port, self.address.tls or bool(self._tls_ca),
-                                      self._tls_ca, self.username, self._refused)
+                                      self._tls_ca, self.username, self._refused, self._has_password,
+                                      tls_asked=bool(self._tls_ca) and not self.address.tls)
             raise RigLinkError(f"no connection to the broker within {timeout_s:g} s: {cause}")
 
     def publish(self, text: str) -> bool:
