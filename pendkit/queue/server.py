@@ -13,7 +13,6 @@ from __future__ import annotations
 import base64
 import binascii
 import json
-import math
 import re
 import ssl
 import sys
@@ -21,8 +20,6 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from email.parser import BytesParser
-from email.policy import HTTP
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from urllib.parse import urlsplit
 
@@ -30,6 +27,7 @@ import sqlalchemy as sa
 
 from pendkit.errors import PendkitError
 from pendkit.queue import page, views
+from pendkit.queue.http_bodies import HttpError, json_object, multipart_fields
 from pendkit.queue.store import QueueStore
 
 DEFAULT_PORT = 8790
@@ -46,14 +44,6 @@ SECURITY_HEADERS = {
     "Content-Security-Policy": "default-src 'self'; img-src 'self' blob:; script-src 'self'; style-src 'self'; "
                                "frame-ancestors 'none'; base-uri 'none'; form-action 'none'",
 }
-
-
-class HttpError(Exception):
-    """A refusal: its status and the one line the client reads."""
-
-    def __init__(self, status: int, message: str) -> None:
-        super().__init__(message)
-        self.status = status
 
 
 @dataclass
@@ -73,11 +63,10 @@ class QueueServer:
     `tls`: (certificate, key) files, e.g. broker-config's server.crt and server.key, for https."""
 
     def __init__(self, store: QueueStore, bind: str = "127.0.0.1", port: int = DEFAULT_PORT,
-                 max_upload_bytes: int = MAX_UPLOAD_BYTES, max_time_limit_s: float = 600.0,
-                 log: Callable[[str], None] | None = None, tls: tuple[str, str] | None = None) -> None:
+                 max_upload_bytes: int = MAX_UPLOAD_BYTES, log: Callable[[str], None] | None = None,
+                 tls: tuple[str, str] | None = None) -> None:
         self.store = store
         self.max_upload_bytes = max_upload_bytes
-        self.max_time_limit_s = max_time_limit_s
         self.log = log or (lambda line: print(line, file=sys.stderr, flush=True))
         handler = type("Handler", (_Handler,), {"queue": self})
         self.httpd = _Server((bind, port), handler)
@@ -91,6 +80,8 @@ class QueueServer:
                                                     do_handshake_on_connect=False)
             self.scheme = "https"
         self._thread: threading.Thread | None = None
+        self._team_locks: dict[str, threading.Lock] = {}
+        self._locks_lock = threading.Lock()
 
     @property
     def url(self) -> str:
@@ -134,6 +125,10 @@ class QueueServer:
         return job
 
     def submit(self, team: str, instructor: bool, fields: dict, payload: bytes | None) -> Reply:
+        unknown = sorted(set(fields) - {"kind", "options", "priority"})
+        if unknown:
+            raise HttpError(400, f"unknown field {unknown[0][:40]!r}: a job is kind, options, priority and its "
+                                 "payload; episodes and time_limit_s go in options")
         kind, options = fields.get("kind"), fields.get("options", {})
         if not isinstance(kind, str) or not kind:
             raise HttpError(400, "say which kind of job: \"kind\": controller, blob, policy or excitation")
@@ -144,20 +139,18 @@ class QueueServer:
             raise HttpError(400, f"\"priority\" must be a whole number from {-MAX_PRIORITY} to {MAX_PRIORITY}")
         if priority and not instructor:
             raise HttpError(403, "only the instructor sets a priority: leave it out")
-        limit_s = fields.get("time_limit_s", self.max_time_limit_s)
-        if (isinstance(limit_s, bool) or not isinstance(limit_s, (int, float)) or not math.isfinite(limit_s)
-                or not 0 < limit_s <= self.max_time_limit_s):
-            raise HttpError(400, f"\"time_limit_s\" must be above 0 and at most {self.max_time_limit_s:g} s")
-        if len(self.store.jobs(team, ("waiting",))) >= MAX_WAITING_PER_TEAM:
-            raise HttpError(429, f"team {team} has {MAX_WAITING_PER_TEAM} jobs waiting already: wait for some to "
-                                 "run, or cancel one")
-        from pendkit.queue.jobs import make_job  # the device's own checks: imported with the first job
+        from pendkit.queue.jobs import submit_job  # the device's own checks: imported with the first job
 
-        try:
-            spec, payload, servo_range = make_job(kind, options, payload)
-        except (PendkitError, ValueError) as error:
-            raise HttpError(400, str(error).splitlines()[0] if str(error) else type(error).__name__) from None
-        job_id = self.store.submit(team, kind, spec, payload, servo_range, priority, float(limit_s))
+        with self._locks_lock:
+            team_lock = self._team_locks.setdefault(team, threading.Lock())
+        with team_lock:  # a team's jobs one at a time, so two at once cannot pass the cap together
+            if len(self.store.jobs(team, ("waiting",))) >= MAX_WAITING_PER_TEAM:
+                raise HttpError(429, f"team {team} has {MAX_WAITING_PER_TEAM} jobs waiting already: wait for some "
+                                     "to run, or cancel one")
+            try:  # checked (make_job) before anything is stored; the job's time limit is its options'
+                job_id = submit_job(self.store, team, kind, options, payload, priority)
+            except (PendkitError, ValueError) as error:
+                raise HttpError(400, str(error).splitlines()[0] if str(error) else type(error).__name__) from None
         return json_reply({"id": job_id, "state": "waiting", "page": f"/jobs/{job_id}"}, 201,
                           Location=f"/api/jobs/{job_id}")
 
@@ -313,7 +306,7 @@ class _Handler(BaseHTTPRequestHandler):
             raise HttpError(415, f"a job is sent as application/json or multipart/form-data, not {kind}")
         body = self._body()
         if kind == "application/json":
-            fields = _json_object(body, "the body")
+            fields = json_object(body, "the body")
             encoded = fields.pop("payload_base64", None)
             if encoded is None:
                 return fields, None
@@ -323,7 +316,7 @@ class _Handler(BaseHTTPRequestHandler):
                 return fields, base64.b64decode(encoded, validate=True)
             except (binascii.Error, ValueError):
                 raise HttpError(400, "\"payload_base64\" is not valid base64") from None
-        return _multipart(self.headers.get("Content-Type", ""), body)
+        return multipart_fields(self.headers.get("Content-Type", ""), body)
 
     def _send(self, reply: Reply) -> None:
         try:
@@ -352,52 +345,6 @@ class _Handler(BaseHTTPRequestHandler):
 
     def log_message(self, format: str, *args) -> None:
         """Silent: `_answer` logs one line without the path, the headers or the body."""
-
-
-def _json_object(data: bytes, what: str) -> dict:
-    try:
-        value = json.loads(data, parse_constant=_refuse_constant)
-    except (ValueError, RecursionError) as error:
-        raise HttpError(400, f"{what} is not JSON: {str(error).splitlines()[0][:120]}") from None
-    if not isinstance(value, dict):
-        raise HttpError(400, f"{what} must be a JSON object, got {type(value).__name__}")
-    return value
-
-
-def _refuse_constant(name: str):
-    raise ValueError(f"{name} is not a number JSON allows")
-
-
-def _multipart(content_type: str, body: bytes) -> tuple[dict, bytes | None]:
-    """Fields `kind`, `options` (JSON text), `priority`, `time_limit_s` and a `payload` file."""
-    message = BytesParser(policy=HTTP).parsebytes(f"Content-Type: {content_type}\r\n\r\n".encode() + body)
-    if not message.is_multipart() or message.defects:
-        raise HttpError(400, "the multipart body is malformed (check its boundary)")
-    fields, payload = {}, None
-    for part in message.iter_parts():
-        name = part.get_param("name", header="content-disposition")
-        data = part.get_payload(decode=True) or b""
-        if name == "payload":
-            payload = data
-        elif name in ("kind", "options", "priority", "time_limit_s"):
-            try:
-                text = data.decode("utf-8")
-            except UnicodeDecodeError:
-                raise HttpError(400, f"field {name!r} is not UTF-8 text") from None
-            if name == "kind":
-                fields[name] = text.strip()
-            elif name == "options":
-                fields[name] = _json_object(data, "the field 'options'")
-            else:
-                try:
-                    number = float(text)
-                except ValueError:
-                    raise HttpError(400, f"field {name!r} must be a number, got {text[:40]!r}") from None
-                fields[name] = int(number) if name == "priority" and number.is_integer() else number
-        else:
-            raise HttpError(400, f"unknown field {str(name)[:40]!r}: the fields are kind, options, priority, "
-                                 "time_limit_s and payload")
-    return fields, payload
 
 
 def _now() -> str:
