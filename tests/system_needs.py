@@ -1,12 +1,14 @@
 """What parts of the suite need from the system beyond pip, and the command that installs each (Debian or
 Ubuntu; `.ci/run` installs them all). Without one its tests skip, naming the command; the run's summary
-lists what was skipped and why. `PENDKIT_TESTS_WITHOUT=mosquitto,bubblewrap` runs the suite as a machine
+lists what was skipped and why. `PENDKIT_TESTS_WITHOUT=mosquitto,bubblewrap,postgresql` runs the suite as a machine
 without them would (a newcomer's first run)."""
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import shutil
+from pathlib import Path
 
 import pytest
 
@@ -18,13 +20,30 @@ INSTALL = {
     "openssl": "sudo apt-get install openssl",
     "chromium": "sudo apt-get install chromium && pip install playwright",
     "bubblewrap": "sudo apt-get install bubblewrap",
+    "postgresql": "sudo apt-get install postgresql && pip install -e \".[postgres]\"",
 }
+
+
+def postgresql_bin() -> Path | None:
+    """The folder with Debian's `initdb` and `pg_ctl` (the newest major version), else the one on PATH."""
+    for folder in sorted(Path("/usr/lib/postgresql").glob("*/bin"), key=lambda f: _major(f.parent.name),
+                         reverse=True):
+        if (folder / "initdb").exists() and (folder / "pg_ctl").exists():
+            return folder
+    initdb = shutil.which("initdb")
+    return Path(initdb).parent if initdb and shutil.which("pg_ctl") else None
+
+
+def _major(version: str) -> int:
+    return int(version) if version.isdigit() else -1
 
 
 HAVE = {
     "mosquitto": mosquitto_binary() is not None,
     "openssl": shutil.which("openssl") is not None,
     "chromium": (shutil.which("chromium") or shutil.which("chromium-browser")) is not None,
+    # the server for tests/queue (they start their own) and the driver the queue's store talks to it with
+    "postgresql": postgresql_bin() is not None and importlib.util.find_spec("psycopg") is not None,
 }
 
 

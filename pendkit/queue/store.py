@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import sqlite3
 import time
 from dataclasses import dataclass
 from datetime import datetime, timezone
@@ -116,7 +117,7 @@ class QueueStore:
             self.engine = sa.create_engine(url, **_engine_options(url))
             if url.startswith("sqlite"):
                 sa.event.listen(self.engine, "connect", _sqlite_shared)
-            metadata.create_all(self.engine)
+            _create_tables(self.engine)
         except (sa.exc.ArgumentError, sa.exc.NoSuchModuleError) as error:
             raise ConfigError(f"queue database {url!r}: {error}") from None
         except sa.exc.OperationalError as error:
@@ -149,6 +150,9 @@ class QueueStore:
         """Queue a job; its id."""
         servo = servo_range or (None, None)
         with self.engine.begin() as db:
+            # checked here, not left to the foreign key: SQLite does not enforce it unless asked, PostgreSQL does
+            if db.execute(sa.select(teams.c.name).where(teams.c.name == team)).first() is None:
+                raise ConfigError(f"unknown team {team!r}: add it with `pendkit queue teams`")
             result = db.execute(jobs.insert().values(
                 team=team, kind=kind, spec=json.dumps(spec), payload=payload, servo_min=servo[0],
                 servo_max=servo[1], priority=priority, state="waiting", attempts=0, reason="",
@@ -323,6 +327,22 @@ class QueueStore:
             return [dict(row._mapping) for row in db.execute(sa.select(rigs).order_by(rigs.c.rig))]
 
 
+TABLES_LOCK = 690069  # PostgreSQL advisory lock key held while the tables are created
+WAL_ATTEMPTS = 100  # 5 s
+
+
+def _create_tables(engine: sa.Engine) -> None:
+    """Create the missing tables. Runners started together on a fresh database would otherwise both see a
+    table missing and the second fail creating it ("already exists"): one creates them while the others wait."""
+    with engine.connect() as db:
+        if engine.dialect.name == "postgresql":
+            db.execute(sa.text("SELECT pg_advisory_xact_lock(:key)"), {"key": TABLES_LOCK})
+        elif engine.dialect.name == "sqlite":
+            db.exec_driver_sql("BEGIN IMMEDIATE")  # the file's write lock, waited for up to its timeout
+        metadata.create_all(db)
+        db.commit()
+
+
 def _engine_options(url: str) -> dict:
     if url.startswith("sqlite"):
         # several processes share the file: wait for a writer rather than fail at once
@@ -331,5 +351,14 @@ def _engine_options(url: str) -> dict:
 
 
 def _sqlite_shared(dbapi_connection, connection_record) -> None:
-    """Write-ahead logging: the class page reads while a runner writes."""
-    dbapi_connection.execute("PRAGMA journal_mode=WAL")
+    """Write-ahead logging: the class page reads while a runner writes. Switching a fresh file to it while
+    another process opens it can fail at once with "database is locked" (SQLite skips the busy wait where
+    waiting could deadlock): tried again for a few seconds."""
+    for attempt in range(WAL_ATTEMPTS):
+        try:
+            dbapi_connection.execute("PRAGMA journal_mode=WAL")
+            return
+        except sqlite3.OperationalError as error:
+            if "locked" not in str(error) or attempt == WAL_ATTEMPTS - 1:
+                raise
+            time.sleep(0.05)

@@ -1,5 +1,6 @@
 """Which job a free rig takes: its servo, the instructor first, then the team with the least rig time today
-(round robin when jobs are alike), teams past their quota last; and a job claimed once only."""
+(round robin when jobs are alike), teams past their quota last; and a job claimed once only (on both databases:
+tests/queue/conftest.py)."""
 
 from pendkit.queue.fair import Waiting, next_job
 from pendkit.queue.store import QueueStore
@@ -20,8 +21,8 @@ def test_the_rigs_servo_first_then_the_instructor_then_the_least_used_team():
     assert next_job(jobs[:3], WIDE, {"b": 100.0, "a": 50.0}, {"a": 40.0}).job_id == 3  # a is past its quota
 
 
-def test_alike_jobs_go_round_robin_and_each_is_claimed_once(tmp_path):
-    store = QueueStore(str(tmp_path / "queue.db"))
+def test_alike_jobs_go_round_robin_and_each_is_claimed_once(queue_url):
+    store = QueueStore(queue_url)
     for team in ("a", "b", "c"):
         store.add_team(team, f"token-{team}")
     for _ in range(2):
@@ -38,13 +39,13 @@ def test_alike_jobs_go_round_robin_and_each_is_claimed_once(tmp_path):
     assert all(job.state == "done" for job in store.jobs())
 
 
-def test_a_running_job_goes_back_to_waiting_when_its_runner_restarts(tmp_path):
-    store = QueueStore(str(tmp_path / "queue.db"))
+def test_a_running_job_goes_back_to_waiting_when_its_runner_restarts(queue_url):
+    store = QueueStore(queue_url)
     store.add_team("a", "token-a")
     job_id = store.submit("a", "controller", {"controller": "energy"})
     store.register_rig("r01", "bench-1", WIDE)
     assert store.claim("r01", "bench-1").id == job_id
-    reopened = QueueStore(str(tmp_path / "queue.db"))  # the runner's process was killed and started again
+    reopened = QueueStore(queue_url)  # the runner's process was killed and started again
     assert reopened.requeue_running("bench-1") == 1
     assert reopened.job(job_id).state == "waiting" and reopened.rigs()[0]["state"] == "free"
     assert reopened.claim("r01", "bench-1").attempts == 2
