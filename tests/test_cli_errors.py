@@ -63,6 +63,7 @@ MORE_BAD = [
     (["queue", "cancel", "0"], "x>=1"),
     (["queue", "teams", "--credentials", "not-a-run"], "is a directory"),
     (["queue", "rigs", "--db", "queue.db", "--put-back", "r99"], "no rig 'r99'"),
+    (["queue", "run", "--speed", "0"], "0.1<=x<=100"),
 ]
 
 

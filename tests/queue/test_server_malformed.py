@@ -40,6 +40,10 @@ BAD_JOBS = [  # (body, headers, status, words in the refusal)
     (b'{"kind": "controller", "priority": 5}', JSON, 403, "only the instructor"),
     (b'{"kind": "controller", "priority": true}', JSON, 400, "whole number"),
     (b'{"kind": "controller", "time_limit_s": 100}', JSON, 400, "go in options"),
+    (b'{"kind": "controller", "options": {"controller": "energy", "time_limit_s": 1e9}}', JSON, 400, "time_limit_s"),
+    (b'{"kind": "controller", "options": {"controller": "bang-bang"}}', JSON, 400, "controller must be one of"),
+    (b'{"kind": "rocket", "options": {}}', JSON, 400, "unknown job kind"),
+    (b'{"kind": "blob", "payload_base64": "AAAA"}', JSON, 400, "device's checks"),
     (b"[" * 100_000 + b"]" * 100_000, JSON, 413, "at most"),
     (b"[" * 30_000 + b"]" * 30_000, JSON, 400, "not JSON"),  # deep enough to exhaust the parser's recursion
     (b"kind=controller", {"Content-Type": "application/x-www-form-urlencoded"}, 415, "multipart"),
