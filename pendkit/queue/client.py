@@ -82,11 +82,11 @@ class QueueClient:
         return int(self._json("POST", "/api/jobs", request)["id"])
 
     def submit_controller(self, controller: str, preset: str | None = None, params: dict | None = None,
-                          episodes: int | None = None, **kwargs) -> int:
+                          episodes: int | None = None, episode_steps: int | None = None, **kwargs) -> int:
         """The kit's energy or trajopt swing-up, designed for a servo preset or a rig's RigParams dict."""
         options = {"controller": controller}
-        options.update({key: value for key, value in (("preset", preset), ("params", params),
-                                                       ("episodes", episodes)) if value is not None})
+        options.update({key: value for key, value in (("preset", preset), ("params", params), ("episodes", episodes),
+                                                       ("episode_steps", episode_steps)) if value is not None})
         return self.submit("controller", options, **kwargs)
 
     def submit_blob(self, blob: str | Path | bytes, **kwargs) -> int:
