@@ -43,12 +43,14 @@ def angle_from_upright_rad(position_counts: int, counts: int = 1024) -> float:
 
 
 class _SafetyShare:
-    """How much of the last SAFETY_WINDOW_S each stop was set, by the device's clock."""
+    """How much of the last SAFETY_WINDOW_S each stop was set, over the device's readings by its clock."""
 
     def __init__(self) -> None:
         self.window: deque[tuple[int, frozenset[str]]] = deque()
 
     def update(self, millis: int, flags: frozenset[str]) -> None:
+        if self.window and millis <= self.window[-1][0]:
+            return  # the same reading again (none newer arrived this step): counted once
         self.window.append((millis, flags))
         if millis - self.window[0][0] < SAFETY_WINDOW_S * 1000:
             return  # not a whole window yet

@@ -5,9 +5,11 @@ against the pumping direction of the energy law (`pendkit.control.swingup`, the 
 rule) at a rate proportional to the swing's amplitude, while it is pulled back to the centre; once the
 pendulum hangs still (the encoder within 3 counts for 1 s of the rig's time, across the 1023/0 wrap) with the
 arm within a count or two of the centre, the arm goes to the centre exactly and holds until the pendulum hangs
-still again. Left to its bearing, a pendulum dropped from upright swings for about
-90 s; braked, it hangs still in a few seconds. The rig's own stops stay in charge: the targets are ordinary
-commands, clipped and held by the device like any other.
+still again. Dropped from upright, the twin's pendulum hangs still after about 15 s with the arm held at the
+centre, braked after 7-9 s (virtual rig at 10x; at 20x on a loaded machine the host's loop is late and the brake
+gains less). Readings too old to brake on move nothing, and a swing that gains energy (late
+readings turn the phase) is left to the arm held at the centre. The rig's own stops stay in charge: the targets
+are ordinary commands, clipped and held by the device like any other.
 
 A rig that does not settle within `RESET_LIMIT_S`, goes silent or offline, or reports a stuck encoder is
 unfit (`RigFault`): the runner takes it out of service with the reason and the job runs on another rig.
@@ -34,8 +36,17 @@ BRAKE_GAIN_PER_RAD = 1.0  # full rate at a swing of 1 rad, proportionally less b
 CENTRING_PER_S = 1.0
 BRAKE_ARM_LIMIT_RAD = 1.0  # inside every preset's range: braking never drives the arm to its end stop
 EARLIER_SWING_RAD = 1.2  # as pendkit.control.swingup: the phase is asked of a swing at most this big
+# the brake is a feedback law and needs the swing's present: a reading older than this many control steps (of the
+# rig's time) moves nothing; a swing whose amplitude (the largest angle from hanging over the last SWING_S, longer
+# than a period) grew this much above the least it had is being pumped (readings late on a loaded machine turn the
+# phase): the arm then goes to the centre and holds, braking no more
+STALE_STEPS = 2
+SWING_S = 1.5
+PUMPED_RAD = 0.2
 SILENT_S = 2.0  # rig seconds without a reading: the rig is silent
-SILENT_WALL_MIN_S = 1.0  # ... and at least this long on this machine's clock (a busy laptop is not a dead rig)
+# ... and at least this long on this machine's clock: a busy machine is not a dead rig (virtual rigs in processes of
+# their own on two saturated cores went a second without a reading)
+SILENT_WALL_MIN_S = 3.0
 # rig seconds the stuck-encoder stop may stay set: it is also set for a moment when the target jumps 60 counts
 # within one reading (a plan's first step), and cleared by the encoder's next change
 STUCK_HOLD_S = 1.0
@@ -109,6 +120,18 @@ def spread_counts(positions: list[int], counts: int = 1024) -> int:
     return max(offsets) - min(offsets)
 
 
+class Swing:
+    """The swing's amplitude: the largest angle from hanging over the last `steps` readings (None until then)."""
+
+    def __init__(self, steps: int) -> None:
+        self.steps, self.angles_rad = steps, []
+
+    def update(self, angle_from_bottom_rad: float) -> float | None:
+        wrapped = abs((angle_from_bottom_rad + math.pi) % (2 * math.pi) - math.pi)
+        self.angles_rad = (self.angles_rad + [wrapped])[-self.steps:]
+        return max(self.angles_rad) if len(self.angles_rad) == self.steps else None
+
+
 def brake_rate_rad_s(angle_from_bottom_rad: float, velocity_rad_s: float, target_rad: float,
                      natural_frequency_rad_s: float) -> float:
     """The arm target's rate that takes energy out of the swing (the energy law's pumping direction reversed,
@@ -136,10 +159,12 @@ def reset_rig(session, params: RigParams, speed: float, check: Callable[[], None
     started = deadline = time.monotonic()
     target_rad, window, centred = None, [], False
     wanted = max(2, round(STILL_S / step_s))
+    swing, least_swing_rad = Swing(round(SWING_S / step_s)), math.inf
     while (time.monotonic() - started) * speed < limit_s:
         check()
         watch.check()
-        observation = link.newest.received.observation
+        newest = link.newest
+        observation = newest.received.observation
         if target_rad is None:
             target_rad = params.servo_counts_to_rad(observation.servo_counts)
         window = (window + [observation.position_counts])[-wanted:]
@@ -148,8 +173,14 @@ def reset_rig(session, params: RigParams, speed: float, check: Callable[[], None
             return (time.monotonic() - started) * speed
         if not centred and still and abs(target_rad) <= CENTRED_RAD:
             centred, target_rad, window = True, 0.0, []  # the last hair to the centre, then still again
-        if not centred:
-            angle_rad = observation.position_counts * 2 * math.pi / params.encoder_counts
+        angle_rad = observation.position_counts * 2 * math.pi / params.encoder_counts
+        amplitude_rad = swing.update(angle_rad)
+        if amplitude_rad is not None:
+            least_swing_rad = min(least_swing_rad, amplitude_rad)
+            if not centred and amplitude_rad > least_swing_rad + PUMPED_RAD:
+                centred, target_rad, window = True, 0.0, []  # pumping, not braking: hold at the centre instead
+        fresh = (time.monotonic() - newest.receive_time_s) * speed <= STALE_STEPS * step_s
+        if not centred and fresh:
             velocity_rad_s = observation.omega_rev_s * 2 * math.pi
             rate = brake_rate_rad_s(angle_rad, velocity_rad_s, target_rad, params.pendulum_natural_frequency_rad_s)
             target_rad = max(-limit_rad, min(limit_rad, target_rad + rate * step_s))

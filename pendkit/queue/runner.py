@@ -32,7 +32,7 @@ from pendkit.queue import job_results
 from pendkit.queue import store as tables
 from pendkit.queue.fair import fits
 from pendkit.queue.rig_episodes import device_episode
-from pendkit.queue.rig_reset import JobCancelled, JobStopped, RigFault, RunnerStopping
+from pendkit.queue.rig_reset import JobCancelled, JobStopped, RigFault, RigWatch, RunnerStopping
 from pendkit.rig import RigParams
 
 LOG = logging.getLogger("pendkit.queue")
@@ -178,9 +178,17 @@ class QueueRunner:
         self.say(f"{rig.name}: serving (servo {servo} counts, {rig.speed:g}x)")
 
     def _serve(self, rig: ServedRig) -> None:
+        health = RigWatch(rig.session.link, rig.speed)
         while not self.stopping.is_set():
             try:
-                job = self.store.claim(rig.name, self.name)
+                problem = health.problem()
+                if problem is not None:  # gone while idle: out before it takes a job (and costs it an attempt)
+                    if self._state_of(rig.name) != "out":
+                        self.store.take_out(rig.name, problem)
+                        self.say(f"{rig.name}: out of service: {problem}")
+                    job = None
+                else:
+                    job = self.store.claim(rig.name, self.name)
             except sa.exc.SQLAlchemyError as error:  # a database that is busy or away a moment: try again
                 LOG.warning("queue store: %s", str(error).splitlines()[0])
                 job = None
@@ -192,6 +200,9 @@ class QueueRunner:
                 self._run_job(rig, job, watch)
             finally:
                 self._watches.pop(job.id, None)
+
+    def _state_of(self, rig: str) -> str | None:
+        return next((row["state"] for row in self.store.rigs() if row["rig"] == rig), None)
 
     def _watch_store(self) -> None:
         """Every CHECK_EVERY_S: each rig's heartbeat, each running job's cancel, the stale runners' jobs given
