@@ -90,10 +90,23 @@ def _lab(ctx, param, value: str | None) -> str | None:
 @click.option("--jobs", type=click.IntRange(1, 64), default=1, show_default=True,
               help="Notebooks graded at once (each runs its own kernel: about one core each).")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
+@click.option("--queue-server", default=None, metavar="URL",
+              help="Judge the tasks judged on a rig (lab 10's 10.deploy) on the rigs of this `pendkit queue serve`, "
+                   "as the instructor (token: PENDKIT_QUEUE_TOKEN or --queue-token-file); default: on the twin.")
+@click.option("--queue-db", default=None, metavar="URL",
+              help="The same through the queue's database (an SQLite file or postgresql+psycopg://...), filed under "
+                   "the instructor's team, for the runners serving it.")
+@click.option("--queue-token-file", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
+              help="With --queue-server: the instructor's login file (broker/logins/instructor.txt).")
+@click.option("--queue-tls-ca", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
+              help="With an https --queue-server: the classroom CA (broker/ca.crt).")
+@click.option("--queue-wait-minutes", type=click.FloatRange(min=0, min_open=True), default=120.0, show_default=True,
+              help="How long to wait for the rigs' last verdict once every notebook is graded.")
 @click.pass_context
 def grade(ctx: click.Context, submissions: Path | None, lab: str | None, autograder_zip: Path | None, out_dir: Path,
           hidden_dir: Path | None, public_only: bool, no_sandbox: bool, cell_timeout: float, notebook_timeout: float,
-          check_timeout: float | None, jobs: int, quiet: bool) -> None:
+          check_timeout: float | None, jobs: int, quiet: bool, queue_server: str | None, queue_db: str | None,
+          queue_token_file: Path | None, queue_tls_ca: Path | None, queue_wait_minutes: float) -> None:
     """Run and grade every submitted notebook; write Gradescope results.json files and a CSV."""
     from pendkit.grading.core import kit_hidden_tests
     from pendkit.grading.report import grade_folder
@@ -124,8 +137,9 @@ def grade(ctx: click.Context, submissions: Path | None, lab: str | None, autogra
         click.echo(f"WARNING: no sandbox ({isolation_problem() or 'turned off by --no-sandbox'}): students' code "
                    "runs as you, with your files and network, and one submission can change other students' "
                    "grades.", err=True)
+    rig_queue = _rig_queue(queue_server, queue_db, queue_token_file, queue_tls_ca, queue_wait_minutes)
     grades = grade_folder(submissions, out_dir, lab, hidden, cell_timeout, notebook_timeout, check_timeout,
-                          progress=not quiet, jobs=jobs, isolate=False if no_sandbox else None)
+                          progress=not quiet, jobs=jobs, isolate=False if no_sandbox else None, rig_queue=rig_queue)
     if not grades:
         raise click.ClickException(f"no notebooks found in {submissions}")
     for result in grades:
@@ -138,6 +152,38 @@ def grade(ctx: click.Context, submissions: Path | None, lab: str | None, autogra
                 click.echo(note[note.index("CHECK:"):], err=True)
     if hidden is None:  # said again at the end, where an instructor reads the scores
         click.echo(f"NOTE: {public_note}", err=True)
+
+
+def _rig_queue(server: str | None, db: str | None, token_file: Path | None, tls_ca: Path | None,
+               wait_minutes: float):
+    """The queue that judges rig tasks, checked before any notebook runs; None without one. The token leaves
+    this process's environment first: no grading worker inherits it (students' kernels get a short list)."""
+    import os
+
+    from pendkit.errors import ConfigError
+    from pendkit.grading.on_rigs import RigQueue
+
+    token = os.environ.pop("PENDKIT_QUEUE_TOKEN", None)
+    if server is None and db is None:
+        if token_file is not None or tls_ca is not None:
+            raise click.UsageError("--queue-token-file and --queue-tls-ca go with --queue-server")
+        return None
+    if server is not None and db is not None:
+        raise click.UsageError("give --queue-server or --queue-db, not both")
+    if token_file is not None:
+        if token is not None:
+            raise click.UsageError("the token comes from PENDKIT_QUEUE_TOKEN or --queue-token-file, not both")
+        from pendkit.queue.client import read_token_file
+
+        token = read_token_file(token_file)
+    try:
+        queue = RigQueue(server=server, db=db, token=token if server is not None else None,
+                         tls_ca=str(tls_ca) if tls_ca is not None else None, wait_s=wait_minutes * 60)
+        queue.check_reachable()
+    except ConfigError as error:
+        raise click.ClickException(str(error)) from None
+    click.echo(f"tasks judged on a rig go to the queue at {queue.where} once every notebook is graded", err=True)
+    return queue
 
 
 @click.command("autograder-run")

@@ -46,6 +46,15 @@ class GradingError(PendkitError):
     """Strict mode: a check scored less than full marks."""
 
 
+class Pending(Exception):
+    """A test whose outcome comes later, from outside the grader (a rig's verdict through the class's queue:
+    `pendkit.grading.on_rigs`): 0 points until then. `payload`: what is to be judged."""
+
+    def __init__(self, message: str, payload: bytes) -> None:
+        super().__init__(message)
+        self.payload = payload
+
+
 def shown(value) -> str:
     """A student's value as feedback shows it: numbers to 6 significant digits whatever their type
     (`np.float64(0.24)` reads 0.24), anything else as Python writes it."""
@@ -128,6 +137,7 @@ class TestResult:
     passed: bool
     message: str = ""
     hidden: bool = False
+    pending: bytes | None = None  # what a rig is still to judge (`Pending`)
 
 
 @dataclass
@@ -232,16 +242,18 @@ def load_hidden_source(path: Path, source: bytes) -> None:
 
 def run_test(test: TestCase, fn: Callable, time_limit: bool = True) -> TestResult:
     """Run one test; every outcome becomes a result, never an exception. `time_limit=False` when `fn` keeps
-    its own deadline (the grader's remote calls)."""
+    its own deadline (the grader's remote calls). A test that returns text passes with it as its feedback."""
     rng = np.random.default_rng(test.seed)
     timeout_s = test.timeout_s
     if os.environ.get(TIMEOUT_CAP_VARIABLE):
         timeout_s = min(timeout_s, float(os.environ[TIMEOUT_CAP_VARIABLE]))
     try:
         if time_limit:
-            call_with_timeout(lambda: test.run(fn, rng), timeout_s)
+            said = call_with_timeout(lambda: test.run(fn, rng), timeout_s)
         else:
-            test.run(fn, rng)
+            said = test.run(fn, rng)
+    except Pending as waiting:
+        return TestResult(test.name, 0.0, test.points, False, str(waiting), test.hidden, pending=waiting.payload)
     except Failed as failure:
         return _failed(test, str(failure) or "wrong result")
     except CheckTimeout as timeout:
@@ -252,7 +264,7 @@ def run_test(test: TestCase, fn: Callable, time_limit: bool = True) -> TestResul
         return _failed(test, str(error), with_hint=False)
     except Exception as error:
         return _failed(test, f"raised {getattr(error, 'shown_as', type(error).__name__)}: {error}")
-    return TestResult(test.name, test.points, test.points, True, "", test.hidden)
+    return TestResult(test.name, test.points, test.points, True, said if isinstance(said, str) else "", test.hidden)
 
 
 def run_task(task_id: str, fn: Any, include_hidden: bool = False) -> list[TestResult]:

@@ -115,13 +115,16 @@ class GradingInterrupted(PendkitError):
 
 def grade_folder(folder: Path, out: Path, lab: str | None, hidden_dir: Path | None, cell_timeout_s: float,
                  notebook_timeout_s: float, check_timeout_s: float | None = None, progress: bool = True,
-                 jobs: int = 1, one_student: bool = False, isolate: bool | None = None) -> list[SubmissionGrade]:
+                 jobs: int = 1, one_student: bool = False, isolate: bool | None = None,
+                 rig_queue=None) -> list[SubmissionGrade]:
     """Grade every submission in `folder`, `jobs` at a time; write the reports; return the grades. Hidden
     files that cannot be loaded are skipped and reported on stderr; no submission can stop the others.
     Every scratch folder lives under one folder of this run, removed however the run ends; an interrupted
     run writes what it graded and says so in the other rows. `isolate`: as `grade_notebook`'s, except that
     without a sandbox (None where there is none) a class of several students is refused: pass False to grade
-    it anyway. Reports are written once every process a submission started has ended."""
+    it anyway. Reports are written once every process a submission started has ended. `rig_queue`: a
+    `pendkit.grading.on_rigs.RigQueue` whose rigs judge the tasks judged on a rig, once every notebook is graded
+    (None: the twin judges them as each notebook is graded)."""
     if Path(out).resolve().is_relative_to(Path(folder).resolve()):
         raise ConfigError(f"the grades' folder {out} is inside the submissions' folder {folder}, where a student's "
                           "notebook could read or write them: choose --out outside it")
@@ -142,14 +145,19 @@ def grade_folder(folder: Path, out: Path, lab: str | None, hidden_dir: Path | No
     grades: dict[int, SubmissionGrade] = {}
     scratch = Path(tempfile.mkdtemp(prefix="pendkit-grading-run-", dir=_short_temporary_folder()))
     try:
-        if jobs <= 1:
-            with _temporary_files_in(scratch):
-                for index, submission in enumerate(submissions):
-                    grades[index] = _grade_one(submission, settings)
-                    if bar is not None:
-                        bar.update(1)
-        else:
-            _grade_in_pool(submissions, settings, sources, jobs, scratch, grades, bar)
+        with _rig_tests_wait(rig_queue is not None):
+            if jobs <= 1:
+                with _temporary_files_in(scratch):
+                    for index, submission in enumerate(submissions):
+                        grades[index] = _grade_one(submission, settings)
+                        if bar is not None:
+                            bar.update(1)
+            else:
+                _grade_in_pool(submissions, settings, sources, jobs, scratch, grades, bar)
+        if rig_queue is not None:  # every kernel has ended: the rigs judge what the notebooks' tests kept
+            from pendkit.grading.on_rigs import judge_on_rigs
+
+            judge_on_rigs([grades[k] for k in sorted(grades)], rig_queue)
     except KeyboardInterrupt:
         ordered = [grades.get(k) or _failed_grade(s, "not graded: the run was interrupted")
                    for k, s in enumerate(submissions)]
@@ -221,6 +229,23 @@ def _short_temporary_folder() -> str | None:
     if tempfile.tempdir is None and os.name == "posix" and os.access("/tmp", os.W_OK):
         return "/tmp"
     return None
+
+
+@contextmanager
+def _rig_tests_wait(waiting: bool):
+    """With a rig queue, the tests judged on a rig keep their blobs (`pendkit.grading.on_rigs`); set in this
+    process's environment, which the grading workers inherit and students' kernels do not."""
+    from pendkit.grading.on_rigs import ON_RIGS_VARIABLE
+
+    saved = os.environ.pop(ON_RIGS_VARIABLE, None)
+    if waiting:
+        os.environ[ON_RIGS_VARIABLE] = "queue"
+    try:
+        yield
+    finally:
+        os.environ.pop(ON_RIGS_VARIABLE, None)
+        if saved is not None:
+            os.environ[ON_RIGS_VARIABLE] = saved
 
 
 @contextmanager

@@ -53,9 +53,22 @@ def upload_chunks(blob, start=0, size=1024, order="<", whole_size=True):
             + blob[offset:offset + size] for offset in range(start, len(blob), size)]
 
 
+def deployed_blob(controller="trajopt", target_energy=1.0, cut_bytes=0, packed=True):
+    from pendkit.control.swingup import SwingUpConfig
+    from pendkit.deploy.swingup_design import design_swing_up
+    from pendkit.device.controller_blob import pack
+
+    designed = design_swing_up(None, controller, config=SwingUpConfig(target_energy=target_energy))
+    if not packed:
+        return designed
+    blob = pack(designed)
+    return blob[:len(blob) - cut_bytes]
+
+
 CORRECT = {
     "10.pendulum_acceleration": lambda a, w, p, w0, d, k: pendulum_acceleration(a, w, p, w0, d, k),
     "10.upload_chunks": lambda blob, start=0, size=1024: upload_chunks(blob, start, size),
+    "10.deploy": lambda: deployed_blob(),
 }
 
 MISTAKES = [
@@ -66,4 +79,7 @@ MISTAKES = [
     ("10.upload_chunks", lambda blob, start=0, size=1024: upload_chunks(blob, start, size, whole_size=False),
      "whole blob's size"),
     ("10.upload_chunks", lambda blob, start=0, size=1024: upload_chunks(blob, 0, size), "offsets"),
+    ("10.deploy", lambda: deployed_blob(packed=False), "should return the blob's bytes"),
+    ("10.deploy", lambda: deployed_blob(cut_bytes=7), "refused by the device's checks"),
+    ("10.deploy", lambda: deployed_blob("energy", target_energy=0.6), "not solved"),
 ]

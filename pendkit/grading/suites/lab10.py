@@ -12,6 +12,7 @@ from pendkit.grading.written import written
 prelab_task("10", ("round_trip_ms", "readings_per_decision", "heartbeat_ms"))
 model = task("10.pendulum_acceleration", function="pendulum_acceleration", title="The estimate's model")
 chunks = task("10.upload_chunks", function="upload_chunks", title="Upload chunks")
+deploy = task("10.deploy", function="deployed_blob", title="Your controller, judged on a rig")
 written("10.on_device_report", "On-device report", points=4)
 
 W0, DAMPING, COUPLING = 5.9, 0.73, 1.22  # the kit's rig: rad/s, 1/s, per unit inertia
@@ -115,3 +116,18 @@ def resumes_after_a_lost_chunk(fn, rng):
     status = device_takes([first[0], *rest])
     expect(status["accepted"] == 1, f"after the first chunk, the chunks from byte 256 should complete the blob; "
                                     f"the device accepted {status['accepted']}")
+
+
+@deploy.test(points=1, hint="pack(design_swing_up(params, controller)): the bytes, for the kit's rig's servo.")
+def the_device_takes_it(fn, rng):
+    from pendkit.grading.on_rigs import checked_blob
+
+    checked_blob(fn())
+
+
+@deploy.test(points=3, timeout_s=120, hint="Both of the kit's designs hold on the kit's rig: check what you changed.")
+def judged_by_the_rule(fn, rng):
+    """On a rig through the class's queue when the grader has one (pendkit.grading.on_rigs), else on the twin."""
+    from pendkit.grading.on_rigs import checked_blob, judge_blob
+
+    return judge_blob(checked_blob(fn()))
