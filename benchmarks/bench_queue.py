@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from pendkit.queue.jobs import submit_job
+from pendkit.queue.runner import TWIN_PENDING
 from pendkit.queue.store import QueueStore
 
 SAMPLE_S = 0.5
@@ -178,6 +179,10 @@ def main() -> None:
                 print(f"killed rig {victim} mid-job at {time.monotonic() - started:.0f} s")
             time.sleep(SAMPLE_S)
         wall_s = time.monotonic() - started
+        twin_deadline = time.monotonic() + 120  # the twin's figures follow the rigs' results
+        while time.monotonic() < twin_deadline and any(
+                store.result(job_id)["summary"].get("pushes") == TWIN_PENDING for job_id in job_team):
+            time.sleep(SAMPLE_S)
     finally:
         if runner is not None:
             runner.terminate()
@@ -198,10 +203,13 @@ def main() -> None:
     verdicts = [results[j]["summary"].get("verdict") for j in job_team if results[j]]
     solved = sum(bool(results[j]["summary"].get("solved")) for j in job_team if results[j])
     outs = {row["rig"]: row["reason"] for row in store.rigs() if row["state"] == "out"}
+    pushes = [results[j]["summary"].get("pushes") for j in job_team if results[j]]
+    twin = sum(isinstance(p, dict) and bool(p.get("solved")) for p in pushes)
     failed = sum(job.state == "failed" for job in jobs.values())
     reruns = sum(job.attempts - 1 for job in jobs.values())
-    print(f"wall {wall_s:.0f} s; {solved} of {len(verdicts)} jobs solved by the rule; failed {failed}; reruns "
-          f"{reruns}; fair overshoot {worst} starts; out of service: {outs or 'none'}")
+    print(f"wall {wall_s:.0f} s; {solved} of {len(verdicts)} jobs solved by the rule on the rigs, {twin} on the twin "
+          f"with pushes ({sum(isinstance(p, dict) for p in pushes)} judged there); failed {failed}; reruns {reruns}; "
+          f"fair overshoot {worst} starts; out of service: {outs or 'none'}")
     print(f"queue teams={args.teams} jobs={len(job_team)} rigs={args.rigs} busy={busy:.2f} lost={lost} "
           f"p95_wait_s={np.percentile(waits, 95):.1f} fair={'yes' if fair else 'no'}")
     store.close()

@@ -42,6 +42,7 @@ STALE_AFTER_S = 30.0  # a busy rig not heard from this long: its runner died, it
 STALE_CHECK_EVERY_S = 5.0
 SPEED_RANGE = (0.1, 100.0)  # a virtual rig's time per wall second, as its status reports it
 WATCHDOG_MAX_MS = 5000  # the protocol's longest watchdog (`w`)
+TWIN_PENDING = "being judged on the twin"  # a result's twin figure until it is there
 
 
 @dataclass
@@ -111,6 +112,10 @@ class QueueRunner:
             if not rig.session.link.connected:
                 rig.session.link.connect()
             self._register(rig)
+        if self.twin_pushes:  # the twin's figures a runner killed before it judged them
+            for job_id in _awaiting_twin(self.store):
+                job = self.store.job(job_id)
+                self._twin_jobs.put((job.id, job.payload, job.spec))
         self._threads = [threading.Thread(target=self._serve, args=(rig,), daemon=True, name=f"queue-{rig.name}")
                          for rig in self.rigs]
         self._threads.append(threading.Thread(target=self._judge_on_twin, daemon=True, name="queue-twin"))
@@ -305,7 +310,7 @@ class QueueRunner:
         png = job_results.plot_png(runs, title, held if job.kind != "excitation" else None) if runs else None
         judged_twin = self.twin_pushes and job.kind != "excitation" and not failed and "verdict" in summary
         if "verdict" in summary:
-            summary["pushes"] = ("being judged on the twin" if judged_twin
+            summary["pushes"] = (TWIN_PENDING if judged_twin
                                  else "not judged on the twin" + ("" if self.twin_pushes else " (--no-twin)"))
         finished = self.store.finish(job.id, summary, job_results.telemetry_csv(runs), png, failed,
                                      reason if failed else job.reason)  # a job that ran twice keeps why
@@ -353,6 +358,15 @@ def _release_rig(store, rig: str) -> None:
     with store.engine.begin() as db:
         db.execute(tables.rigs.update().where(tables.rigs.c.rig == rig, tables.rigs.c.state == "busy")
                    .values(state="free", job_id=None))
+
+
+def _awaiting_twin(store) -> list[int]:
+    """Done jobs whose result still waits for its twin figure."""
+    with store.engine.connect() as db:
+        rows = db.execute(sa.select(tables.results.c.job_id, tables.results.c.summary)
+                          .join(tables.jobs, tables.jobs.c.id == tables.results.c.job_id)
+                          .where(tables.jobs.c.state == "done", tables.results.c.summary.contains(TWIN_PENDING)))
+        return [row.job_id for row in rows if json.loads(row.summary).get("pushes") == TWIN_PENDING]
 
 
 def _merge_summary(store, job_id: int, changes: dict) -> None:

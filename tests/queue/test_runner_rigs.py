@@ -88,6 +88,20 @@ def test_hostile_jobs_are_stopped_or_refused_and_the_rig_stays_in_service(store)
     assert store.rigs()[0]["state"] == "free"
 
 
+def test_a_twin_figure_left_pending_by_a_killed_runner_is_judged_by_the_next(store):
+    from pendkit.queue.runner import TWIN_PENDING
+
+    job_id = submit_job(store, "a", "controller", ENERGY)
+    store.register_rig("r09", "a-runner-since-killed", (150, 450))
+    store.claim("r09", "a-runner-since-killed")
+    store.finish(job_id, {"verdict": "1/1", "held": 1, "episodes_run": 1, "pushes": TWIN_PENDING})
+    with VirtualRigs(["r01"], SPEED) as rigs:
+        runner_for(store, rigs).run(once=True)
+    pushes = store.result(job_id)["summary"]["pushes"]
+    assert pushes["episodes"] == 1 and pushes["size"] == "hand"
+    assert store.result(job_id)["summary"]["verdict"] == "1/1"  # the rig's figures as they were
+
+
 def test_a_job_for_another_servo_waits_for_a_rig_of_that_servo(store):
     turnigy = submit_job(store, "a", "controller", {**ENERGY, "preset": "turnigy-tgy-wp23"})
     default = submit_job(store, "a", "controller", ENERGY)
