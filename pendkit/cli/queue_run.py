@@ -29,7 +29,10 @@ from pendkit.link import DEFAULT_BROKER
 @click.option("--once", is_flag=True, help="Stop when no job is left that these rigs could run.")
 @broker_login_options
 def run(db, rig_ids, broker, virtual_ids, speed, name, twin, once, username, password, tls_ca) -> None:
-    """Serve rigs from the queue: reset each between episodes, judge by the kit's rule, store the results."""
+    """Serve rigs from the queue: reset each between episodes, judge by the kit's rule, store the results.
+
+    On a classroom broker a runner serving several rigs logs in as the instructor (a team's host user reaches
+    its own rig only)."""
     from pendkit.errors import ConfigError, MissingExtraError
     from pendkit.link.driver import RigLink, RigLinkError, check_rig_id
 
