@@ -30,7 +30,6 @@ WAITS_ON_REAL_TIME = (
     "tests/link/test_tls_and_settle.py",
     "tests/queue/test_runner_rigs.py",
     "tests/queue/test_runner_process.py",
-    "tests/test_first_day.py",
     "tests/deploy/test_classical_from_the_laptop.py",
     "docs/acceptance.ipynb",
 )

@@ -93,6 +93,10 @@ def test_the_first_day_runs_as_written(room, tmp_path):
                 wait_until(lambda words=words, where=where: subprocess.run(words, cwd=where, env=env,
                                                                             capture_output=True).returncode == 0)
             result = subprocess.run(words, cwd=where, env=env, capture_output=True, text=True, timeout=600)
+            if where is team and "no observation from rig" in result.stdout + result.stderr:
+                # ten rigs' physics in one process on a 2-core machine running other tests beside this one can
+                # starve a rig for half a second, which the env rightly stops on; once more, as a team would
+                result = subprocess.run(words, cwd=where, env=env, capture_output=True, text=True, timeout=600)
             assert result.returncode == 0, f"`{line}` failed:\n{result.stdout}\n{result.stderr}"
             outputs[words[3]] = result.stdout
     finally:
