@@ -48,11 +48,12 @@ def judge_blob(blob: bytes) -> str:
     if os.environ.get(ON_RIGS_VARIABLE) == "queue":
         raise Pending("waiting for a rig's verdict through the class's queue", blob)
     verdict = twin_verdict(blob)
-    said = (f"judged on the twin's device, the rule's starts (pendkit grade was given no queue: with one, a rig "
-            f"judges it): {verdict['held']}/{verdict['episodes']} held")
+    said = (f"judged on the twin's device from the rule's starts (no rig queue here: graded with one, a rig judges "
+            f"it): {verdict['held']}/{verdict['episodes']} held")
     if verdict["held"] < verdict["needed"]:
         raise Failed(f"{said}, not solved ({RULE_HINT})")
-    return f"{said}, solved; median time to upright {verdict['time_to_upright_s']:.2f} s"
+    upright_s = verdict["time_to_upright_s"]
+    return f"{said}, solved" + (f"; median time to upright {upright_s:.2f} s" if upright_s is not None else "")
 
 
 def twin_verdict(blob: bytes) -> dict:
