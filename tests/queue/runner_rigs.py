@@ -11,7 +11,7 @@ from pendkit.deploy.swingup_design import design_swing_up
 from pendkit.device.controller_blob import pack
 from pendkit.rig import RigParams
 
-SPEED = 10.0  # virtual rigs' time per wall second: an episode of 400 steps (24 s) in about 2.4 s (at 20x a loaded
+SPEED = 5.0  # virtual rigs' time per wall second: an episode of 400 steps (24 s) in about 5 s (at 10x and 20x a loaded
 # 2-core machine let the rigs fall behind and fail their resets)
 # a judged job of one short episode: 12 s to swing up (the energy design takes 3-6 s), then the rule's 200 steps
 STEPS = 400
