@@ -28,12 +28,20 @@ class BrokerLogin:
         return {"username": self.username, "password": self.password, "tls_ca": self.tls_ca}
 
 
-def _password_from_environment(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
-    if value is not None and ctx.get_parameter_source(param.name) == click.core.ParameterSource.COMMANDLINE:
-        raise click.BadParameter("a password on the command line is visible to every user of this machine (`ps`): "
-                                 "set PENDKIT_MQTT_PASSWORD in the environment, or give --password-file FILE",
-                                 param_hint="--password")
-    return value
+def refused_on_command_line(what: str, variable: str, file_option: str):
+    """A click callback taking a secret from `variable` only: given on the command line (where every user of the
+    machine reads it with `ps`), it is refused, naming the variable and `file_option`."""
+    def callback(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
+        if value is not None and ctx.get_parameter_source(param.name) == click.core.ParameterSource.COMMANDLINE:
+            raise click.BadParameter(f"a {what} on the command line is visible to every user of this machine "
+                                     f"(`ps`): set {variable} in the environment, or give {file_option} FILE",
+                                     param_hint=f"--{what}")
+        return value
+
+    return callback
+
+
+_password_from_environment = refused_on_command_line("password", "PENDKIT_MQTT_PASSWORD", "--password-file")
 
 
 def _password_file(ctx: click.Context, param: click.Parameter, value: Path | None) -> str | None:

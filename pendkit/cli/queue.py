@@ -12,6 +12,7 @@ from pathlib import Path
 
 import click
 
+from pendkit.cli.broker_login import refused_on_command_line
 from pendkit.control.names import CONTROLLER_NAMES
 from pendkit.rig import SERVO_PRESETS
 
@@ -89,12 +90,7 @@ def _loopback(bind: str) -> bool:
 
 
 # --- a team's commands ---
-def _refuse_token_on_command_line(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
-    if value is not None and ctx.get_parameter_source(param.name) == click.core.ParameterSource.COMMANDLINE:
-        raise click.BadParameter("a token on the command line is visible to every user of this machine (`ps`): "
-                                 "set PENDKIT_QUEUE_TOKEN in the environment, or give --token-file FILE",
-                                 param_hint="--token")
-    return value
+_refuse_token_on_command_line = refused_on_command_line("token", "PENDKIT_QUEUE_TOKEN", "--token-file")
 
 
 def _client_options(function):
