@@ -114,3 +114,14 @@ def queue_url(request, tmp_path):
     url = server.new_database()
     yield url
     server.drop_database(url)
+
+
+@pytest.fixture
+def store(tmp_path):
+    """An SQLite queue with one team, "a" (token "token-a"), for the runner's tests."""
+    from pendkit.queue.store import QueueStore
+
+    store = QueueStore(str(tmp_path / "queue.db"))
+    store.add_team("a", "token-a")
+    yield store
+    store.close()

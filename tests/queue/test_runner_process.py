@@ -16,17 +16,8 @@ from click.testing import CliRunner
 from pendkit.cli import main
 from pendkit.queue.jobs import submit_job
 from pendkit.queue.runner import QueueRunner
-from pendkit.queue.store import QueueStore
 from pendkit.queue.virtual import VirtualRigs
 from tests.queue.runner_rigs import SHORT, SPEED, STEPS, wait_for
-
-
-@pytest.fixture
-def store(tmp_path):
-    store = QueueStore(str(tmp_path / "queue.db"))
-    store.add_team("a", "token-a")
-    yield store
-    store.close()
 
 
 def test_queue_run_serves_virtual_rigs_until_the_queue_is_empty(store):

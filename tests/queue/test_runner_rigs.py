@@ -28,14 +28,6 @@ from tests.queue.runner_rigs import SHORT, SPEED, STEPS, network_blob, serving, 
 ENERGY = {"controller": "energy", **SHORT}
 
 
-@pytest.fixture
-def store(tmp_path):
-    store = QueueStore(str(tmp_path / "queue.db"))
-    store.add_team("a", "token-a")
-    yield store
-    store.close()
-
-
 def runner_for(store, rigs, name="bench-1", **options):
     return QueueRunner(store, rigs.links(), name, say=lambda line: None, **options)
 
