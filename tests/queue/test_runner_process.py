@@ -25,7 +25,7 @@ def test_queue_run_serves_virtual_rigs_until_the_queue_is_empty(store):
     done = CliRunner().invoke(main, ["queue", "run", "--db", store.url, "--virtual", "r01", "--speed", str(SPEED),
                                      "--once", "--no-twin", "--name", "bench-1"])
     assert done.exit_code == 0, done.output
-    assert "r01: serving (servo 150..450 counts, 20x)" in done.output
+    assert f"r01: serving (servo 150..450 counts, {SPEED:g}x)" in done.output
     assert f"r01: job {job_id} done: 1/1" in done.output and "runner bench-1 stopped" in done.output
     assert store.job(job_id).state == "done"
 
