@@ -81,4 +81,7 @@ def _measuring(link: RigLink, ages: list[float]):
 
 
 if __name__ == "__main__":
+    from provenance import print_header  # benchmarks/provenance.py (here: tests load this file alone)
+
+    print_header()
     main()

@@ -251,4 +251,7 @@ def report_sb3(setting: str, results: list[tuple[int | None, float, int]], algo:
 
 
 if __name__ == "__main__":
+    from provenance import print_header  # benchmarks/provenance.py (here: tests load this file alone)
+
+    print_header()
     main()

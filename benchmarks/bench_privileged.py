@@ -84,4 +84,7 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    from provenance import print_header  # benchmarks/provenance.py (here: tests load this file alone)
+
+    print_header()
     main()
