@@ -140,11 +140,9 @@ def plot_episode(trace: EpisodeTrace, path: str | Path | None = None, title: str
                  natural_frequency_rad_s: float | None = None, decorate=None):
     """Angles, action, reward (and the pendulum's energy, given its natural frequency) against time;
     saved to `path` (PNG) when given. Returns the figure."""
-    from matplotlib.figure import Figure
-
     data = trace.as_arrays()
     rows = 4 if natural_frequency_rad_s else 3
-    figure = Figure(figsize=(9, 2.2 * rows), layout="constrained")
+    figure = shown_figure(figsize=(9, 2.2 * rows), layout="constrained")
     axes = figure.subplots(rows, 1, sharex=True)
     t = data["time_s"]
     # |angle| from upright (0 upright, 180 hanging): a signed angle jumps between +-180 at every bottom pass
@@ -175,6 +173,22 @@ def plot_episode(trace: EpisodeTrace, path: str | Path | None = None, title: str
                f"over {t[-1]:.1f} s; episode return {trace.episode_return:.1f}.")
         figure.savefig(path, dpi=110, metadata={"Description": alt})
     return figure
+
+
+def shown_figure(**options):
+    """A matplotlib Figure (no pyplot) that Jupyter draws as a PNG when it is a cell's value, whatever the
+    kernel's backend: a bare Figure shows as the text `<Figure size ...>` in ipykernel 7 without it."""
+    import io
+
+    from matplotlib.figure import Figure
+
+    class ShownFigure(Figure):
+        def _repr_png_(self) -> bytes:
+            buffer = io.BytesIO()
+            self.savefig(buffer, format="png")
+            return buffer.getvalue()
+
+    return ShownFigure(**options)
 
 
 def progress_bar(total: int, desc: str):

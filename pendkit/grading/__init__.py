@@ -43,13 +43,23 @@ def check(task_id: str, fn: Any) -> float | None:
         print(f"{task_id}: graded by `pendkit grade` after the notebook has run")
         return None
     results = run_task(task_id, fn)
-    print(format_report(task_id, results))
+    print(_with_hidden_share(task_id, format_report(task_id, results)))
     score = sum(r.points for r in results)
     total = sum(r.max_points for r in results)
     if strict() and score < total:
         failed = "; ".join(f"{r.name}: {r.message}" for r in results if not r.passed)
         raise GradingError(f"{task_id} scored {score:g}/{total:g} in strict mode ({failed})")
     return Score(score)
+
+
+def _with_hidden_share(task_id: str, report: str) -> str:
+    """The report's first line says its points are the public tests' and what the hidden tests add."""
+    hidden = TASKS[task_id].hidden_points if task_id in TASKS else None
+    if not hidden:
+        return report
+    first, _, rest = report.partition("\n")
+    share = f"{first} public; {hidden:g} more point{'s' if hidden != 1 else ''} from hidden tests when graded"
+    return f"{share}\n{rest}" if rest else share
 
 
 def attempt(fn: Callable, *args, **kwargs) -> Any:

@@ -146,6 +146,7 @@ class Task:
     function: str
     title: str
     tests: list[TestCase] = field(default_factory=list)
+    hidden_points: float | None = None  # what the hidden tests add, as the public suite states it to `check`
 
     def test(self, points: float, hint: str = "", timeout_s: float = DEFAULT_TIMEOUT_S, hidden: bool = False):
         """Decorator declaring a test of this task."""
@@ -167,11 +168,13 @@ class Task:
 TASKS: dict[str, Task] = {}
 
 
-def task(task_id: str, function: str, title: str) -> Task:
-    """Declare (or fetch) a graded task. Ids are "NN.name": NN is the lab."""
-    if task_id in TASKS:
-        return TASKS[task_id]
-    TASKS[task_id] = Task(task_id, function, title)
+def task(task_id: str, function: str, title: str, hidden_points: float | None = None) -> Task:
+    """Declare (or fetch) a graded task. Ids are "NN.name": NN is the lab. `hidden_points`: the points its
+    hidden tests add, which `check` names beside the public score."""
+    if task_id not in TASKS:
+        TASKS[task_id] = Task(task_id, function, title)
+    if hidden_points is not None:
+        TASKS[task_id].hidden_points = hidden_points
     return TASKS[task_id]
 
 

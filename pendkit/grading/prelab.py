@@ -15,7 +15,7 @@ from pendkit.grading.core import Failed, Task, expect, is_real, task
 
 def prelab_task(lab: str, keys: tuple[str, ...]) -> Task:
     """The lab's `NN.prelab` task, with its public test: every key answered with a number."""
-    prelab = task(f"{lab}.prelab", function="prelab", title="Pre-lab questions")
+    prelab = task(f"{lab}.prelab", function="prelab", title="Pre-lab questions", hidden_points=len(keys))
     if any(t.name == "answers_every_question" for t in prelab.tests):
         return prelab
 

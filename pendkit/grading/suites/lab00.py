@@ -10,8 +10,9 @@ from pendkit.grading.core import expect, is_real, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
-reward_task = task("00.reward", function="reward", title="The paper's reward")
-fraction_task = task("00.upright_fraction", function="upright_fraction", title="Fraction of time upright")
+reward_task = task("00.reward", function="reward", title="The paper's reward", hidden_points=1)
+fraction_task = task("00.upright_fraction", function="upright_fraction",
+                     title="Fraction of time upright", hidden_points=1)
 
 
 @reward_task.test(points=2, hint="reward = -theta^2 - 0.5 * omega^2 with omega in revolutions per second.")

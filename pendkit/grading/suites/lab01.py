@@ -9,10 +9,11 @@ from pendkit.grading.core import Failed, expect, is_real, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
-decode = task("01.decode_frame", function="decode_frame", title="Decode an EMS-22A SSI frame")
-to_angle = task("01.counts_to_angle", function="counts_to_angle", title="Counts to angle from the bottom")
-upright = task("01.angle_from_upright", function="angle_from_upright", title="Angle from upright")
-wrap = task("01.wrap_delta", function="wrap_delta", title="Wrap-aware difference")
+decode = task("01.decode_frame", function="decode_frame", title="Decode an EMS-22A SSI frame", hidden_points=3)
+to_angle = task("01.counts_to_angle", function="counts_to_angle",
+                title="Counts to angle from the bottom", hidden_points=1)
+upright = task("01.angle_from_upright", function="angle_from_upright", title="Angle from upright", hidden_points=1)
+wrap = task("01.wrap_delta", function="wrap_delta", title="Wrap-aware difference", hidden_points=2)
 
 
 def _reversed_10_bits(value: int) -> int:

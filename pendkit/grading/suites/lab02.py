@@ -11,10 +11,11 @@ from pendkit.grading.core import Failed, expect, is_sequence_of, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
-velocity = task("02.velocity_rev_s", function="velocity_rev_s", title="Wrap-aware velocity in rev/s")
-mean = task("02.firmware_mean", function="firmware_mean", title="The firmware's mean of the last N")
-smooth = task("02.low_pass", function="low_pass", title="First-order low-pass")
-limits = task("02.period_limits", function="period_limits", title="Quantisation step and aliasing limit")
+velocity = task("02.velocity_rev_s", function="velocity_rev_s", title="Wrap-aware velocity in rev/s", hidden_points=2)
+mean = task("02.firmware_mean", function="firmware_mean", title="The firmware's mean of the last N", hidden_points=1)
+smooth = task("02.low_pass", function="low_pass", title="First-order low-pass", hidden_points=1)
+limits = task("02.period_limits", function="period_limits",
+              title="Quantisation step and aliasing limit", hidden_points=1)
 
 
 def _as_array(got, name: str, length: int) -> np.ndarray:

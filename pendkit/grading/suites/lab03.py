@@ -10,9 +10,11 @@ from pendkit.grading.core import NotGradable, as_number, expect, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
-frequency = task("03.natural_frequency", function="natural_frequency", title="Compound-pendulum frequency")
-period = task("03.period_from_crossings", function="period_from_crossings", title="Period from zero crossings")
-damping = task("03.damping_ratio", function="damping_ratio", title="Damping from successive peaks")
+frequency = task("03.natural_frequency", function="natural_frequency",
+                 title="Compound-pendulum frequency", hidden_points=1)
+period = task("03.period_from_crossings", function="period_from_crossings",
+              title="Period from zero crossings", hidden_points=1)
+damping = task("03.damping_ratio", function="damping_ratio", title="Damping from successive peaks", hidden_points=1)
 
 G = 9.81
 
@@ -76,7 +78,7 @@ def from_peak_amplitudes(fn, rng):
         expect(abs(got - zeta) < 1e-6, message)
 
 
-slew = task("03.slew_rate", function="slew_rate", title="Servo slew rate from a step log")
+slew = task("03.slew_rate", function="slew_rate", title="Servo slew rate from a step log", hidden_points=2)
 
 
 def servo_ramp(slew_rad_s: float, lag_s: float, start_rad: float, target_rad: float, dt_s: float,

@@ -10,9 +10,9 @@ from pendkit.grading.core import Failed, NotGradable, expect, is_sequence_of, ta
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
-matrices = task("04.upright_matrices", function="upright_matrices", title="A and B about upright")
-gain = task("04.lqr_gain", function="lqr_gain", title="A discrete LQR gain")
-poles = task("04.closed_loop_poles", function="closed_loop_poles", title="Closed-loop poles")
+matrices = task("04.upright_matrices", function="upright_matrices", title="A and B about upright", hidden_points=1)
+gain = task("04.lqr_gain", function="lqr_gain", title="A discrete LQR gain", hidden_points=1)
+poles = task("04.closed_loop_poles", function="closed_loop_poles", title="Closed-loop poles", hidden_points=1)
 
 
 def _reference(model: FurutaModel):

@@ -8,12 +8,13 @@ from pendkit.grading.core import as_number, expect, is_sequence_of, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
-energy = task("05.pendulum_energy", function="pendulum_energy", title="Normalised pendulum energy")
-direction = task("05.pumping_direction", function="pumping_direction", title="Which way to accelerate the arm")
-switch = task("05.next_mode", function="next_mode", title="Hand-over between swing-up and LQR")
-limits = task("05.path_limits", function="path_limits", title="Bounds along the swing-up plan")
-catch = task("05.catch_set", function="catch_set", title="The catch set as bounds on the final state")
-final_cost = task("05.terminal_cost", function="terminal_cost", title="The plan's terminal cost")
+energy = task("05.pendulum_energy", function="pendulum_energy", title="Normalised pendulum energy", hidden_points=1)
+direction = task("05.pumping_direction", function="pumping_direction",
+                 title="Which way to accelerate the arm", hidden_points=1)
+switch = task("05.next_mode", function="next_mode", title="Hand-over between swing-up and LQR", hidden_points=1)
+limits = task("05.path_limits", function="path_limits", title="Bounds along the swing-up plan", hidden_points=1)
+catch = task("05.catch_set", function="catch_set", title="The catch set as bounds on the final state", hidden_points=1)
+final_cost = task("05.terminal_cost", function="terminal_cost", title="The plan's terminal cost", hidden_points=1)
 
 W0 = 5.3
 

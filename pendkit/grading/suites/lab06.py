@@ -10,9 +10,10 @@ from pendkit.grading.core import Failed, as_number, expect, is_sequence_of, show
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
-jitter = task("06.period_error_p99_ms", function="period_error_p99_ms", title="Step-period jitter")
-fit = task("06.fit_latency", function="fit_latency", title="A latency distribution from samples")
-predict = task("06.predict_angle", function="predict_angle", title="Predicting the angle past the delay")
+jitter = task("06.period_error_p99_ms", function="period_error_p99_ms", title="Step-period jitter", hidden_points=1)
+fit = task("06.fit_latency", function="fit_latency", title="A latency distribution from samples", hidden_points=1)
+predict = task("06.predict_angle", function="predict_angle",
+               title="Predicting the angle past the delay", hidden_points=1)
 
 
 @jitter.test(points=2, hint="Periods are the differences of successive step times; compare each with the "

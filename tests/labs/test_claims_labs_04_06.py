@@ -1,0 +1,133 @@
+"""The figures labs 04 and 06 state (instructor notes, reflection premises) are what the runs measure."""
+
+import math
+from pathlib import Path
+
+import control
+import numpy as np
+import pytest
+
+import pendkit
+from pendkit.control.lqr import LqrBalancer, StateFeedback
+from pendkit.control.model import FurutaModel, discretise
+from pendkit.episode import run_episode
+from pendkit.grading.core import load_hidden, load_lab
+from pendkit.labs.prediction import predictions, verdict
+from pendkit.network import IMPAIRMENTS
+from pendkit.rig import RigParams
+from pendkit.sim.fidelity import FIDELITY_PRESETS
+
+ROOT = Path(__file__).resolve().parents[2]
+START = {"start": "rest", "pendulum_angle_rad": math.pi + math.radians(10)}
+
+
+def hidden(lab: str):
+    """The lab's answer key module (its mistakes' helpers), loaded as the grader loads it."""
+    from pendkit.grading.core import HIDDEN_MODULES
+
+    load_lab(lab)
+    load_hidden(ROOT / "solutions" / "tests" / f"lab{lab}_hidden.py")
+    return HIDDEN_MODULES[f"lab{lab}_hidden"]
+
+
+def design(q=(2.0, 40.0, 0.05, 0.5), r=3.0, **wrong):
+    """Lab 04's cell: K on the (possibly wrong) A and B, discretised at 60 ms; the largest |pole| of A - BK
+    and of A + BK."""
+    a, b = hidden("04").upright_matrices_with(FurutaModel.from_rig(RigParams()), **wrong)
+    system = discretise(control.ss(a, b, np.eye(4), np.zeros((4, 1))), 0.06)
+    gain = np.asarray(control.dlqr(system.A, system.B, np.diag(q), [[r]])[0])
+    largest = [float(np.max(np.abs(np.linalg.eigvals(system.A + sign * system.B @ gain)))) for sign in (-1, 1)]
+    return gain, *largest
+
+
+def worst_deg(env, policy, seed=0, steps=200, tail=40):
+    trace = run_episode(env, policy, seed=seed, steps=steps, options=START)
+    return float(np.degrees(np.max(np.abs(trace.pendulum_from_upright_rad[-tail:]))))
+
+
+def test_lab04_weights_move_gain_and_pole_as_the_note_says():
+    for weight, angle_gain, pole in [(40, 1.08, 0.87), (400, 1.44, 0.93), (4000, 1.73, 0.96)]:
+        gain, largest, _ = design(q=(2.0, weight, 0.05, 0.5))
+        assert (round(gain[0, 1], 2), round(largest, 2)) == (angle_gain, pole), weight
+    for r, angle_gain, pole in [(0.3, 0.98, 0.89), (3.0, 1.08, 0.87), (30.0, 1.46, 0.79)]:
+        gain, largest, _ = design(r=r)
+        assert (round(gain[0, 1], 2), round(largest, 2)) == (angle_gain, pole), r
+
+
+@pytest.mark.parametrize("wrong, printed, falls", [
+    ({}, 0.87, False), ({"gravity_sign": -1.0}, 0.90, True), ({"coupling_sign": 1.0}, 0.87, True),
+    ({"arm_damping": False}, 0.87, False),
+])
+def test_lab04_a_k_on_the_twin_as_the_note_says(wrong, printed, falls):
+    gain, largest, _ = design(**wrong)
+    assert round(largest, 2) == printed
+    env = pendkit.make(action_mode="continuous", fidelity="ideal", filter_coefficient=0.0)
+    worst = worst_deg(env, StateFeedback(gain, env.unwrapped.params), tail=33)
+    assert (worst > 90) if falls else (worst < 0.1), worst
+
+
+def test_lab04_a_plus_bk_prints_an_unstable_pole_while_the_plot_balances():
+    _, _, plus = design()
+    assert round(plus, 2) == 1.60
+
+
+def test_lab04_without_the_coupling_dlqr_finds_no_gain():
+    with pytest.raises(np.linalg.LinAlgError):
+        design(coupling=False)
+
+
+def test_lab04_delay_and_the_faster_step_as_the_note_says():
+    params = RigParams()
+    for seed, aware_deg, fast_deg in [(0, 1.4, 2.5), (1, 1.4, 1.4), (2, 2.1, 2.5)]:
+        realistic = pendkit.make(action_mode="continuous", fidelity="realistic", params=params)
+        fast = pendkit.make(action_mode="continuous", fidelity="realistic", params=params.replace(control_step_ms=30.0))
+        assert worst_deg(realistic, LqrBalancer(realistic.unwrapped.params), seed) > 170
+        assert round(worst_deg(realistic, LqrBalancer.for_env(realistic), seed), 1) == aware_deg
+        assert round(worst_deg(fast, LqrBalancer.for_env(fast), seed), 1) == fast_deg
+
+
+def test_lab04_the_servo_speed_does_not_enter_the_linear_design():
+    """Lab 03 says so: my_rig.json's slower servo gives lab 04 the default K."""
+    default = design()[0]
+    mine = RigParams.load(ROOT / "solutions" / "my_rig.json")
+    a, b = hidden("04").upright_matrices_with(FurutaModel.from_rig(mine))
+    assert mine.servo_speed_s_per_60deg != RigParams().servo_speed_s_per_60deg
+    assert np.allclose(a, hidden("04").upright_matrices_with(FurutaModel.from_rig(RigParams()))[0]) and \
+        np.allclose(default, design()[0])
+
+
+@pytest.mark.parametrize("name, fn, rms, words", [
+    ("right", lambda th, om, d, w0: th + om * d + 0.5 * w0**2 * th * d**2, 0.11, "lands on the pendulum"),
+    ("gravity's sign", lambda th, om, d, w0: th + om * d - 0.5 * w0**2 * th * d**2, 5.86, "falls short"),
+    ("no gravity", lambda th, om, d, w0: th + om * d, 2.94, "falls short"),
+    ("no 1/2", lambda th, om, d, w0: th + om * d + w0**2 * th * d**2, 2.91, "overshoots"),
+    ("velocity's sign", lambda th, om, d, w0: th - om * d + 0.5 * w0**2 * th * d**2, 16.65, "velocity term"),
+    ("milliseconds", lambda th, om, d, w0: th + om * d * 1000, None, "in seconds"),
+])
+def test_lab06_the_prediction_plot_tells_each_mistake(name, fn, rms, words):
+    run = predictions(fn)
+    assert round(run.ignoring_rms_deg, 1) == 11.2
+    if rms is not None:
+        assert round(run.predicted_rms_deg, 2) == rms
+    assert words in verdict(run)
+
+
+def test_lab06_ignoring_the_delay_falls_where_the_aware_design_holds():
+    """The premise of Q2 and Q3 (seeds 0-2, 10 degrees): on the classroom WiFi the delay-aware design holds
+    within 1.8 degrees and ignoring the delay falls; on the poor WiFi both fall."""
+    for impairment, aware_holds in [("classroom-wifi", True), ("poor-wifi", False)]:
+        fidelity = FIDELITY_PRESETS["realistic"].replace(name=impairment, network=IMPAIRMENTS[impairment])
+        for seed in range(3):
+            twin = pendkit.make(action_mode="continuous", fidelity=fidelity)
+            assert worst_deg(twin, LqrBalancer(twin.unwrapped.params), seed, steps=250) > 170
+            aware = worst_deg(twin, LqrBalancer.for_env(twin), seed, steps=250)
+            assert (aware <= 1.8) if aware_holds else (aware > 170), (impairment, seed, aware)
+
+
+def test_lab06_poor_wifi_as_q3_states_it():
+    """Q3: the preset's model has a one-way median of 19 ms, a p99 of about 100 ms and loses 3% each way."""
+    impairment = IMPAIRMENTS["poor-wifi"]
+    latency = impairment.latency
+    p99 = latency.floor_ms + latency.median_ms * math.exp(latency.spread * 2.3263)
+    assert latency.floor_ms + latency.median_ms == 19.0 and round(p99, -1) == 100
+    assert impairment.observation_loss_pct == impairment.command_loss_pct == 3.0
