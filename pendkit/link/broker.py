@@ -10,6 +10,7 @@ from __future__ import annotations
 import asyncio
 import csv
 import io
+import logging
 import os
 import secrets
 import shutil
@@ -38,6 +39,14 @@ def wait_for_port(host: str, port: int, timeout_s: float = 5.0) -> bool:
         except OSError:
             time.sleep(0.02)
     return False
+
+
+class _DroppedAtShutdown(logging.Filter):
+    """Leaves out amqtt's "N messages not broadcasted" warning, which a stopping broker prints for the messages
+    still queued (a stray line under a notebook cell)."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return "messages not broadcasted" not in record.getMessage()
 
 
 class EmbeddedBroker:
@@ -100,10 +109,14 @@ class EmbeddedBroker:
         if self._loop is None or self._broker is None:
             return
         future = asyncio.run_coroutine_threadsafe(self._broker.shutdown(), self._loop)
+        quiet = _DroppedAtShutdown()  # telemetry still in flight when a lab stops its rig: dropped on purpose
+        logging.getLogger("amqtt.broker").addFilter(quiet)
         try:
             future.result(timeout=5)
         except Exception:  # shutting down anyway
             pass
+        finally:
+            logging.getLogger("amqtt.broker").removeFilter(quiet)
         self._loop.call_soon_threadsafe(self._loop.stop)
         if self._thread is not None:
             self._thread.join(timeout=5)

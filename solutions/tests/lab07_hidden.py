@@ -113,4 +113,11 @@ MISTAKES = [
     ("07.epsilon", lambda step, start, end, decay: start + (end - start) * min(1.0, (step + 1) / decay), "off by one"),
     ("07.huber", lambda e, delta: np.where(np.abs(e) <= delta, np.asarray(e) ** 2, delta * (np.abs(e) - 0.5 * delta)),
      "half the square"),
+    ("07.policy_verdict", lambda held, starts: {"held": sum(map(bool, held)), "episodes": len(held),
+                                                "solved": sum(map(bool, held)) >= 9}, "the rule takes 10 episodes"),
+    ("07.policy_verdict", lambda held, starts: {"held": sum(map(bool, held)), "episodes": len(held),
+                                                "solved": len(held) == 10 and sum(map(bool, held)) >= 9},
+     "5 random starts too"),
+    ("07.td_target", lambda r, done, online, target, gamma, double: 2 * np.asarray(r, dtype=float)
+     - td_target(r, done, online, target, gamma, double), "the sign is wrong"),
 ]

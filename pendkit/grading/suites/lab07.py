@@ -64,7 +64,11 @@ def double_and_plain_targets(fn, rng):
     got_plain = _arrays(_along_the_actions(fn, rewards, dones, online, target_q, gamma, False),
                         "td_target(..., double=False)", 3)
     message = f"double targets should be {double.tolist()}, got {got_double.tolist()}"
-    if np.allclose(got_double, plain):
+    future_double = gamma * (1 - dones) * target_q[np.arange(3), online.argmax(axis=1)]
+    if np.allclose(got_double, rewards - future_double) or np.allclose(got_double, -rewards + future_double):
+        message += (": the sign is wrong; the target is the reward PLUS gamma times the next state's value "
+                    "(r + gamma (1 - done) Q'), both with a plus sign")
+    elif np.allclose(got_double, plain):
         message += ": that is the plain max; let the online network choose the action"
     elif np.allclose(got_double, rewards + gamma * (1 - dones) * online[np.arange(3), target_q.argmax(axis=1)]):
         message += (": the two networks' roles are swapped; the online network picks the action (argmax), "
@@ -75,7 +79,10 @@ def double_and_plain_targets(fn, rng):
         message += (": done is 1 at a terminal step, so (1 - done) keeps the future where the episode goes on; "
                     "you kept it only where it ended")
     expect(np.allclose(got_double, double), message)
-    expect(np.allclose(got_plain, plain), f"plain targets should be {plain.tolist()}, got {got_plain.tolist()}")
+    message = f"plain targets should be {plain.tolist()}, got {got_plain.tolist()}"
+    if np.allclose(got_plain, 2 * rewards - plain):
+        message += ": the sign is wrong; the target is the reward PLUS gamma times the next state's value"
+    expect(np.allclose(got_plain, plain), message)
 
 
 @huber.test(points=2, hint="0.5 e^2 where |e| <= delta, delta (|e| - 0.5 delta) beyond.")
@@ -127,6 +134,10 @@ def one_lucky_episode_is_not_a_policy(fn, rng):
     lucky = [True] + [False] * 9
     got = _verdict(fn, lucky, RULE_STARTS, "policy_verdict(only the first episode held)")
     expect(not got["solved"], "only the first episode (hanging still) held: one lucky episode is not a policy")
-    short = _verdict(fn, [True] * 5, RULE_STARTS[:5], "policy_verdict(5 episodes, all held)")
-    expect(not short["solved"], "5 episodes, all held, should not be solved: the rule takes 10 episodes, "
-                                "5 hanging still and 5 random starts (a share of 100% of too few says little)")
+    short = _verdict(fn, [True] * 9, RULE_STARTS[:9], "policy_verdict(9 episodes, all held)")
+    expect(not short["solved"], "9 episodes, all held, should not be solved: the rule takes 10 episodes, "
+                                "5 hanging still and 5 random starts (check how many episodes there were, not "
+                                "only how many held)")
+    one_kind = _verdict(fn, [True] * 10, ["rest"] * 10, "policy_verdict(10 episodes hanging still, all held)")
+    expect(not one_kind["solved"], "10 episodes all from hanging still, all held, should not be solved: the rule "
+                                   "takes 5 random starts too (count the starts of each kind)")

@@ -54,8 +54,9 @@ def the_pendulums_row(fn, rng):
         raise Failed(f"{call}: expected {expected:.4f} rad/s^2, got {got:.4f}" + (f": {named[0]}" if named else ""))
 
 
-@model.test(points=1, hint="Hanging still with the arm at rest, nothing moves it.")
-def hanging_still(fn, rng):
+@model.test(points=1, hint="Hanging still with the arm at rest nothing moves it; just short of upright, gravity "
+                            "pulls the pendulum back down (-w0^2 sin(angle), the angle from hanging).")
+def still_when_hanging_and_falling_back_near_upright(fn, rng):
     got = a_number(fn(0.0, 0.0, 0.0, W0, DAMPING, COUPLING), "pendulum_acceleration(0, 0, 0, ...)")
     expect(abs(got) < 1e-12, f"hanging still, the arm at rest: 0 rad/s^2, got {got}")
     upright = a_number(fn(math.pi - 0.01, 0.0, 0.0, W0, DAMPING, COUPLING), "pendulum_acceleration(pi - 0.01, ...)")
