@@ -12,12 +12,18 @@ reward = task("00.reward", function="reward", title="The paper's reward")
 fraction = task("00.upright_fraction", function="upright_fraction", title="Fraction of time upright")
 
 
-@reward.test(points=1, hidden=True, hint="Both terms are squared: the sign of the angle or velocity does not matter.")
+@reward.test(points=1, hidden=True, hint="The reward must match the formula for any angle and velocity, of "
+                                        "either sign.")
 def reward_is_symmetric(fn, rng):
     for theta, omega in rng.uniform(-3, 3, (20, 2)):
-        expect(abs(fn(theta, omega) - fn(-theta, -omega)) < 1e-12, "reward should not depend on the signs")
         expected = -theta**2 - 0.5 * (omega / (2 * math.pi)) ** 2
-        expect(abs(fn(theta, omega) - expected) < 1e-9, f"reward({theta:.3f}, {omega:.3f}) is wrong")
+        got = fn(theta, omega)
+        message = f"reward({theta:.3f}, {omega:.3f}) should be {expected:.4f}, got {shown(got)}"
+        if abs(got - (-theta**2 - 0.5 * omega**2)) < 1e-9:
+            message += ": the velocity arrives in rad/s; convert it to rev/s first"
+        elif abs(got - fn(-theta, -omega)) > 1e-12:
+            message += ": it changes when both signs flip; both terms are squared, so the sign must not matter"
+        expect(abs(got - expected) < 1e-9, message)
 
 
 @fraction.test(points=1, hidden=True, hint="Accept lists as well as arrays; the bound is strict.")
@@ -41,6 +47,9 @@ CORRECT = {
 MISTAKES = [
     ("00.reward", lambda theta, omega: -theta**2 - 0.5 * omega**2, "rev/s"),
     ("00.reward", lambda theta, omega: theta**2 + 0.5 * (omega / (2 * math.pi)) ** 2, "never positive"),
+    ("00.reward", lambda theta, omega: -theta**2 - 0.5 * abs(omega / (2 * math.pi)), "should be"),
+    ("00.reward", lambda theta, omega: -theta * abs(theta) - 0.5 * (omega / (2 * math.pi)) ** 2,
+     "the sign must not matter"),
     ("00.upright_fraction", lambda angles: float(np.mean(np.asarray(angles) < 0.3)), "absolute value"),
     ("00.upright_fraction", lambda angles: int(np.sum(np.abs(np.asarray(angles)) < 0.3)), "count"),
 ]

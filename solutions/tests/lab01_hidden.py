@@ -68,13 +68,19 @@ def random_angles_and_the_seam(fn, rng):
                f"angle_from_upright({angle:.4f}) should be {expected:.4f} in [-pi, pi), got {outcome.error or got!r}")
 
 
-@wrap.test(points=1, hidden=True, hint="512 keeps its sign, 513 wraps: check both sides of the seam.")
+@wrap.test(points=1, hidden=True, hint="Both sides of the seam, each way round: the firmware wraps only jumps "
+                                      "larger than half a turn.")
 def the_seam_exactly(fn, rng):
     calls = [(512, 0), (0, 512), (513, 0), (0, 513), (1023, 511), (511, 1023), (1023, 510), (510, 1023)]
     wanted = [512, -512, -511, 511, 512, -512, -511, 511]
     for (new, old), want, outcome in zip(calls, wanted, outcomes(fn, calls)):
-        expect(outcome.error is None and outcome.value == want,
-               f"wrap_delta({new}, {old}) should be {want}, got {outcome.error or outcome.value!r}")
+        got = outcome.error or outcome.value
+        message = f"wrap_delta({new}, {old}) should be {want}, got {shown(got)}"
+        if outcome.error is None and got == -want:
+            message += ": right size, wrong sign: the difference is new - old"
+        elif outcome.error is None and abs(want) == 512:
+            message += ": exactly half a turn keeps its sign (only jumps beyond 512 wrap)"
+        expect(outcome.error is None and got == want, message)
 
 
 prelab_answers("01", {"counts_per_turn": 1024, "counts_between_readings": 25.6})

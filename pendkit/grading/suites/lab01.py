@@ -155,7 +155,10 @@ def upright_is_zero_and_sides_have_signs(fn, rng):
 def plain_differences(fn, rng):
     for new, old in [(10, 5), (5, 10), (600, 400), (0, 0)]:
         got = fn(new, old)
-        expect(got == new - old, f"wrap_delta({new}, {old}) should be {new - old}, got {shown(got)}")
+        message = f"wrap_delta({new}, {old}) should be {new - old}, got {shown(got)}"
+        if new != old and got == old - new:
+            message += ": that is old - new; the difference is new - old"
+        expect(got == new - old, message)
 
 
 @wrap.test(points=3, hint="A jump of more than half a turn really went the short way across 1023/0.")
@@ -165,13 +168,17 @@ def differences_across_the_seam(fn, rng):
         message = f"wrap_delta({new}, {old}) should be {expected}, got {shown(got)}"
         if got == new - old:
             message += ": that is the long way round; take the shorter way across the 1023 -> 0 seam"
+        elif got == old - new:
+            message += ": that is old - new, and the long way round: subtract new - old, then wrap"
         elif is_real(got) and got == -expected:
             message += ": right size, wrong sign"
         expect(got == expected, message)
 
 
-@wrap.test(points=1, hint="Only jumps strictly larger than 512 wrap; exactly 512 keeps its sign.")
+@wrap.test(points=1, hint="The firmware wraps only jumps strictly larger than half a turn (512).")
 def half_a_turn_keeps_its_sign(fn, rng):
+    if fn(10, 5) == -5:
+        raise Failed("wrap_delta(10, 5) gave -5: the difference is new - old (this test needs that first)")
     for new, old in [(512, 0), (0, 512)]:
         got = fn(new, old)
         expect(got == new - old, f"wrap_delta({new}, {old}) should be {new - old} (the firmware keeps exactly "
