@@ -6,6 +6,7 @@ import numpy as np
 
 from pendkit import encoder
 from pendkit.grading import expect, task
+from pendkit.grading.core import shown
 from pendkit.grading.prelab import prelab_answers
 
 velocity = task("02.velocity_rev_s", function="velocity_rev_s", title="Wrap-aware velocity in rev/s")
@@ -52,8 +53,12 @@ def random_periods(fn, rng):
     for period_ms in rng.uniform(1.0, 500.0, 5):
         got = fn(float(period_ms))
         period_s = period_ms / 1000
-        expect(len(got) == 2 and abs(float(got[0]) - 1 / 1024 / period_s) < 1e-9
-               and abs(float(got[1]) - 0.5 / period_s) < 1e-9, f"period_limits({period_ms:.2f}) is wrong")
+        want = (1 / 1024 / period_s, 0.5 / period_s)
+        ok = len(got) == 2 and abs(float(got[0]) - want[0]) < 1e-9 and abs(float(got[1]) - want[1]) < 1e-9
+        message = f"period_limits({period_ms:.2f}) should be ({want[0]:.4f}, {want[1]:.3f}), got {shown(got)}"
+        if not ok and len(got) == 2 and abs(float(got[1]) - want[1] / 1000) < 1e-9:
+            message += ": off by a factor of 1000; the period arrives in milliseconds"
+        expect(ok, message)
 
 
 prelab_answers("02", {"slowest_rev_s": 0.097656, "fastest_rev_s": 20.0})
@@ -105,4 +110,5 @@ MISTAKES = [
     ("02.low_pass", lambda v, a: encoder.low_pass(v, 1 - a) if a < 1 else np.asarray(v, float), "1 - alpha"),
     ("02.period_limits", lambda ms: (1 / 1024 / (ms / 1000), 1 / (ms / 1000)), "half a turn"),
     ("02.period_limits", lambda ms: (2 * math.pi / 1024 / (ms / 1000), 0.5 / (ms / 1000)), "rad/s"),
+    ("02.period_limits", lambda ms: (1 / 1024 / ms, 0.5 / ms), "milliseconds"),
 ]

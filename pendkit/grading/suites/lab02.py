@@ -68,7 +68,8 @@ def uneven_intervals(fn, rng):
     expected = encoder.finite_difference_rev_s(positions, times)
     got = _as_array(fn(positions.tolist(), times.tolist()), "velocity_rev_s", 7)
     expect(np.allclose(got, expected, atol=1e-9), f"with uneven intervals {np.diff(times).tolist()} ms the "
-           f"velocities should be {np.round(expected, 3).tolist()}, got {np.round(got, 3).tolist()}")
+           f"velocities should be {np.round(expected, 3).tolist()}, got {np.round(got, 3).tolist()}"
+           + _velocity_hint(got, expected, positions.tolist(), times.tolist()))
 
 
 @mean.test(points=2, hint="Each output is the mean of the last `window` inputs, counting zeros before the start.")
@@ -128,6 +129,8 @@ def quantisation_and_aliasing(fn, rng):
             message += ": a full turn per period would look like no motion at all; the limit is half a turn"
         if abs(step - want_step * 2 * math.pi) < 1e-6:
             message += ": rev/s please, not rad/s"
+        if abs(step - want_step / 1000) < 1e-12 and abs(limit - want_limit / 1000) < 1e-9:
+            message += ": off by a factor of 1000; the period arrives in milliseconds: convert it to seconds"
         expect(abs(step - want_step) < 1e-9 and abs(limit - want_limit) < 1e-9, message)
 
 

@@ -1,0 +1,51 @@
+"""Lab 02: how far each of the student's velocity estimates is from the truth, and from the firmware's own."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pendkit import encoder
+
+MEAN_WINDOW = 4
+ALPHA = 0.2  # the plot's low-pass: small enough that 1 - alpha (0.8) looks plainly different
+
+
+def rms(a, b) -> float:
+    return float(np.sqrt(np.mean(np.square(np.asarray(a, float) - np.asarray(b, float)))))
+
+
+def _reference_mean(raw: np.ndarray) -> np.ndarray:
+    padded = np.concatenate([np.zeros(MEAN_WINDOW - 1), raw])
+    return np.convolve(padded, np.ones(MEAN_WINDOW) / MEAN_WINDOW, mode="valid")
+
+
+def notes(true_rev_s, raw, mean, smooth) -> list[str]:
+    """One line per estimate the student has written: its RMS error against the truth, and where it parts
+    from the estimate it should be, with the likely cause."""
+    true_rev_s = np.asarray(true_rev_s, float)
+    lines = []
+    if raw is None:
+        return lines
+    raw = np.asarray(raw, float)
+    lines.append(f"single differences: {rms(raw, true_rev_s):.3f} rev/s rms from the truth")
+    if mean is not None:
+        mean, want = np.asarray(mean, float), _reference_mean(raw)
+        line = f"your firmware_mean: {rms(mean, true_rev_s):.3f} rev/s rms from the truth"
+        wrong = np.flatnonzero(~np.isclose(mean, want)) if mean.shape == want.shape else np.arange(len(want))
+        if len(wrong) and wrong.max() < MEAN_WINDOW - 1:
+            line += (f"; its first {wrong.max() + 1} values differ from the firmware's, whose buffer starts full "
+                     "of zeros (see the plot's first 0.1 s)")
+        elif len(wrong) and mean.shape == want.shape and np.allclose(mean[:-1], want[1:]):
+            line += "; it runs ahead of the firmware's: it uses values that have not arrived yet"
+        elif len(wrong):
+            line += "; it differs from the firmware's mean of the last 4"
+        lines.append(line)
+    if smooth is not None:
+        smooth = np.asarray(smooth, float)
+        line = f"your low_pass (alpha {ALPHA}): {rms(smooth, true_rev_s):.3f} rev/s rms from the truth"
+        if smooth.shape == raw.shape and np.allclose(smooth, encoder.low_pass(raw, 1 - ALPHA)):
+            line += f"; that is a low-pass with alpha {1 - ALPHA:g}: alpha and 1 - alpha are swapped"
+        elif smooth.shape != raw.shape or not np.allclose(smooth, encoder.low_pass(raw, ALPHA)):
+            line += f"; it differs from y_k = y_(k-1) + {ALPHA} (x_k - y_(k-1))"
+        lines.append(line)
+    return lines
