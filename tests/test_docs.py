@@ -243,6 +243,8 @@ def results_problems(page: Path, text: str) -> list[str]:
             blocks = []
     if not tables:
         problems.append(f"{page.name}: no table (a results page is tables, each with its provenance)")
+    problems += [f"{page.name}: a diary's word ({m.group(0)!r}): the route to a result goes in research/"
+                 for m in DIARY.finditer(_prose(text))]
     for commit, date in PROVENANCE.findall(text):
         datetime.date.fromisoformat(date)
         if _git("cat-file", "-e", f"{commit}^{{commit}}") is False:
@@ -295,6 +297,7 @@ def test_the_figure_rules_catch_what_they_are_for(tmp_path):
     assert results_problems(guide, good.replace("commit=0fb89c2 ", ""))  # no commit
     assert results_problems(guide, good + "\n| c |\n|---|\n| 3 |\n")  # a second table shares the first's block
     assert results_problems(guide, "Prose only, 2026-11-29.\n")  # no table
+    assert results_problems(guide, good + "\nMeasured in the fourth session.\n")  # a diary
     if _git("rev-parse", "HEAD") is not None:
         assert results_problems(guide, good.replace("0fb89c2", "0000000"))  # a commit the history lacks
 
