@@ -84,7 +84,8 @@ prelab_answers("03", {"period_s": 1.185507, "log_decrement": 0.693147})
 def slew_rate(t, command, arm, interpolate=True):
     t, command, arm = (np.asarray(v, dtype=float) for v in (t, command, arm))
     k = int(np.argmax(command != command[0]))
-    progress = (arm[k:] - arm[k - 1]) / (command[k] - arm[k - 1])
+    start = arm[k - 1]
+    progress = (arm[k:] - start) / (command[k] - start)
     times = t[k:]
 
     def crossing(level):
@@ -92,6 +93,21 @@ def slew_rate(t, command, arm, interpolate=True):
         if not interpolate:
             return times[i]
         return times[i - 1] + (level - progress[i - 1]) * (times[i] - times[i - 1]) / (progress[i] - progress[i - 1])
+
+    return 0.8 * abs(command[k] - start) / (crossing(0.9) - crossing(0.1))
+
+
+def slew_interpolating_the_wrong_pair(t, command, arm):
+    """Interpolates, but between the sample at or past the level and the one after it."""
+    t, command, arm = (np.asarray(v, dtype=float) for v in (t, command, arm))
+    k = int(np.argmax(command != command[0]))
+    progress, times = (arm[k:] - arm[k - 1]) / (command[k] - arm[k - 1]), t[k:]
+
+    def crossing(level):
+        i = int(np.argmax(progress >= level))
+        if progress[i + 1] == progress[i]:
+            return times[i]
+        return times[i] + (level - progress[i]) * (times[i + 1] - times[i]) / (progress[i + 1] - progress[i])
 
     return 0.8 * abs(command[k] - arm[k - 1]) / (crossing(0.9) - crossing(0.1))
 
@@ -139,4 +155,5 @@ MISTAKES = [
     ("03.slew_rate", lambda t, c, a: -slew_rate(t, c, a) if c[-1] < c[0] else slew_rate(t, c, a), "positive"),
     ("03.slew_rate", lambda t, c, a: slew_rate(t, c, a) / 0.8, "80 %"),
     ("03.slew_rate", lambda t, c, a: slew_rate(t, c, a, interpolate=False), "interpolation"),
+    ("03.slew_rate", slew_interpolating_the_wrong_pair, "two samples around it"),
 ]

@@ -115,12 +115,28 @@ def a_step_the_other_way(fn, rng):
     expect(abs(got - 2.5) < 0.01, _slew_message("for a 2.5 rad/s ramp from 0.3 to -0.5 rad, slew_rate", got, 2.5))
 
 
+def _slew_without_interpolation(t, command, arm) -> set[float]:
+    """What the slew comes to when each crossing is taken at a sample (the first at or past the level, or
+    the last before it), without interpolating."""
+    k = int(np.argmax(command != command[0]))
+    progress = (arm[k:] - arm[k - 1]) / (command[k] - arm[k - 1])
+    times, step = t[k:], abs(command[k] - arm[k - 1])
+    after = [times[int(np.argmax(progress >= level))] for level in (0.1, 0.9)]
+    before = [times[int(np.argmax(progress >= level)) - 1] for level in (0.1, 0.9)]
+    return {0.8 * step / (b - a) for a, b in (after, before) if b > a}
+
+
 @slew.test(points=1, hint="Interpolate each crossing between the two samples around it.")
 def coarse_samples(fn, rng):
     t, command, arm = servo_ramp(3.3, 0.013, 0.0, 0.7, dt_s=0.02, step_at_s=0.107)
     got = as_number(fn(t, command, arm), "slew_rate(t, command, arm)")
-    expect(abs(got - 3.3) < 0.01, f"with 20 ms samples a 3.3 rad/s ramp should still give 3.300 rad/s, got "
-           f"{got:.4f}: without interpolation each crossing is only known to within a sample")
+    message = f"with 20 ms samples a 3.3 rad/s ramp should still give 3.300 rad/s, got {got:.4f}"
+    if any(abs(got - plain) < 1e-6 for plain in _slew_without_interpolation(t, command, arm)):
+        message += ": that is each crossing taken at a sample, without interpolation"
+    else:
+        message += ": with samples this coarse, check how each crossing is located between the two samples " \
+                   "around it (the level minus the earlier sample's progress, over the pair's difference)"
+    expect(abs(got - 3.3) < 0.01, message)
 
 
 prelab_task("03", ("period_s", "log_decrement",))
