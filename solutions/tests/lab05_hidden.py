@@ -21,6 +21,7 @@ def wound_up_angles(fn, rng):
 @direction.test(points=1, hidden=True, hint="Check every quadrant and both directions of swing.")
 def all_quadrants(fn, rng):
     calls = [(float(alpha), omega) for alpha in rng.uniform(-math.pi, math.pi, 40) for omega in (-2.0, 2.0)]
+    calls += [(0.0, 0.0), (1.0, 0.0)]  # at rest no push adds energy: the lab says +1
     for (alpha, omega), outcome in zip(calls, outcomes(fn, calls)):
         expected = -1 if omega * math.cos(alpha) > 0 else 1
         expect(outcome.error is None and outcome.value == expected, f"pumping_direction({alpha:.3f}, {omega}) is wrong")
@@ -34,6 +35,8 @@ CATCH_ANGLE_RAD, CATCH_VELOCITY_RAD_S, FALL_ANGLE_RAD = 0.8, 5.0, 1.1  # the lab
 def random_states(fn, rng):
     calls = [(mode, float(theta), float(omega)) for mode in ("swing", "balance")
              for theta, omega in rng.uniform([-1.6, -8.0], [1.6, 8.0], (40, 2))]
+    calls += [(mode, theta, omega) for mode in ("swing", "balance")  # on a threshold: the lab says strict
+              for theta, omega in ((CATCH_ANGLE_RAD, 1.0), (0.2, CATCH_VELOCITY_RAD_S), (-FALL_ANGLE_RAD, 0.0))]
     for (mode, theta, omega), outcome in zip(calls, outcomes(fn, calls)):
         if mode == "swing":
             want = "balance" if abs(theta) < CATCH_ANGLE_RAD and abs(omega) < CATCH_VELOCITY_RAD_S else "swing"
