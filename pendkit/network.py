@@ -1,7 +1,7 @@
 """The network between the MCU and the host, one model for every backend: latency (a parametric default or
 samples measured on a rig) and lost messages (`NetworkImpairment`); the messages' way through it, losses
 and in-order delivery from one random stream (`NetworkPath`, used by the realistic twin and the virtual rig
-alike); and the delays a backend tells its controllers (`mcu_timing`)."""
+alike). The delays a backend tells its controllers are worked out from these in `pendkit.timing`."""
 
 from __future__ import annotations
 
@@ -13,7 +13,6 @@ from pathlib import Path
 
 import numpy as np
 
-from pendkit.backend_contract import BackendTiming
 from pendkit.errors import ConfigError
 
 # Beyond this a message is lost, not late: the rig's watchdog stops the servo after 0.5 s without commands.
@@ -153,11 +152,3 @@ class NetworkPath:
         self._last_observation_ms = max(sent_ms + delay_ms, self._last_observation_ms)
         return self._last_observation_ms
 
-
-def mcu_timing(params, step_s: float, command_latency_ms: float, reading_latency_ms: float) -> BackendTiming:
-    """The timing of a backend whose readings come from the device's firmware (the realistic twin, a rig):
-    a command waits its one-way latency, then half an acting tick and half a PWM frame on average (kept
-    below the step); a reading its own latency. `params`: the rig's `RigParams`."""
-    command_ms = command_latency_ms + params.acting_period_ms / 2 + params.pwm_period_ms / 2
-    return BackendTiming(step_s, min(command_ms / 1000, 0.9 * step_s), reading_latency_ms / 1000,
-                         firmware_readings=True)

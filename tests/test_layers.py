@@ -17,7 +17,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "pendkit"
 LAYERS = (
     ("pendkit", "errors", "env_name", "backend_contract", "gl_backend"),
     ("safe_write",),
-    ("rig", "encoder", "features", "wiring", "bom", "network"),
+    ("rig", "encoder", "features", "wiring", "bom", "network", "timing"),
     ("device",),
     ("control", "firmware_constants"),
     ("sim",),

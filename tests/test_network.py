@@ -111,11 +111,12 @@ def test_one_path_loses_and_delays_in_order_from_one_stream():
 
 
 def test_the_twin_and_a_rig_build_their_timing_the_same_way():
-    from pendkit.network import mcu_timing, median_latency_ms
+    from pendkit.network import median_latency_ms
+    from pendkit.timing import host_timing
 
     env = pendkit.make(fidelity="realistic")
     network = env.unwrapped.backend.fidelity.network
-    assert env.unwrapped.timing == mcu_timing(env.unwrapped.params, env.unwrapped.backend.nominal_step_s,
+    assert env.unwrapped.timing == host_timing(env.unwrapped.params, env.unwrapped.backend.nominal_step_s,
                                               median_latency_ms(network.latency),
                                               median_latency_ms(network.observation_latency_model))
     assert env.unwrapped.timing.design_delay_s == env.unwrapped.timing.command_delay_s  # an observer runs

@@ -37,6 +37,7 @@ from pendkit.errors import ConfigError
 from pendkit.network import LatencyModel, NetworkImpairment
 from pendkit.rig import RigParams
 from pendkit.sim.fidelity import FIDELITY_PRESETS
+from pendkit.timing import one_way_latency_ms, pwm_wait_ms
 
 # name: (low, high) as a multiple of the prior's value, searched in log space; latency in ms
 # (the pendulum's two are multiples of stage 1's estimate, which they refine)
@@ -228,7 +229,7 @@ def identify(recordings: list[Recording], prior: RigParams | None = None, max_ev
     replayed = cost is matching_cost and on_device_clock(recordings)
     cost = replay_cost if replayed else cost
     last = (0.0, prior.pwm_period_ms) if replayed else SERVO_BOUNDS["latency_ms"]
-    last_prior = prior.pwm_period_ms / 2 if replayed else PRIOR_LATENCY_MS
+    last_prior = pwm_wait_ms(prior) if replayed else PRIOR_LATENCY_MS
     pendulum = fit_pendulum(recordings, prior)
     count, best = 0, math.inf
 
@@ -332,8 +333,8 @@ def refine_servo(fit: Identification, recordings: list[Recording], prior: RigPar
 def measured_latency_ms(recordings: list[Recording], prior: RigParams) -> float:
     """The one-way latency from the loops the host timed during excitation (the prior's when none)."""
     from pendkit.adapt.excitation import EXCITATION_STREAM
-    from pendkit.adapt.replay import one_way_latency_ms
 
     loops = [loop for r in recordings for loop in r.device.loops_ms]
-    latency = one_way_latency_ms(loops, prior.acting_period_ms, EXCITATION_STREAM["streaming_period_ms"])
-    return PRIOR_LATENCY_MS if latency is None else latency
+    if not loops:
+        return PRIOR_LATENCY_MS
+    return one_way_latency_ms(float(np.median(loops)), prior, EXCITATION_STREAM["streaming_period_ms"])

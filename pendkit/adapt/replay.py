@@ -108,15 +108,6 @@ def loops_ms(sends: list[tuple[float, float]], host_s: np.ndarray, counts: np.nd
     return delays if min(delays) >= 0 else ()
 
 
-def one_way_latency_ms(loops: list[float], acting_period_ms: float, streaming_period_ms: float) -> float | None:
-    """The one-way latency (both ways alike) that gives the twin the median of these loops: a command's
-    trip, the wait for the acting tick and for the next reading (half a period each on average), a reading's
-    trip. None without loops."""
-    if not loops:
-        return None
-    return max(0.0, (float(np.median(loops)) - acting_period_ms / 2 - streaming_period_ms / 2) / 2)
-
-
 def angle_error_rad2(simulated: np.ndarray, recorded: np.ndarray) -> float:
     """Mean of 2 - 2 cos(difference): the squared angle error for small differences, free of the 2 pi wrap
     and smooth at half a turn (lab 09's students write the wrapped square instead)."""

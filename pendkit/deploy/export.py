@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from pendkit.device.controller_blob import DenseLayer, NetworkBlob, StateFeedbackBlob, pack
+from pendkit.timing import device_timing
 
 VECTORS_MAGIC = b"PKTV"
 VECTOR_HEADER = struct.Struct("<4sIHH")  # magic, steps, input size, output size
@@ -56,17 +57,9 @@ def actor_network_blob(agent) -> NetworkBlob:
     return _recurrent_network(agent.net.trunk.gru, modules, agent.normalizer, "continuous")
 
 
-def device_timing(params):
-    """The delays an observer on the device designs for: a target set on an acting tick reaches the servo on
-    the next PWM frame (half a frame on average), and a reading is the device's own (its age aside, none)."""
-    from pendkit.backend_contract import BackendTiming
-
-    return BackendTiming(params.control_step_ms / 1000.0, params.pwm_period_ms / 2000.0, 0.0, firmware_readings=True)
-
-
 def observer_section(candidates, params, filter_coefficient: float, actions_seen: int = 1, timing=None):
     """The observers of a layout-2 policy blob: each candidate rig's model and Kalman gain, designed for
-    `timing` (default the device's own, `device_timing`)."""
+    `timing` (default the device's own, `pendkit.timing.device_timing`)."""
     from pendkit.control.model import FurutaModel
     from pendkit.control.observer import DelayedAngleObserver
     from pendkit.control.observer_bank import DEFAULT_MEMORY_S

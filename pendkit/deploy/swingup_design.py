@@ -2,8 +2,8 @@
 the minimum-time swing-up (the plan from rest, its time-varying gains, the energy law as the fallback).
 
 Designed as the host designs them (`pendkit.control`), with the device's delays in place of the
-network's: a target chosen on an acting tick reaches the servo on the next PWM frame (half an acting
-tick and half a frame on average), and the device's estimate is of the present, so nothing else waits.
+network's (`pendkit.timing.device_command_delay_s`: a target chosen on an acting tick waits for the servo's
+next PWM frame), and the device's estimate is of the present, so nothing else waits.
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ from pendkit.control.trajopt import StepModel, SwingUpLimits, fastest_bang_bang,
 from pendkit.device.swingup_blob import SwingUpBlob
 from pendkit.errors import ConfigError
 from pendkit.rig import RigParams
+from pendkit.timing import device_command_delay_s
 
 CONTROLLERS = CONTROLLER_NAMES
 # The pendulum filter's process noise: what the gravity-only prediction leaves out (the arm's push on the
@@ -29,11 +30,6 @@ CONTROLLERS = CONTROLLER_NAMES
 UNMODELLED_ACCELERATION_RAD_S2 = 30.0
 REST_ANGLE_RAD, REST_VELOCITY_RAD_S = 0.1, 0.5  # a plan from rest is followed only from (near) rest
 SETTLE_STEPS, WARMUP_STEPS, DRIFT_RAD = 30, 3, 0.15  # as pendkit.control.tracking.TrajectoryController
-
-
-def device_delay_s(params: RigParams) -> float:
-    """From choosing a target to the servo being given it: half an acting tick and half a PWM frame."""
-    return (params.acting_period_ms + params.pwm_period_ms) / 2000.0
 
 
 def pendulum_filter_gains(params: RigParams) -> tuple[float, float]:
@@ -85,7 +81,7 @@ def design_swing_up(params: RigParams | None = None, controller: str = "energy",
     config = config or SwingUpConfig()
     if config.phase_lead_rad not in (0, 0.0):
         raise ConfigError("the device's swing-up has no phase lead (it reads the encoder itself): use 0")
-    delay_s, period_s = device_delay_s(params), params.control_step_ms / 1000.0
+    delay_s, period_s = device_command_delay_s(params), params.control_step_ms / 1000.0
     balancer = LqrBalancer(params, weights, period_s=period_s, delay_s=delay_s, internal_filter=True)
     model = balancer.model
     angle_gain, rate_gain = pendulum_filter_gains(params) if observer_gains is None else _gains(observer_gains)

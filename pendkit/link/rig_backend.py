@@ -23,8 +23,9 @@ from pendkit.device.protocol import ReadingLimits
 from pendkit.device.scheduler import PROTOCOLS
 from pendkit.errors import ConfigError
 from pendkit.link.driver import DEFAULT_BROKER, RigLink, RigLinkError
-from pendkit.network import CLASSROOM_WIFI, mcu_timing, median_latency_ms
+from pendkit.network import CLASSROOM_WIFI, median_latency_ms
 from pendkit.rig import SERVO_PRESETS, RigParams
+from pendkit.timing import host_timing
 
 SETTLED_REV_S = 0.05
 SETTLE_HOLD_S = 1.0
@@ -83,7 +84,7 @@ class RigBackend:
         if not 0 <= network_latency_ms <= 1000:
             raise ConfigError(f"network_latency_ms must be in [0, 1000], got {network_latency_ms!r}")
         self.nominal_step_s = self.params.control_step_ms / 1000.0
-        self.timing = mcu_timing(self.params, self.nominal_step_s, network_latency_ms, network_latency_ms)
+        self.timing = host_timing(self.params, self.nominal_step_s, network_latency_ms, network_latency_ms)
         self.link = RigLink(rig, broker or DEFAULT_BROKER, username, password, tls_ca,
                             limits=ReadingLimits.for_rig(self.params))
         self.link.connect(connect_timeout_s)

@@ -17,7 +17,7 @@ from pendkit.device.observation import McuObservation, observation_to_state
 from pendkit.device.protocol import format_observation_v1
 from pendkit.device.twin import TwinDevice
 from pendkit.errors import ConfigError
-from pendkit.network import NetworkPath, mcu_timing, median_latency_ms
+from pendkit.network import NetworkPath
 from pendkit.rig import RigParams
 from pendkit.sim.fidelity import Fidelity, resolve_fidelity
 from pendkit.sim.model import ARM_JOINT, PENDULUM_JOINT, build_model
@@ -74,21 +74,11 @@ class SimBackend:
     @property
     def nominal_step_s(self) -> float:
         """Mean duration of one env step (the paper-delayed preset adds 0..max substeps)."""
-        extra = self.fidelity.post_observation_substeps_max / 2
-        return (self.substeps + extra) * self.physics_step_s
+        return self.fidelity.nominal_step_s(self.params)
 
     @property
     def timing(self) -> BackendTiming:
-        """Ideal: no delays. Paper-delayed: the 0-2 substeps run after the observation (mean one) are reading
-        delay. MCU pipeline: the network's median latency plus half an acting tick and half a PWM frame
-        for a command, the observation latency for a reading."""
-        p, fidelity = self.params, self.fidelity
-        if not fidelity.mcu_pipeline:
-            extra_s = fidelity.post_observation_substeps_max / 2 * self.physics_step_s
-            return BackendTiming(self.nominal_step_s, 0.0, extra_s)
-        network = fidelity.network
-        return mcu_timing(p, self.nominal_step_s, median_latency_ms(network.latency),
-                          median_latency_ms(network.observation_latency_model))
+        return self.fidelity.timing(self.params)
 
     # --- reset ---
     def reset(self, rng: np.random.Generator, start: Start = "random",

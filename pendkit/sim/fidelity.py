@@ -7,8 +7,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pendkit.backend_contract import BackendTiming
 from pendkit.errors import ConfigError
-from pendkit.network import CLASSROOM_WIFI, PERFECT_NETWORK, LatencyModel, NetworkImpairment
+from pendkit.network import CLASSROOM_WIFI, PERFECT_NETWORK, LatencyModel, NetworkImpairment, median_latency_ms
+from pendkit.timing import host_timing
 
 
 def _is_int(value) -> bool:
@@ -65,6 +67,21 @@ class Fidelity:
     @property
     def latency(self) -> LatencyModel:
         return self.network.latency
+
+    def nominal_step_s(self, params) -> float:
+        """Mean duration of one env step on a rig of `params` (paper-delayed adds 0..max substeps)."""
+        substeps = self.substeps_per_step or params.frame_skip
+        return (substeps + self.post_observation_substeps_max / 2) * params.physics_step_ms / 1000.0
+
+    def timing(self, params) -> BackendTiming:
+        """What the twin tells its controllers. Ideal: no delays. Paper-delayed: the 0-2 substeps run after the
+        observation (mean one) are reading delay. MCU pipeline: `pendkit.timing.host_timing` with the
+        network's median latencies."""
+        step_s = self.nominal_step_s(params)
+        if not self.mcu_pipeline:
+            return BackendTiming(step_s, 0.0, self.post_observation_substeps_max / 2 * params.physics_step_ms / 1000)
+        return host_timing(params, step_s, median_latency_ms(self.network.latency),
+                           median_latency_ms(self.network.observation_latency_model))
 
 
 FIDELITY_PRESETS: dict[str, Fidelity] = {

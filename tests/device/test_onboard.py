@@ -154,7 +154,8 @@ def test_deploy_to_a_virtual_rig_over_mqtt(tmp_path):
                                            "--seconds", "4"])
         onboard = rig.virtual.device.mcu.onboard
         assert result.exit_code == 0, result.output
-        assert "uploaded 1260 bytes" in result.output and "deg from upright" in result.output
+        blob_bytes = len(pack(design_swing_up(RigParams(), "trajopt")))
+        assert f"uploaded {blob_bytes} bytes" in result.output and "deg from upright" in result.output
         assert onboard.blobs_accepted == 1 and not onboard.running  # stopped at the end (k0)
     finally:
         rig.stop()
