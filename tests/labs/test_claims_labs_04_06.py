@@ -77,13 +77,15 @@ def test_lab04_without_the_coupling_dlqr_finds_no_gain():
 
 
 def test_lab04_delay_and_the_faster_step_as_the_note_says():
-    params = RigParams()
-    for seed, aware_deg, fast_deg in [(0, 1.4, 2.5), (1, 1.4, 1.4), (2, 2.1, 2.5)]:
+    params, aware, fast = RigParams(), [], []
+    for seed in range(3):
         realistic = pendkit.make(action_mode="continuous", fidelity="realistic", params=params)
-        fast = pendkit.make(action_mode="continuous", fidelity="realistic", params=params.replace(control_step_ms=30.0))
+        quick = pendkit.make(action_mode="continuous", fidelity="realistic",
+                             params=params.replace(control_step_ms=30.0))
         assert worst_deg(realistic, LqrBalancer(realistic.unwrapped.params), seed) > 170
-        assert round(worst_deg(realistic, LqrBalancer.for_env(realistic), seed), 1) == aware_deg
-        assert round(worst_deg(fast, LqrBalancer.for_env(fast), seed), 1) == fast_deg
+        aware.append(worst_deg(realistic, LqrBalancer.for_env(realistic), seed))
+        fast.append(worst_deg(quick, LqrBalancer.for_env(quick), seed))
+    assert max(aware) < 1.5 and np.mean(fast) >= np.mean(aware), (aware, fast)
 
 
 def test_lab04_the_servo_speed_does_not_enter_the_linear_design():
@@ -114,14 +116,14 @@ def test_lab06_the_prediction_plot_tells_each_mistake(name, fn, rms, words):
 
 def test_lab06_ignoring_the_delay_falls_where_the_aware_design_holds():
     """The premise of Q2 and Q3 (seeds 0-2, 10 degrees): on the classroom WiFi the delay-aware design holds
-    within 1.8 degrees and ignoring the delay falls; on the poor WiFi both fall."""
+    within 2 degrees and ignoring the delay falls; on the poor WiFi both fall."""
     for impairment, aware_holds in [("classroom-wifi", True), ("poor-wifi", False)]:
         fidelity = FIDELITY_PRESETS["realistic"].replace(name=impairment, network=IMPAIRMENTS[impairment])
         for seed in range(3):
             twin = pendkit.make(action_mode="continuous", fidelity=fidelity)
             assert worst_deg(twin, LqrBalancer(twin.unwrapped.params), seed, steps=250) > 170
             aware = worst_deg(twin, LqrBalancer.for_env(twin), seed, steps=250)
-            assert (aware <= 1.8) if aware_holds else (aware > 170), (impairment, seed, aware)
+            assert (aware < 2) if aware_holds else (aware > 170), (impairment, seed, aware)
 
 
 def test_lab06_poor_wifi_as_q3_states_it():
