@@ -47,15 +47,27 @@ def _all_solved(text: str) -> bool:
 
 
 def _delay_aware_holds(text: str) -> bool:
-    return all(re.search(rf"^{re.escape(name)} +a policy that holds \(the rule\) after \d+ episodes", text, re.M)
-               for name in ("dqn+actions", "r-dqn"))
+    return re.search(r"^dqn\+actions +a policy that holds \(the rule\) after \d+ episodes", text, re.M) is not None
+
+
+def _dqn_holds_unseen_starts(text: str) -> bool:
+    reached = re.search(r"^a policy that holds \(the rule\) after \d+ episodes", text, re.M)
+    judged = re.search(r"your verdict: held (\d+) of 10: solved", text)
+    return reached is not None and judged is not None
+
+
+def _policies_on_their_twins(text: str) -> bool:
+    return all(re.search(rf"^{name}, on its twin +upright at +[\d.]+ s", text, re.M)
+               for name in ("dqn-ideal", "td3-realistic"))
 
 
 # What each lab's text promises a correct notebook shows (labs without a number: that it ran to the end).
 OUTCOMES = {
+    "07": _dqn_holds_unseen_starts,  # the student's DQN passes the rule, then 9+ of 10 starts it never saw
+    "09": _policies_on_their_twins,  # both deployed policies come up on their own twins
     "04": _worst_below(1.0),  # "your K holds the pendulum within a fraction of a degree"
     "05": lambda text: re.search(r"time to upright: [\d.]+ s", text) is not None,
-    "08": _delay_aware_holds,  # the delay-aware and the recurrent agents hold from hanging
+    "08": _delay_aware_holds,  # the delay-aware DQN reaches a policy that holds by the rule
     "10": _all_solved,  # the device's swing-up solves every start on the busy WiFi
 }
 

@@ -16,6 +16,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -172,6 +173,57 @@ def train_with_parts(env, parts: StudentParts, episodes: int, seed: int = 0, lea
     return (agent, returns) if returns is not None else (None, None)
 
 
+def train_until_rule(env, parts: StudentParts, max_episodes: int, seed: int = 0, learning_starts: int = 500,
+                     check_every: int = 10, report: Callable[[str], None] = print):
+    """Lab 07's training: the kit's DQN with a student's pieces, judged every `check_every` episodes by the
+    kit's rule on the training starts (screened by its first episode, hanging still), stopping once it passes
+    (as `lab07-claim.yaml` measures it). Each check is reported in one line. Returns (agent, returns,
+    episodes to the rule or None), or (None, None, None) with a note when a piece is missing or broken."""
+    from pendkit.agents.policy_rule import train_until_solved
+
+    inputs = StepInputs.for_env(env)
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)  # as train_with_parts: the same curve on any laptop
+    try:
+        agent = student_dqn(inputs.dim, env.action_space.n, DqnConfig(seed=seed, learning_starts=learning_starts),
+                            parts)
+        outcome = run_or_note(train_until_solved, env, agent, inputs, max_episodes, check_every, seed=seed,
+                              on_check=lambda episodes, _, verdict: report(check_line(episodes, verdict)))
+    finally:
+        torch.set_num_threads(threads)
+    return (agent, *outcome) if outcome is not None else (None, None, None)
+
+
+def check_line(episodes: int, verdict) -> str:
+    """One check of the rule in words: what the greedy episodes run so far did."""
+    if len(verdict.starts) == 1 and not verdict.held:
+        return (f"after {episodes:3d} episodes: the first greedy episode (hanging still) did not hold "
+                f"(return {verdict.evaluation.returns[0]:.0f}); the other nine are not run")
+    kinds = ", ".join(f"{'hanging still' if kind == 'rest' else 'random starts'} {count}"
+                      for kind, count in verdict.held_by_start().items())
+    outcome = "passes: training stops here" if verdict.solved else "two missed: not yet"
+    return f"after {episodes:3d} episodes: held {verdict.held} of {len(verdict.starts)} ({kinds}): {outcome}"
+
+
+FIXED_BUDGET_POLICY = Path(__file__).resolve().parents[1] / "data" / "lab07_fixed_budget_q.json"
+
+
+def fixed_budget_policy(env) -> DqnAgent:
+    """Lab 07's second policy to judge: the kit's DQN on the ideal twin trained a fixed 80 episodes (seed 4 of
+    `benchmarks/sweeps/lab07-fixed.yaml`) instead of until the rule passed. Its Q-network's weights are stored
+    exactly (float32, base64) in pendkit/data; written by `benchmarks/studies/lab07_student_seeds.py --export`."""
+    import base64
+    import json
+
+    record = json.loads(FIXED_BUDGET_POLICY.read_text())
+    inputs = StepInputs.for_env(env)
+    agent = DqnAgent(inputs.dim, env.action_space.n, DqnConfig(seed=record["seed"]))
+    agent.q.load_state_dict({name: torch.from_numpy(np.frombuffer(base64.b64decode(tensor["float32"]), dtype=np.float32)
+                                                     .reshape(tensor["shape"]).copy())
+                             for name, tensor in record["q"].items()})
+    return agent
+
+
 def run_or_note(fn: Callable, *args, **kwargs):
     """Call `fn`; if a student's piece inside it is missing or broken, print one line saying so and
     return None (a demo cell then shows what it can without it)."""
@@ -186,9 +238,10 @@ def run_or_note(fn: Callable, *args, **kwargs):
 
 
 def curve_against_myopic(returns, myopic, window: int = 10) -> str | None:
-    """What lab 07 says of a learning curve beside the one with no future in its target: None when it is
-    neither that curve nor below it."""
+    """What lab 07 says of a learning curve beside the one with no future in its target (over the episodes
+    both ran): None when it is neither that curve nor below it."""
     returns, myopic = np.asarray(returns, dtype=float), np.asarray(myopic, dtype=float)
+    returns = returns[:len(myopic)]  # the contrast may train fewer episodes: compare the same episodes
     if returns.shape == myopic.shape and np.allclose(returns, myopic):
         return ("your curve is the myopic one, episode for episode: does your target add the future "
                 "(gamma times the next state's value)?")

@@ -5,6 +5,7 @@ import re
 import pytest
 
 from tests.labs.student_loop import printed_by_lab
+from tests.labs.test_lab_claims import deployed_policies
 
 pytestmark = pytest.mark.expensive  # minutes of notebook runs: scheduled first (conftest.py)
 
@@ -45,3 +46,34 @@ def test_lab09_the_students_cost_identifies_a_twin_that_follows_the_rig_and_a_si
     text = printed_by_lab("09_deploy.ipynb", "your_cost(params, latency_ms", then=IDENTIFY_AGAIN_WITH_THE_SIGNED_COST)
     right, signed = gaps_to_nominal(text)
     assert right < 0.75 and signed > right + 0.2, text  # the nominal twin is 1.0
+
+
+def test_lab09_the_deployed_policies_come_up_on_their_twins_and_not_on_the_slower_virtual_rig():
+    """What the policy cell's text says to expect, in the lab's setting (its virtual rig, 400 steps from rest,
+    seed 0): up within a few seconds on the twin each was trained on; never upright on the rig (a busier machine
+    only adds delay)."""
+    import pendkit
+    from pendkit.agents.pretrained import load_policy, policy_env_options
+    from pendkit.deploy import run_guarded
+    from pendkit.features import time_to_upright_s
+    from pendkit.link.virtual_rig import LocalRig
+
+    def upright_at(env, name):
+        run = run_guarded(env, load_policy(name, env), lambda *reading: None, steps=400, seed=0)
+        return time_to_upright_s(list(run.trace.pendulum_from_upright_rad), 0.06)
+
+    rig = LocalRig(impairment="classroom-wifi", params=pendkit.RigParams.preset("hitec-d645mw-4v8"))
+    try:
+        for name in deployed_policies():
+            options = policy_env_options(name)
+            on_twin = upright_at(pendkit.make(**options, start="rest"), name)
+            assert on_twin is not None and on_twin < 5.0, (name, on_twin)
+            rig_env = pendkit.make(backend="rig", broker=rig.url, rig=rig.rig,
+                                   rig_options={"reset_stop_s": 2.0, "observation_timeout_s": 2.0},
+                                   **{k: v for k, v in options.items() if k != "fidelity"})
+            try:
+                assert upright_at(rig_env, name) is None, name
+            finally:
+                rig_env.close()
+    finally:
+        rig.stop()
