@@ -49,8 +49,9 @@ def _along_the_actions(fn, *arguments):
         raise
 
 
-@target.test(points=3, hint="Double DQN: the online network picks the next action, the target network "
-                            "values it; no bootstrap after a terminal step.")
+@target.test(points=3, hint="The target is r + gamma (1 - done) Q'(s', a'), the future added to the reward; in "
+                            "double DQN the online network picks a', the target network values it; no bootstrap "
+                            "after a terminal step.")
 def double_and_plain_targets(fn, rng):
     rewards = np.array([1.0, -1.0, 0.5])
     dones = np.array([0.0, 1.0, 0.0])
