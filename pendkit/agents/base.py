@@ -63,13 +63,24 @@ class EpsilonGreedyConfig(OffPolicyConfig):
 
 
 @dataclass(frozen=True)
-class ActorCriticConfig(OffPolicyConfig):
-    """TD3's settings (Fujimoto et al. 2018): soft targets at `tau`, Gaussian exploration, target-policy
-    smoothing, the actor updated every `policy_delay` critic updates."""
+class SoftTargetConfig(OffPolicyConfig):
+    """An actor-critic learner's settings: target networks that follow at `tau` per update."""
+
+    tau: float = 0.005
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if not 0 < self.tau <= 1:
+            raise ConfigError(f"tau must be in (0, 1], got {self.tau}")
+
+
+@dataclass(frozen=True)
+class ActorCriticConfig(SoftTargetConfig):
+    """TD3's settings (Fujimoto et al. 2018): soft targets, Gaussian exploration, target-policy smoothing, the
+    actor updated every `policy_delay` critic updates."""
 
     actor_learning_rate: float = 1e-3
     critic_learning_rate: float = 1e-3
-    tau: float = 0.005
     exploration_noise: float = 0.1
     target_noise: float = 0.2
     target_noise_clip: float = 0.5
@@ -77,8 +88,6 @@ class ActorCriticConfig(OffPolicyConfig):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        if not 0 < self.tau <= 1:
-            raise ConfigError(f"tau must be in (0, 1], got {self.tau}")
         if self.policy_delay < 1 or min(self.exploration_noise, self.target_noise, self.target_noise_clip) < 0:
             raise ConfigError("policy_delay must be >= 1 and the noise settings >= 0")
         self._positive("actor_learning_rate", "critic_learning_rate")
@@ -160,33 +169,3 @@ class Stateless:
 
     def step_extras(self) -> dict:
         return {}
-
-
-class FeedForwardActor(Stateless):
-    """A feed-forward actor-critic agent (TD3, SAC): its policy is `self.actor`'s weights, and its state the
-    modules named in `MODULES` plus `steps`, `updates` and what `_extra_state` adds."""
-
-    MODULES: tuple[str, ...] = ()
-
-    def policy_state(self) -> dict:
-        """What an actor needs to act: the actor network's weights (copied)."""
-        return {name: tensor.clone() for name, tensor in self.actor.state_dict().items()}
-
-    def load_policy(self, state: dict) -> None:
-        self.actor.load_state_dict(state)
-
-    def state_dict(self) -> dict:
-        return {name: getattr(self, name).state_dict() for name in self.MODULES} | {
-            "steps": self.steps, "updates": self.updates} | self._extra_state()
-
-    def load_state_dict(self, state: dict) -> None:
-        for name in self.MODULES:
-            getattr(self, name).load_state_dict(state[name])
-        self.steps, self.updates = state["steps"], state["updates"]
-        self._load_extra_state(state)
-
-    def _extra_state(self) -> dict:
-        return {}
-
-    def _load_extra_state(self, state: dict) -> None:
-        pass

@@ -7,7 +7,6 @@ The schedule, the target and the loss are callables defaulting to the kit's own 
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -16,7 +15,7 @@ import torch
 from torch import nn
 
 from pendkit.agents.base import EpsilonGreedyConfig, Stateless
-from pendkit.agents.nets import adam, descend, mlp
+from pendkit.agents.nets import adam, descend, finite, mlp
 from pendkit.agents.replay import Batch, ReplayBuffer
 
 
@@ -38,6 +37,16 @@ def td_target(rewards: torch.Tensor, dones: torch.Tensor, next_q_online: torch.T
 def huber_loss(errors: torch.Tensor, delta: float) -> torch.Tensor:
     """Mean Huber loss of the TD errors (Q - target)."""
     return nn.functional.huber_loss(errors, torch.zeros_like(errors), delta=delta)
+
+
+def q_learning_step(agent, loss: torch.Tensor, name: str) -> float:
+    """One optimiser step of a Q-learner (`agent.q`, `.target`, `.optimizer`, `.updates`) on `loss`, the target
+    network a copy of the online one every `target_update_every` updates: the loss's value."""
+    descend(agent.optimizer, loss, agent.q.parameters())
+    agent.updates += 1
+    if agent.updates % agent.config.target_update_every == 0:
+        agent.target.load_state_dict(agent.q.state_dict())
+    return finite(float(loss.item()), f"the {name} loss")
 
 
 @dataclass(frozen=True)
@@ -93,14 +102,7 @@ class DqnAgent(Stateless):
         with torch.no_grad():
             target = self.target_rule(batch.rewards, batch.dones, self.q(batch.next_observations),
                                       self.target(batch.next_observations), c.gamma, c.double)
-        loss = self.loss_rule(q_taken - target, c.huber_delta)
-        descend(self.optimizer, loss, self.q.parameters())
-        self.updates += 1
-        if self.updates % c.target_update_every == 0:
-            self.target.load_state_dict(self.q.state_dict())
-        value = float(loss.item())
-        if not math.isfinite(value):
-            raise FloatingPointError("the DQN loss is not finite: lower the learning rate")
+        value = q_learning_step(self, self.loss_rule(q_taken - target, c.huber_delta), "DQN")
         return {"loss": value, "q_mean": float(q_taken.mean().item()), "epsilon": self.epsilon}
 
     def policy_state(self) -> dict:

@@ -14,6 +14,8 @@
 | td3, td3+actions, td3+estimated, td3+both, r-td3, r-td3-reservoir: the same for TD3's continuous actions |
 | sac, sac+actions, sac+estimated: SAC (squashed Gaussian actor, tuned entropy) on the same inputs as TD3's |
 
+r-dqn and r-td3+both also run on the rig's device (their rows' `device_layout`; `DEVICE_LEARNERS`).
+
 A new agent is one module with a class that keeps the contract (`pendkit.agents.base.Agent`) and one
 `Algorithm` row here; a new learner on an existing algorithm is one `Learner` row.
 """
@@ -112,13 +114,16 @@ class Learner:
     """`algorithm` (a key of ALGORITHMS); `actions_seen` (an int, or "delay": from the env's delay);
     `features` of the env ("measured"; "estimated": the observer's present state; "estimated+measured": both);
     `target_levels` (a discrete algorithm): that many continuous targets in place of the five ramps
-    (`pendkit.agents.target_levels`)."""
+    (`pendkit.agents.target_levels`); `device_layout`: the input layout of the policy blob the rig's device
+    runs it as (`pendkit.device.policy_blob`: 1, the paper's readings; 2, its observers' estimate beside the
+    readings), its agent providing the network (`device_network()`); 0, the device does not run it."""
 
     name: str
     algorithm: str
     actions_seen: int | str = 1
     features: str = "measured"
     target_levels: int = 0
+    device_layout: int = 0
 
     @property
     def continuous(self) -> bool:
@@ -147,13 +152,16 @@ def _family(algorithm: str) -> list[Learner]:
 
 
 LEARNERS: dict[str, Learner] = {learner.name: learner for learner in [
-    *_family("dqn"), Learner("r-dqn", "r-dqn"), Learner("r-dqn+estimated", "r-dqn", features="estimated"),
-    Learner("r-dqn-reservoir", "r-dqn-reservoir"), Learner("r-dqn+levels", "r-dqn", target_levels=TARGET_LEVELS),
+    *_family("dqn"), Learner("r-dqn", "r-dqn", device_layout=1),
+    Learner("r-dqn+estimated", "r-dqn", features="estimated"), Learner("r-dqn-reservoir", "r-dqn-reservoir"),
+    Learner("r-dqn+levels", "r-dqn", target_levels=TARGET_LEVELS),
     *_family("td3"), Learner("td3+both", "td3", features="estimated+measured"), Learner("r-td3", "r-td3"),
-    Learner("r-td3+both", "r-td3", features="estimated+measured"), Learner("r-td3-reservoir", "r-td3-reservoir"),
+    Learner("r-td3+both", "r-td3", features="estimated+measured", device_layout=2),
+    Learner("r-td3-reservoir", "r-td3-reservoir"),
     *_family("sac"),
 ]}
 LEARNER_NAMES = tuple(LEARNERS)
+DEVICE_LEARNERS: dict[str, int] = {name: row.device_layout for name, row in LEARNERS.items() if row.device_layout}
 
 
 def learner(name: str) -> Learner:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import torch
 from torch import nn
 
@@ -49,3 +51,10 @@ def soft_update(network: nn.Module, target: nn.Module, tau: float) -> None:
 def masked_mean(values: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
     """Mean over the entries where `mask` is 1 (replayed stretches are padded past an episode's end)."""
     return (values * mask).sum() / mask.sum().clamp(min=1.0)
+
+
+def finite(value: float, what: str, remedy: str = "lower the learning rate") -> float:
+    """`value` (a loss), or FloatingPointError naming `what` and `remedy` where it is NaN or infinite."""
+    if not math.isfinite(value):
+        raise FloatingPointError(f"{what} is not finite: {remedy}")
+    return value

@@ -16,8 +16,6 @@ input. What it leaves open, and what we chose:
 
 from __future__ import annotations
 
-import copy
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,11 +23,11 @@ import torch
 from torch import nn
 
 from pendkit.agents.base import EpsilonGreedyConfig, SequenceConfig
-from pendkit.agents.dqn import linear_epsilon
-from pendkit.agents.nets import adam, descend, masked_mean, mlp
-from pendkit.agents.normalizer import RunningNormalizer
-from pendkit.agents.recurrent import GruTrunk
-from pendkit.agents.sequence_replay import SequenceBatch, SequenceReplay
+from pendkit.agents.dqn import linear_epsilon, q_learning_step
+from pendkit.agents.nets import adam, masked_mean, mlp
+from pendkit.agents.recurrent import GruTrunk, RecurrentAgent, device_network
+from pendkit.agents.sequence_replay import SequenceBatch
+from pendkit.device.blob_parts import NetworkBlob
 
 
 @dataclass(frozen=True)
@@ -55,105 +53,53 @@ class RecurrentQ(nn.Module):
         return self.head(torch.cat([inputs, hiddens], dim=-1))
 
 
-class RecurrentDqnAgent:
-    """`reset()` at each episode start; `act(x)` advances the GRU; `update(SequenceBatch)`; `state_dict()`.
-    `step_extras()` hands the trainer the state before the last `act`, stored with the step."""
+class RecurrentDqnAgent(RecurrentAgent):
+    """`reset()` at each episode start; `act(x)` advances the GRU; `update(SequenceBatch)`; `state_dict()`;
+    `device_network()`: the greedy network as the device runs it."""
+
+    NETWORK, OPTIMIZERS = "q", ("optimizer",)
 
     def __init__(self, input_dim: int, n_actions: int, config: RecurrentDqnConfig | None = None) -> None:
         self.config = c = config or RecurrentDqnConfig()
         torch.manual_seed(c.seed)
-        self.n_actions, self.input_dim = n_actions, input_dim
-        self.q = RecurrentQ(input_dim, n_actions, c.gru_size, c.hidden)
-        self.target = copy.deepcopy(self.q)
+        self.n_actions = n_actions
+        self._start(input_dim, RecurrentQ(input_dim, n_actions, c.gru_size, c.hidden))
         self.optimizer = adam(self.q.parameters(), c.learning_rate)
-        self.normalizer = RunningNormalizer(input_dim)
-        self.rng = np.random.default_rng(c.seed)
-        self.steps = self.updates = 0
-        self.reset()
-
-    @property
-    def hidden_dim(self) -> int:
-        return self.config.gru_size
-
-    def new_buffer(self, seed: int = 0) -> SequenceReplay:
-        c = self.config
-        return SequenceReplay(c.buffer_capacity, self.input_dim, c.gru_size, c.burn_in, c.sequence_length, seed)
 
     @property
     def epsilon(self) -> float:
         c = self.config
         return linear_epsilon(self.steps, c.epsilon_start, c.epsilon_end, c.epsilon_decay_steps)
 
-    def reset(self) -> None:
-        self.hidden = torch.zeros(1, self.config.gru_size)
-        self.hidden_before = self.hidden[0].numpy().copy()
-
-    def step_extras(self) -> dict:
-        return {"hidden": self.hidden_before}
-
-    def track_input(self, x) -> None:
-        """Fold a new raw input into the normalisation statistics (the trainer calls this once per step)."""
-        self.normalizer.update(x)
+    def q_values(self, x) -> np.ndarray:
+        """The GRU one step further on raw input `x`: the Q-values of the actions, (n_actions,)."""
+        with torch.no_grad():
+            z = self._advance(x)
+            return self.q.q(z, self.hidden)[0].numpy()
 
     def act(self, x, explore: bool = True) -> int:
-        self.hidden_before = self.hidden[0].numpy().copy()
-        with torch.no_grad():
-            z = self.normalizer.normalize(torch.as_tensor(np.asarray(x, dtype=np.float32)).reshape(1, -1))
-            self.hidden = self.q.trunk.step(z, self.hidden)
-            values = self.q.q(z, self.hidden)
+        values = self.q_values(x)
         if explore:
             self.steps += 1
             if self.rng.random() < self.epsilon:
                 return int(self.rng.integers(self.n_actions))
-        return int(values.argmax(dim=1).item())
+        return int(values.argmax())
 
     def update(self, batch: SequenceBatch) -> dict[str, float]:
         """One gradient step on the TD error over re-encoded stretches; the burn-in carries no gradient."""
-        c = self.config
-        norm = self.normalizer.normalize
-        inputs, next_inputs = norm(batch.inputs), norm(batch.next_inputs)
-        b = c.burn_in
-        start_h = self.q.trunk.warm_start(inputs, batch.hidden, batch.starts, b)
-        online_h = self.q.trunk.unroll(inputs[:, b:], torch.cat([start_h[:, None], batch.hidden[:, b + 1:]], 1),
-                                       batch.starts[:, b:])
-        x_t, x_next = inputs[:, b:], next_inputs[:, b:]
+        c, b = self.config, self.config.burn_in
+        x_t, x_next, online_h, target_h = self._replayed(batch)
         q_taken = self.q.q(x_t, online_h).gather(-1, batch.actions[:, b:].unsqueeze(-1)).squeeze(-1)
         with torch.no_grad():
-            target_h = self.target.trunk.unroll(inputs, batch.hidden, batch.starts)[:, b:]
             online_next = self.q.q(x_next, self.q.trunk.step_all(x_next, online_h))
             best = online_next.argmax(dim=-1, keepdim=True)
             next_value = self.target.q(x_next, self.target.trunk.step_all(x_next, target_h)).gather(-1, best)
             target = batch.rewards[:, b:] + c.gamma * (1.0 - batch.dones[:, b:]) * next_value.squeeze(-1)
         mask = batch.loss_mask[:, b:]
         loss = masked_mean(nn.functional.huber_loss(q_taken, target, delta=c.huber_delta, reduction="none"), mask)
-        descend(self.optimizer, loss, self.q.parameters())
-        self.updates += 1
-        if self.updates % c.target_update_every == 0:
-            self.target.load_state_dict(self.q.state_dict())
-        value = float(loss.item())
-        if not math.isfinite(value):
-            raise FloatingPointError("the R-DQN loss is not finite: lower the learning rate")
-        return {"loss": value, "q_mean": float(masked_mean(q_taken.detach(), mask)),
-                "epsilon": self.epsilon}
+        value = q_learning_step(self, loss, "R-DQN")
+        return {"loss": value, "q_mean": float(masked_mean(q_taken.detach(), mask)), "epsilon": self.epsilon}
 
-    def policy_state(self) -> dict:
-        """What an actor needs to act: the network's weights and the input statistics (copied)."""
-        return {"q": {k: v.clone() for k, v in self.q.state_dict().items()},
-                "normalizer": self.normalizer.state_dict()}
-
-    def load_policy(self, state: dict) -> None:
-        self.q.load_state_dict(state["q"])
-        self.normalizer.load_state_dict(state["normalizer"])
-
-    def state_dict(self) -> dict:
-        return {"q": self.q.state_dict(), "target": self.target.state_dict(),
-                "optimizer": self.optimizer.state_dict(), "normalizer": self.normalizer.state_dict(),
-                "steps": self.steps, "updates": self.updates, "rng": self.rng.bit_generator.state}
-
-    def load_state_dict(self, state: dict) -> None:
-        self.q.load_state_dict(state["q"])
-        self.target.load_state_dict(state["target"])
-        self.optimizer.load_state_dict(state["optimizer"])
-        self.normalizer.load_state_dict(state["normalizer"])
-        self.steps, self.updates = state["steps"], state["updates"]
-        self.rng.bit_generator.state = state["rng"]
+    def device_network(self) -> NetworkBlob:
+        """The greedy network as the device runs it: the GRU, then the Q-head, the action the largest value's."""
+        return device_network(self.q.trunk, list(self.q.head), self.normalizer, "argmax")

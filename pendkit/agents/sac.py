@@ -5,7 +5,6 @@ continuous servo target); acting greedily is tanh of the actor's mean."""
 
 from __future__ import annotations
 
-import copy
 import math
 from dataclasses import dataclass
 
@@ -13,30 +12,27 @@ import numpy as np
 import torch
 from torch import nn
 
-from pendkit.agents.base import FeedForwardActor, OffPolicyConfig
-from pendkit.agents.nets import adam, descend, mlp, soft_update
-from pendkit.agents.replay import Batch, ReplayBuffer
-from pendkit.errors import ConfigError
+from pendkit.agents.actor_critic import FeedForwardActor
+from pendkit.agents.base import SoftTargetConfig
+from pendkit.agents.nets import adam, descend, finite, mlp, soft_update
+from pendkit.agents.replay import Batch
 
 LOG_STD_MIN, LOG_STD_MAX = -20.0, 2.0
 
 
 @dataclass(frozen=True)
-class SacConfig(OffPolicyConfig):
+class SacConfig(SoftTargetConfig):
     """`learning_rate` for actor, critics and temperature alike; `initial_temperature`: the entropy weight
-    before tuning; `tau`: soft target updates."""
+    before tuning."""
 
     batch_size: int = 128
     buffer_capacity: int = 100_000
     learning_starts: int = 1000
     learning_rate: float = 1e-3
-    tau: float = 0.005
     initial_temperature: float = 1.0
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        if not 0 < self.tau <= 1:
-            raise ConfigError(f"tau must be in (0, 1], got {self.tau}")
         self._positive("learning_rate", "initial_temperature")
 
 
@@ -48,20 +44,13 @@ class SacAgent(FeedForwardActor):
     def __init__(self, observation_dim: int, action_dim: int, config: SacConfig | None = None) -> None:
         self.config = config or SacConfig()
         torch.manual_seed(self.config.seed)
-        self.input_dim, self.action_dim = observation_dim, action_dim
         self.actor = mlp(observation_dim, 2 * action_dim, self.config.hidden)  # mean and log std
-        self.critics = nn.ModuleList([mlp(observation_dim + action_dim, 1, self.config.hidden) for _ in range(2)])
-        self.critics_target = copy.deepcopy(self.critics)
+        self._twin_critics(observation_dim, action_dim, self.config.learning_rate)
         self.log_temperature = torch.tensor([math.log(self.config.initial_temperature)], requires_grad=True)
         self.actor_optimizer = adam(self.actor.parameters(), self.config.learning_rate)
-        self.critic_optimizer = adam(self.critics.parameters(), self.config.learning_rate)
         self.temperature_optimizer = torch.optim.Adam([self.log_temperature], lr=self.config.learning_rate)
         self.target_entropy = -float(action_dim)
         self.generator = torch.Generator().manual_seed(self.config.seed)
-        self.steps = self.updates = 0
-
-    def new_buffer(self, seed: int = 0) -> ReplayBuffer:
-        return ReplayBuffer(self.config.buffer_capacity, self.input_dim, seed, action_dim=self.action_dim)
 
     def _sample(self, observations: torch.Tensor, generator=None) -> tuple[torch.Tensor, torch.Tensor]:
         """(actions in [-1, 1], their log-probabilities) drawn from the squashed Gaussian."""
@@ -84,10 +73,6 @@ class SacAgent(FeedForwardActor):
                 action = torch.tanh(self.actor(x).chunk(2, dim=1)[0][0])
         return action.numpy().astype(np.float32)
 
-    def _q(self, critics, observations, actions) -> list[torch.Tensor]:
-        joined = torch.cat([observations, actions], dim=1)
-        return [critic(joined).squeeze(1) for critic in critics]
-
     def update(self, batch: Batch) -> dict[str, float]:
         c = self.config
         actions = batch.actions.reshape(len(batch.actions), -1).float()
@@ -109,8 +94,7 @@ class SacAgent(FeedForwardActor):
         self.updates += 1
         metrics = {"critic_loss": float(critic_loss.item()), "actor_loss": float(actor_loss.item()),
                    "temperature": float(temperature.item())}
-        if not math.isfinite(metrics["critic_loss"]):
-            raise FloatingPointError("the SAC critic loss is not finite: lower the learning rate")
+        finite(metrics["critic_loss"], "the SAC critic loss")
         return metrics
 
     def _extra_state(self) -> dict:

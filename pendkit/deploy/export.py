@@ -12,49 +12,21 @@ from pathlib import Path
 
 import numpy as np
 
-from pendkit.device.controller_blob import DenseLayer, NetworkBlob, StateFeedbackBlob, pack
+from pendkit.device.controller_blob import StateFeedbackBlob, pack
 from pendkit.timing import device_timing
 
 VECTORS_MAGIC = b"PKTV"
 VECTOR_HEADER = struct.Struct("<4sIHH")  # magic, steps, input size, output size
 
 
-def _recurrent_network(gru, modules, normalizer, output: str) -> NetworkBlob:
-    """A GRU, then [input, GRU state] through `modules` (Linear, activation, ...) as a device network."""
-    from pendkit.agents.normalizer import CLIP_STD
-
-    weights = tuple(p.detach().numpy().astype(np.float32) for p in (gru.weight_ih_l0, gru.weight_hh_l0,
-                                                                      gru.bias_ih_l0, gru.bias_hh_l0))
-    activations = {"ReLU": "relu", "Tanh": "tanh", "Sigmoid": "sigmoid"}
-    layers = []
-    for k, module in enumerate(modules):
-        if hasattr(module, "weight"):
-            follows = type(modules[k + 1]).__name__ if k + 1 < len(modules) else ""
-            layers.append(DenseLayer(module.weight.detach().numpy().astype(np.float32),
-                                     module.bias.detach().numpy().astype(np.float32),
-                                     activations.get(follows, "none")))
-    return NetworkBlob(normalizer.mean.astype(np.float32), normalizer.std.astype(np.float32), CLIP_STD, layers,
-                       weights, output)
-
-
-def network_blob(agent) -> NetworkBlob:
-    """The greedy network of a recurrent DQN agent (`pendkit.agents.recurrent_dqn`)."""
-    return _recurrent_network(agent.q.trunk.gru, list(agent.q.head), agent.normalizer, "argmax")
-
-
 def policy_blob(agent, params):
-    """A trained R-DQN as a policy the device runs itself: its network and the inputs the device makes."""
+    """A trained R-DQN as a policy the device runs itself: the network its agent provides
+    (`device_network()`) and the inputs the device makes, one action per output."""
     from pendkit.device.policy_blob import PolicyBlob
 
-    return PolicyBlob(network_blob(agent), params.control_step_ms / 1000.0, params.acting_period_ms / 1000.0,
-                      int(agent.q.head[-1].weight.shape[0]))
-
-
-def actor_network_blob(agent) -> NetworkBlob:
-    """The actor of a recurrent TD3 agent (`pendkit.agents.recurrent_td3`): its GRU, then [input, GRU state]
-    through the actor's layers to the tanh-bounded target."""
-    modules = [m for m in agent.net.actor.modules() if not list(m.children())]  # Linear, ReLU, ..., Tanh
-    return _recurrent_network(agent.net.trunk.gru, modules, agent.normalizer, "continuous")
+    network = agent.device_network()
+    return PolicyBlob(network, params.control_step_ms / 1000.0, params.acting_period_ms / 1000.0,
+                      int(network.layers[-1].weight.shape[0]))
 
 
 def observer_section(candidates, params, filter_coefficient: float, actions_seen: int = 1, timing=None):
@@ -84,7 +56,7 @@ def observed_policy_blob(agent, inputs, params, candidates, filter_coefficient: 
     from pendkit.device.policy_blob import PolicyBlob
 
     candidates = candidates if isinstance(candidates, (tuple, list)) else (candidates,)
-    return PolicyBlob(actor_network_blob(agent), params.control_step_ms / 1000.0, params.acting_period_ms / 1000.0,
+    return PolicyBlob(agent.device_network(), params.control_step_ms / 1000.0, params.acting_period_ms / 1000.0,
                       1, 2, observer_section(candidates, params, filter_coefficient, inputs.actions_seen, timing))
 
 
@@ -96,8 +68,6 @@ def state_feedback_blob(gain, reference, output_limit: float) -> StateFeedbackBl
 def record_vectors(name: str = "r-dqn-realistic", steps: int = 10_000, seed: int = 0):
     """(blob, starts, inputs, torch outputs): a shipped policy driving its twin greedily, every step's raw
     input and the Q-values torch computes for it."""
-    import torch
-
     from pendkit.agents.pretrained import policy_weights
     from pendkit.agents.runs import build_run
     from pendkit.episode import run_episode
@@ -112,10 +82,7 @@ def record_vectors(name: str = "r-dqn-realistic", steps: int = 10_000, seed: int
     def recorded(observation, state):
         starts.append(now["first"])
         xs.append(np.asarray(now["x"], dtype=np.float32))
-        with torch.no_grad():
-            z = agent.normalizer.normalize(torch.as_tensor(xs[-1]).reshape(1, -1))
-            agent.hidden = agent.q.trunk.step(z, agent.hidden)
-            q = agent.q.q(z, agent.hidden)[0].numpy()
+        q = agent.q_values(xs[-1])
         outputs.append(q.astype(np.float32))
         return int(np.argmax(q))
 
@@ -129,7 +96,7 @@ def record_vectors(name: str = "r-dqn-realistic", steps: int = 10_000, seed: int
         run_episode(env, recorded, steps=min(500, steps - len(xs)), started=started, on_step=seen)
         episode += 1
     env.close()
-    return network_blob(agent), np.array(starts), np.stack(xs), np.stack(outputs)
+    return agent.device_network(), np.array(starts), np.stack(xs), np.stack(outputs)
 
 
 def write_vectors(folder: Path, name: str = "r-dqn-realistic") -> Path:

@@ -4,9 +4,10 @@ or an R-TD3 reading its observers' estimate beside the readings (layout 2, its o
 
 from __future__ import annotations
 
+from pendkit.agents.learners import DEVICE_LEARNERS
 from pendkit.errors import ConfigError
 
-DEVICE_LEARNERS = {"r-dqn": 1, "r-td3+both": 2}
+__all__ = ["DEVICE_LEARNERS", "learned_policy_blob", "observer_timing"]
 
 
 def learned_policy_blob(spec, state: dict | None, params=None, observer=None, trained_timing=None, run=None,
@@ -23,7 +24,7 @@ def learned_policy_blob(spec, state: dict | None, params=None, observer=None, tr
     from pendkit.agents.runs import build_run
     from pendkit.deploy.export import observed_policy_blob, policy_blob
 
-    layout = DEVICE_LEARNERS.get(spec.learner)
+    layout = DEVICE_LEARNERS.get(spec.learner)  # the learner registry's rows say which the device runs
     if layout is None:
         raise ConfigError(f"the device runs {' and '.join(DEVICE_LEARNERS)} policies; this is a {spec.learner} "
                           "run (docs/on-device.md says what exists)")

@@ -85,13 +85,12 @@ def test_the_device_runtime_gives_torchs_outputs_on_the_recorded_inputs():
 def test_the_vectors_are_the_shipped_policys():
     from pendkit.agents.pretrained import policy_weights
     from pendkit.agents.runs import build_run
-    from pendkit.deploy.export import network_blob
 
     spec, state = policy_weights("r-dqn-realistic")
     env, agent, _ = build_run(spec)
     agent.load_policy(state)
     env.close()
-    assert pack(network_blob(agent)) == (VECTORS / "r-dqn-realistic.pkcb").read_bytes()
+    assert pack(agent.device_network()) == (VECTORS / "r-dqn-realistic.pkcb").read_bytes()
 
 
 def test_export_writes_the_shipped_policy_as_the_devices_policy_blob(tmp_path):
