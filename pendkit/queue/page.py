@@ -21,6 +21,25 @@ _HEAD = """<!doctype html>
 </head>
 """
 
+_CLASS_TABLES = (  # (id, heading, caption, column headers); the script fills the bodies
+    ("rigs", "Rigs", "Every rig: free, busy with a job, or out of service with the reason",
+     ("Rig", "State", "Job", "Servo range (counts)", "Reason", "Last heard (s ago)")),
+    ("jobs", "Jobs", "Waiting and running jobs, and the latest finished ones; place: the order fair share takes them",
+     ("Job", "Team", "Kind", "State", "Place in queue", "Rig")),
+    ("leaderboard", "Leaderboard",
+     "Each team's best judged job on a rig: solved first, then episodes held, then the quicker swing-up",
+     ("Rank", "Team", "Best verdict", "Episodes held", "Time to upright (s)", "Twin with pushes", "Job")),
+)
+
+
+def _table_section(table_id: str, heading: str, caption: str, columns: tuple[str, ...]) -> str:
+    """A section of the class page: its heading and a table with a caption and column headers."""
+    headers = "".join(f'<th scope="col">{column}</th>' for column in columns)
+    return (f'<section aria-labelledby="{table_id}-title">\n<h2 id="{table_id}-title">{heading}</h2>\n'
+            f'<table id="{table_id}">\n<caption>{caption}</caption>\n<thead><tr>{headers}</tr></thead>\n'
+            '<tbody></tbody>\n</table>\n</section>\n')
+
+
 CLASS_PAGE = _HEAD.format(title="pendkit queue: the class's rigs and jobs") + """<body data-page="class">
 <header>
 <h1>The class's rigs and jobs</h1>
@@ -28,35 +47,7 @@ CLASS_PAGE = _HEAD.format(title="pendkit queue: the class's rigs and jobs") + ""
 <p id="updated" class="quiet">Updates every 2 s.</p>
 </header>
 <main>
-<section aria-labelledby="rigs-title">
-<h2 id="rigs-title">Rigs</h2>
-<table id="rigs">
-<caption>Every rig: free, busy with a job, or out of service with the reason</caption>
-<thead><tr><th scope="col">Rig</th><th scope="col">State</th><th scope="col">Job</th>
-<th scope="col">Servo range (counts)</th><th scope="col">Reason</th><th scope="col">Last heard (s ago)</th></tr></thead>
-<tbody></tbody>
-</table>
-</section>
-<section aria-labelledby="jobs-title">
-<h2 id="jobs-title">Jobs</h2>
-<table id="jobs">
-<caption>Waiting and running jobs, and the latest finished ones; place: the order fair share takes them</caption>
-<thead><tr><th scope="col">Job</th><th scope="col">Team</th><th scope="col">Kind</th><th scope="col">State</th>
-<th scope="col">Place in queue</th><th scope="col">Rig</th></tr></thead>
-<tbody></tbody>
-</table>
-</section>
-<section aria-labelledby="board-title">
-<h2 id="board-title">Leaderboard</h2>
-<table id="leaderboard">
-<caption>Each team's best judged job on a rig: solved first, then episodes held, then the quicker swing-up</caption>
-<thead><tr><th scope="col">Rank</th><th scope="col">Team</th><th scope="col">Best verdict</th>
-<th scope="col">Episodes held</th><th scope="col">Time to upright (s)</th><th scope="col">Twin with pushes</th>
-<th scope="col">Job</th></tr></thead>
-<tbody></tbody>
-</table>
-</section>
-<section aria-labelledby="find-title">
+""" + "".join(_table_section(*table) for table in _CLASS_TABLES) + """<section aria-labelledby="find-title">
 <h2 id="find-title">Your job's result</h2>
 <form id="find-job" method="post">
 <label for="job-id">Job number</label>
