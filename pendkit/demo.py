@@ -1,7 +1,7 @@
 """`pendkit demo`: swing up and balance on the twin with a classical controller; plot and animate.
 
-Controllers: "energy" (energy pumping, pendkit.control.swingup) and "trajopt" (the minimum-time plan tracked
-by time-varying LQR, pendkit.control.tracking; its plans are drawn over the measured angle)."""
+Controllers: the classical swing-ups of `pendkit.deploy.controllers` ("energy", energy pumping caught by LQR;
+"trajopt", the minimum-time plan tracked by time-varying LQR, its plans drawn over the measured angle; ...)."""
 
 from __future__ import annotations
 
@@ -11,14 +11,10 @@ from pathlib import Path
 import numpy as np
 
 import pendkit
-from pendkit.control.swingup import SwingUpController
-from pendkit.control.tracking import TrajectoryController
+from pendkit.deploy.controllers import DEFAULT_CONTROLLER, controller_named
 from pendkit.episode import EpisodeTrace, plot_episode, run_episode, time_to_upright_s
-from pendkit.errors import ConfigError
 
 ANIMATION_SECONDS = 6.0
-CONTROLLERS = {"energy": SwingUpController.for_env, "trajopt": TrajectoryController.for_env}
-TITLES = {"energy": "Energy swing-up and LQR balance", "trajopt": "Minimum-time swing-up (tracked plan) and LQR"}
 
 
 @dataclass
@@ -32,11 +28,10 @@ class DemoResult:
 def run_demo(fidelity: str = "realistic", seed: int = 0, start: str = "rest", out_dir: Path = Path("pendkit-output"),
              progress: bool = True, animate: bool = True, controller_name: str = "energy") -> DemoResult:
     """One episode of swing-up and balance; a plot (angles, action, reward, energy) and a GIF of its start."""
-    if controller_name not in CONTROLLERS:
-        raise ConfigError(f"controller must be one of {sorted(CONTROLLERS)}, got {controller_name!r}")
+    chosen = controller_named(controller_name)  # ConfigError naming the known ones
     env = pendkit.make(action_mode="continuous", fidelity=fidelity, start=start, filter_coefficient=0.0,
                        render_mode="rgb_array" if animate else None)
-    controller = CONTROLLERS[controller_name](env)
+    controller = chosen.host(env)
     frames: list[np.ndarray] = []
     frame_steps = max(1, round(0.12 / env.unwrapped.dt))  # about 8 frames per second of rig time
     last_frame_step = int(ANIMATION_SECONDS / env.unwrapped.dt)
@@ -53,9 +48,9 @@ def run_demo(fidelity: str = "realistic", seed: int = 0, start: str = "rest", ou
     trace = run_episode(env, policy, seed=seed, progress=progress)
     env.close()
     out_dir.mkdir(parents=True, exist_ok=True)
-    stem = f"demo-{fidelity}-seed{seed}" + ("" if controller_name == "energy" else f"-{controller_name}")
+    stem = f"demo-{fidelity}-seed{seed}" + ("" if controller_name == DEFAULT_CONTROLLER else f"-{controller_name}")
     plot_path = out_dir / f"{stem}.png"
-    plot_episode(trace, plot_path, title=f"{TITLES[controller_name]} on the twin ({fidelity})",
+    plot_episode(trace, plot_path, title=f"{chosen.title} on the twin ({fidelity})",
                  natural_frequency_rad_s=controller.natural_frequency_rad_s,
                  decorate=lambda axes: _draw_plans(axes[0], getattr(controller, "plans", []), trace))
     animation_path = None

@@ -60,15 +60,3 @@ def test_frozen_and_hashable():
     with pytest.raises(AttributeError):
         p.arm_length_m = 1.0
     assert hash(p) == hash(RigParams())
-
-
-def test_every_module_names_the_classical_controllers_from_the_one_registry():
-    from pendkit.adapt import routes, session, trials
-    from pendkit.cli import device
-    from pendkit.control.names import CONTROLLER_NAMES, SWING_UP_CONTROLLERS
-    from pendkit.demo import CONTROLLERS as DEMO
-    from pendkit.deploy import swingup_design
-
-    assert routes.CLASSICAL is trials.CONTROLLERS is swingup_design.CONTROLLERS is device.CONTROLLER_CHOICES \
-        is CONTROLLER_NAMES
-    assert session.SWING_UPS is SWING_UP_CONTROLLERS and tuple(DEMO) == CONTROLLER_NAMES

@@ -6,16 +6,20 @@ import math
 
 import numpy as np
 
-from pendkit.control.names import SWING_UP_CONTROLLERS
+from pendkit.deploy.controllers import adapt_controllers
 
-SWING_UPS = SWING_UP_CONTROLLERS  # the controllers' names in prose
+ADAPTED = adapt_controllers()
+SWING_UPS = {c.name: c.prose for c in ADAPTED}  # the controllers' names in prose
 ROUTES = {"the device design chosen by the trials": ("classical_on_device", "tried"),
-          "energy swing-up + LQR on the rig's device": ("classical_on_device", "energy"),
-          "minimum-time swing-up on the rig's device": ("classical_on_device", "trajopt"),
+          **{f"{c.label} on the rig's device": ("classical_on_device", c.name) for c in ADAPTED},
           "the adapted policy on the rig's device": ("policy_on_device", None),
           "the adapted policy (laptop)": ("policy_on_rig", None),
-          "energy swing-up + LQR (laptop)": ("classical_on_rig", "energy"),
-          "minimum-time swing-up (laptop)": ("classical_on_rig", "trajopt")}  # in the order ties go
+          **{f"{c.label} (laptop)": ("classical_on_rig", c.name) for c in ADAPTED}}  # in the order ties go
+
+
+def classical_summaries(report: dict, section: str, joiner: str, labelled: bool = False) -> str:
+    """Each adapted controller's summary in `report[section]`, in the registry's order."""
+    return joiner.join(f"{c.label + ' ' if labelled else ''}{report[section][c.name]['summary']}" for c in ADAPTED)
 
 
 def recommended_route(report: dict) -> str | None:
@@ -105,10 +109,8 @@ def report_markdown(report: dict) -> str:
             f"On the rig: the adapted policy {report['policy_on_rig']['summary']} from the laptop and "
             f"{report.get('policy_on_device', {}).get('summary', 'not evaluated')} run by the rig's own device"
             f"{device_policy_markdown(report)}; designed on the identified twin, "
-            f"energy swing-up + LQR {report['classical_on_rig']['energy']['summary']}, minimum-time swing-up "
-            f"{report['classical_on_rig']['trajopt']['summary']} (run from the laptop); the same designs run by the "
-            f"rig's own device: {report['classical_on_device']['energy']['summary']} and "
-            f"{report['classical_on_device']['trajopt']['summary']}.\n\n"
+            f"{classical_summaries(report, 'classical_on_rig', ', ', labelled=True)} (run from the laptop); the same "
+            f"designs run by the rig's own device: {classical_summaries(report, 'classical_on_device', ' and ')}.\n\n"
             f"{trials_markdown(report)}{candidates_markdown(report)}"
             f"Deploy: {report['recommended'] or 'none of them solved this rig'}.\n\n"
             "![recorded and simulated swings](identification.png)\n")

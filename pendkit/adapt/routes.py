@@ -11,7 +11,7 @@ from pathlib import Path
 
 from pendkit.adapt.identify import Identification
 from pendkit.agents.runs import Evaluation, RunSpec, build_run, evaluate_agent, held_fraction, save_weights
-from pendkit.control.names import CONTROLLER_NAMES
+from pendkit.deploy.controllers import adapt_controllers, controller_named
 from pendkit.env import OBSERVED_SOURCES
 from pendkit.network import LatencyModel, NetworkImpairment
 from pendkit.rig import RigParams
@@ -250,7 +250,7 @@ def fine_tune_on_rig(rig, run: AgentRun, episodes: int, config, weights_path: Pa
     say(f"(d) {len(stats.episodes[0])} episodes on the rig, {stats.learner_updates} learner updates")
 
 
-CLASSICAL = CONTROLLER_NAMES
+CLASSICAL = tuple(c.name for c in adapt_controllers())  # what adapt designs for the identified rig
 
 
 def classical_on_env(design_env, env, controller: str, episodes: int, seed: int = 10_000,
@@ -258,11 +258,10 @@ def classical_on_env(design_env, env, controller: str, episodes: int, seed: int 
     """A classical controller designed on `design_env` (a twin) run greedy on `env` (a rig, or another
     twin), both continuous and unfiltered; judged by the kit's "solved" rule."""
     from pendkit.agents.runs import SOLVED_TAIL_STEPS
-    from pendkit.demo import CONTROLLERS
     from pendkit.episode import run_episode, time_to_upright_s
     from pendkit.features import holds_upright
 
-    policy = CONTROLLERS[controller](design_env)
+    policy = controller_named(controller).host(design_env)
     outcome = Evaluation([], [], [], [])
     for k in range(episodes):
         trace = run_episode(env, policy, seed=seed + k, options={"start": start} if start else None)

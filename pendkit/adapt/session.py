@@ -31,6 +31,7 @@ from pendkit.adapt.report_text import (  # noqa: F401 (the names tests and tools
     ROUTES,
     SWING_UPS,
     candidates_markdown,
+    classical_summaries,
     recommended_route,
     report_markdown,
     trials_markdown,
@@ -214,11 +215,10 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
                                                         made=None if tried is not None else chosen)
     report["rig_s_total"] = rig.seconds()
     report["recommended"] = recommended_route(report)
-    classical, device = report["classical_on_rig"], report["classical_on_device"]
     say(f"(d) on the rig: policy {report['policy_on_rig']['summary']} from the laptop, "
-        f"{report['policy_on_device']['summary']} on the rig's device; from the laptop, energy swing-up "
-        f"{classical['energy']['summary']}, minimum-time {classical['trajopt']['summary']}; on the rig's device, "
-        f"energy swing-up {device['energy']['summary']}, minimum-time {device['trajopt']['summary']}")
+        f"{report['policy_on_device']['summary']} on the rig's device; from the laptop, "
+        f"{classical_summaries(report, 'classical_on_rig', ', ', labelled=True)}; on the rig's device, "
+        f"{classical_summaries(report, 'classical_on_device', ', ', labelled=True)}")
     say(f"deploy: {report['recommended'] or 'nothing solved this rig (docs/rl.md: what a class should expect)'}")
 
     report["plots"] = [str(plot_identification(recordings, identification, out / "identification.png"))]

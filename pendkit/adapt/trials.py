@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pendkit.agents.runs import SOLVED_TAIL_STEPS, held_fraction
-from pendkit.control.names import CONTROLLER_NAMES
+from pendkit.deploy.controllers import adapt_controllers
 from pendkit.env_name import EPISODE_STEPS
 from pendkit.features import UPRIGHT_RAD, holds_upright
 from pendkit.rig import RigParams
@@ -29,7 +29,7 @@ FINALISTS = 3  # the best screened designs, each run for a whole episode
 # (label, multiples of the identified servo loop's full-torque error and damping ratio)
 LOOP_VARIANTS = (("identified", 1.0, 1.0), ("stiffer loop", 0.5, 1.0), ("softer loop", 2.0, 1.0),
                  ("less damped loop", 1.0, 0.6), ("more damped loop", 1.0, 1.6))
-CONTROLLERS = CONTROLLER_NAMES
+CONTROLLERS = tuple(c.name for c in adapt_controllers())
 MAX_DAMPING_RATIO = 1.5
 
 

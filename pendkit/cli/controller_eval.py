@@ -1,4 +1,4 @@
-"""`pendkit eval --controller energy|trajopt`: a classical swing-up (energy pumping + LQR, or the minimum-time
+"""`pendkit eval --controller NAME`: a classical swing-up (energy pumping + LQR, or the minimum-time
 plan) run from the laptop on the twin or a rig, judged by the kit's rule as a learned policy is (the `eval`
 command itself lives in `pendkit.cli.learning`). The controller is designed for the env it runs on (its step,
 delays and servo), as the demo does; on a rig that is the rig's parameters (`--params` or a preset) behind
@@ -67,11 +67,11 @@ def judge_controller(env, name: str, starts: list[str | None], seed: int,
     """One episode per entry of `starts` (None: as the env starts, e.g. a rig hanging still), episode k from
     seed `seed + k`; each judged by the rule's tail (held within 0.3 rad of upright for its last 200 steps)."""
     from pendkit.agents.runs import SOLVED_TAIL_STEPS, Evaluation, held_fraction
-    from pendkit.demo import CONTROLLERS
+    from pendkit.deploy.controllers import controller_named
     from pendkit.episode import run_episode
     from pendkit.features import holds_upright, time_to_upright_s
 
-    controller = CONTROLLERS[name](env)
+    controller = controller_named(name).host(env)
     outcome = Evaluation([], [], [], [])
     for k, start in enumerate(starts):
         trace = run_episode(env, controller, seed=seed + k, options={"start": start} if start else None)

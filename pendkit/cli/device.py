@@ -9,7 +9,7 @@ from pathlib import Path
 import click
 
 from pendkit.cli.broker_login import broker_login_options, login_from
-from pendkit.control.names import CONTROLLER_NAMES
+from pendkit.deploy.controllers import CONTROLLER_NAMES
 
 CONTROLLER_CHOICES = CONTROLLER_NAMES
 STALE_TELEMETRY_S = 0.5  # an older reading says nothing of the pendulum now
@@ -47,15 +47,17 @@ def _learned_blob(run_dir: Path | None, policy_name: str | None, params_path: Pa
 def _blob(run_dir: Path | None, policy_name: str | None, controller: str | None, params_path: Path | None):
     """(the blob, the rig parameters it was made for)."""
     if sum(x is not None for x in (run_dir, policy_name, controller)) != 1:
-        raise click.UsageError("give one of RUN_DIR, --policy NAME or --controller energy|trajopt")
+        raise click.UsageError(f"give one of RUN_DIR, --policy NAME or --controller {'|'.join(CONTROLLER_NAMES)}")
     if controller is None:
         return _learned_blob(run_dir, policy_name, params_path)
+    from pendkit.deploy.controllers import controller_named
     from pendkit.deploy.swingup_design import design_swing_up
 
     params = _rig_params(params_path)
     blob = design_swing_up(params, controller)
-    if controller == "trajopt" and not blob.plan_steps:
-        click.echo("no swing-up from rest within 40 steps for this rig: the blob pumps energy from the start")
+    note = controller_named(controller).design_note(blob)
+    if note:
+        click.echo(note)
     return blob, params
 
 
@@ -74,7 +76,7 @@ _SOURCE_OPTIONS = (
     click.argument("run_dir", type=click.Path(exists=True, file_okay=False, path_type=Path), required=False),
     click.option("--policy", "policy_name", default=None, help="A shipped policy (`pendkit policies list`)."),
     click.option("--controller", type=click.Choice(CONTROLLER_CHOICES), default=None,
-                 help="A classical controller designed for the rig: energy swing-up + LQR, or the minimum-time plan."),
+                 help="A classical swing-up designed for the rig (pendkit.deploy.controllers)."),
     click.option("--params", "params_path", type=click.Path(exists=True, dir_okay=False, path_type=Path),
                  default=None, help="The rig's parameters (RigParams.save) for --controller, or the rig a policy "
                                    "runs on; default: the kit's rig."),

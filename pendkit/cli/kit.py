@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from pendkit.control.names import CONTROLLER_NAMES
+from pendkit.deploy.controllers import CONTROLLER_NAMES
 from pendkit.sim.fidelity import FIDELITY_PRESETS
 
 FIDELITIES = tuple(FIDELITY_PRESETS)

@@ -10,7 +10,7 @@ from pathlib import Path
 import click
 
 from pendkit.cli.broker_login import broker_login_options, login_from
-from pendkit.control.names import CONTROLLER_NAMES
+from pendkit.deploy.controllers import CONTROLLER_NAMES
 from pendkit.link import DEFAULT_BROKER
 from pendkit.sim.fidelity import FIDELITY_PRESETS
 
@@ -150,7 +150,7 @@ def evaluate(run_dir: Path | None, policy_name: str | None, controller: str | No
     0.3 rad of upright for its last 200 steps). `--controller` does the same for a classical swing-up."""
     torch_or_exit()
     if sum(x is not None for x in (run_dir, policy_name, controller)) != 1:
-        raise click.UsageError("give one of RUN_DIR, --policy NAME or --controller energy|trajopt")
+        raise click.UsageError(f"give one of RUN_DIR, --policy NAME or --controller {'|'.join(CONTROLLER_NAMES)}")
     if controller is not None:
         from pendkit.cli.controller_eval import evaluate_controller
 

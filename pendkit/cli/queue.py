@@ -13,7 +13,7 @@ from pathlib import Path
 import click
 
 from pendkit.cli.broker_login import refused_on_command_line
-from pendkit.control.names import CONTROLLER_NAMES
+from pendkit.deploy.controllers import CONTROLLER_NAMES
 from pendkit.rig import SERVO_PRESETS
 
 DB_HELP = "The queue's database: an SQLite file, or an SQLAlchemy URL (postgresql+psycopg://...)."

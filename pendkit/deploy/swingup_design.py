@@ -15,7 +15,6 @@ import numpy as np
 
 from pendkit.control.lqr import LqrBalancer, LqrWeights
 from pendkit.control.model import FurutaModel
-from pendkit.control.names import CONTROLLER_NAMES
 from pendkit.control.swingup import SwingUpConfig
 from pendkit.control.tracking import TRACKING_WEIGHTS, time_varying_lqr
 from pendkit.control.trajopt import StepModel, SwingUpLimits, fastest_bang_bang, initial_state
@@ -24,7 +23,6 @@ from pendkit.errors import ConfigError
 from pendkit.rig import RigParams
 from pendkit.timing import device_command_delay_s
 
-CONTROLLERS = CONTROLLER_NAMES
 # The pendulum filter's process noise: what the gravity-only prediction leaves out (the arm's push on the
 # pivot reaches about 30 rad/s^2 while pumping); the measurement noise is the encoder's quantisation.
 UNMODELLED_ACCELERATION_RAD_S2 = 30.0
@@ -71,13 +69,19 @@ def design_swing_up(params: RigParams | None = None, controller: str = "energy",
                     config: SwingUpConfig | None = None, weights: LqrWeights | None = None,
                     limits: SwingUpLimits | None = None,
                     observer_gains: tuple[float, float] | None = None) -> SwingUpBlob:
-    """The device's swing-up for a rig: "energy" (pump, catch with LQR) or "trajopt" (the fastest plan from
-    rest first; where no plan reaches upright within 40 steps, the blob has none and pumps energy from the
-    start, as the laptop's TrajectoryController falls back). `observer_gains` (angle, rate) replaces the
-    pendulum filter's designed gains (lab 10)."""
-    if controller not in CONTROLLERS:
-        raise ConfigError(f"controller must be one of {CONTROLLERS}, got {controller!r}")
-    params = params or RigParams()
+    """The device's swing-up for a rig by the controller's name (`pendkit.deploy.controllers`: "energy",
+    pump and catch with LQR; "trajopt", the fastest plan from rest first, ...). `observer_gains` (angle,
+    rate) replaces the pendulum filter's designed gains (lab 10)."""
+    from pendkit.deploy.controllers import controller_named  # the controllers' modules build on this one
+
+    return controller_named(controller).design(params or RigParams(), config=config, weights=weights,
+                                               limits=limits, observer_gains=observer_gains)
+
+
+def swing_up_blob(params: RigParams, config: SwingUpConfig | None = None, weights: LqrWeights | None = None,
+                  observer_gains: tuple[float, float] | None = None, catch_gain=None) -> SwingUpBlob:
+    """The device's energy swing-up for a rig, caught by the LQR of `weights` (or by `catch_gain(balancer)`, a
+    state feedback on the same five states), its pendulum filter designed for the rig unless `observer_gains`."""
     config = config or SwingUpConfig()
     if config.phase_lead_rad not in (0, 0.0):
         raise ConfigError("the device's swing-up has no phase lead (it reads the encoder itself): use 0")
@@ -95,16 +99,25 @@ def design_swing_up(params: RigParams | None = None, controller: str = "energy",
                "filter_coefficient": balancer.filter_coefficient, "servo_range_rad": params.servo_range_rad,
                "rest_angle_rad": REST_ANGLE_RAD, "rest_velocity_rad_s": REST_VELOCITY_RAD_S, "drift_rad": DRIFT_RAD,
                **model_scalars(model)}
-    blob = SwingUpBlob(scalars, balancer.gain.reshape(-1), np.zeros(5))
-    if controller == "trajopt":
-        step_model = StepModel(model, period_s, delay_s)
-        plan = fastest_bang_bang(step_model, initial_state(), limits or SwingUpLimits(), 40, 5)
-        if plan is None:
-            return blob
-        gains, settle_gain = time_varying_lqr(step_model, plan, TRACKING_WEIGHTS)
-        blob.plan_targets = plan.targets_rad.astype(np.float32)
-        blob.plan_states = plan.states[:-1].astype(np.float32)
-        blob.plan_gains = gains[:, 0, :].astype(np.float32)
-        blob.settle_gain = settle_gain.reshape(-1).astype(np.float32)
-        blob.settle_steps, blob.warmup_steps = SETTLE_STEPS, WARMUP_STEPS
+    gain = balancer.gain if catch_gain is None else catch_gain(balancer)
+    return SwingUpBlob(scalars, np.asarray(gain, dtype=float).reshape(-1), np.zeros(5))
+
+
+def with_plan_from_rest(blob: SwingUpBlob, params: RigParams, weights: LqrWeights | None = None,
+                        limits: SwingUpLimits | None = None) -> SwingUpBlob:
+    """`blob` with the fastest plan from rest and its time-varying gains; where no plan reaches upright within
+    40 steps, the blob has none and pumps energy from the start (as the laptop's TrajectoryController)."""
+    period_s = params.control_step_ms / 1000.0
+    model = LqrBalancer(params, weights, period_s=period_s, delay_s=device_command_delay_s(params),
+                        internal_filter=True).model
+    step_model = StepModel(model, period_s, device_command_delay_s(params))
+    plan = fastest_bang_bang(step_model, initial_state(), limits or SwingUpLimits(), 40, 5)
+    if plan is None:
+        return blob
+    gains, settle_gain = time_varying_lqr(step_model, plan, TRACKING_WEIGHTS)
+    blob.plan_targets = plan.targets_rad.astype(np.float32)
+    blob.plan_states = plan.states[:-1].astype(np.float32)
+    blob.plan_gains = gains[:, 0, :].astype(np.float32)
+    blob.settle_gain = settle_gain.reshape(-1).astype(np.float32)
+    blob.settle_steps, blob.warmup_steps = SETTLE_STEPS, WARMUP_STEPS
     return blob

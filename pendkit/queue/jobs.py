@@ -21,7 +21,7 @@ import math
 import zlib
 
 from pendkit.agents.policy_rule import RULE_STARTS
-from pendkit.control.names import CONTROLLER_NAMES
+from pendkit.deploy.controllers import CONTROLLER_NAMES
 from pendkit.env_name import EPISODE_STEPS
 from pendkit.errors import ConfigError
 from pendkit.features import SOLVED_TAIL_STEPS

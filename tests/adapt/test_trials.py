@@ -11,10 +11,11 @@ from pendkit.rig import RigParams
 
 
 def test_a_loop_identified_too_lightly_damped_is_corrected_by_the_trials():
-    """The MKS X5's loop (damping ratio 0.7) identified at 0.44: both device designs made on it fall on the
-    rig; the design for the more damped loop (the truth) holds, and the trials find a design that holds."""
+    """The MKS X5's loop (damping ratio 0.7) identified at 0.35: both device designs made on it fall on the
+    rig; a design for a more damped loop holds, and the trials find a design that holds. (Identified at 0.44
+    the energy design held 2 of 3 once the device's designs took its delay as half a PWM frame.)"""
     true = RigParams.preset("mks-x5-hbl550")
-    identified = loop_variant(true, 1.0, 1 / 1.6)
+    identified = loop_variant(true, 1.0, 1 / 2.0)
     rig = twin_rig(true, "classroom-wifi")
     chosen, designs = try_on_device(rig.run_on_device, identified, say=lambda _: None)
     assert rig.seconds() == pytest.approx(trial_steps() * true.control_step_ms / 1000)
