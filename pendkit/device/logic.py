@@ -25,6 +25,7 @@ from pendkit.rig import RigParams
 HOLDING_FLAGS = frozenset(("watchdog", "overspin", "stuck_encoder"))
 STUCK_BAD_FRAMES = 8
 STUCK_TRAVEL_COUNTS = 60
+FRAME_ERROR = frozenset(("frame_error",))
 
 
 def action_increments_counts(params: RigParams) -> tuple[int, ...]:
@@ -53,6 +54,8 @@ class McuLogic:
         self.overspin_limit_rev_s = params.overspin_limit_rev_s
         self.device_filter = 0.0  # the kit filters on the host; `e<c>` restores the authors' device filter
         self.onboard = OnboardController(params)  # kept across resets, as in the firmware's RAM
+        self._discrete_commands = tuple(discrete_command(k, params)
+                                        for k in range(len(action_increments_counts(params))))
         self.last_observation: McuObservation | None = None
         self.reset(round_half_up(params.servo_centre_counts), 0)
 
@@ -89,7 +92,7 @@ class McuLogic:
             self.onboard.stop()  # the host takes over: its command is in force, not a hold
             self._onboard_was_running = False
         if kind == "action":
-            self.receive(discrete_command(int(value), self.params), now_ms)
+            self.receive(self._discrete_commands[int(value)], now_ms)
         elif kind == "target":
             self.receive(ServoCommand("continuous", target_unit=value), now_ms)
         elif kind == "onboard":
@@ -124,44 +127,56 @@ class McuLogic:
     def acting_tick(self, now_ms: int, raw_counts: int | None = None) -> int:
         """Advance the servo target by the current command, or by the running onboard controller from the
         encoder read now (`raw_counts`); return the counts to actuate."""
-        p = self.params
+        p, flags, running = self.params, self.flags, self.onboard.running
         if now_ms - self.last_command_ms > self.watchdog_timeout_ms:
-            self.flags.add("watchdog")
-        if self._onboard_was_running and not self.onboard.running:
+            flags.add("watchdog")
+        if self._onboard_was_running and not running:
             # stopped by k0, a new blob or anything else: hold here until the host commands, never resume
             # the host's command from before k1 (a stale target, or a policy's last ramp to the arm's limit)
             self.command = STOP
-        self._onboard_was_running = self.onboard.running
-        policy_runs = self.onboard.running and self.onboard.runs_a_policy
-        if policy_runs:
-            action = self.onboard.policy_tick(self.last_observation, now_ms)
-            if action is None:
-                pass
-            elif self.onboard.runtime.continuous:  # a target, already through its own filter
-                self.command = ServoCommand("continuous", target_unit=action)
-            else:  # as a host's action command would, without feeding the watchdog
-                self.command = discrete_command(action, p)
-        if self.onboard.running and raw_counts is not None and not self.onboard.runs_a_policy:
-            target_rad = self.onboard.tick(self.pendulum_rad(raw_counts), p.servo_counts_to_rad(self.servo_counts))
-            counts = p.servo_centre_counts + target_rad / p.servo_rad_per_count
-            wanted = round_half_up(counts) if math.isfinite(counts) else self.servo_counts  # diverged: hold
-        elif self.command.mode == "continuous":
-            c = 0.0 if policy_runs else self.device_filter
+        self._onboard_was_running = running
+        if running:
+            wanted = self._onboard_wanted(now_ms, raw_counts)
+        elif self.command.mode == "continuous":  # the host's command (the common case, taken first)
+            c = self.device_filter
             self._filtered_unit = c * self._filtered_unit + (1 - c) * self.command.target_unit
             wanted = round_half_up(p.servo_centre_counts + self._filtered_unit * p.servo_span_counts / 2)
         else:
             wanted = self.servo_counts + self.command.increment_counts
-        if not self.flags.isdisjoint(HOLDING_FLAGS):  # safety last: hold the servo where it is
+        if not flags.isdisjoint(HOLDING_FLAGS):  # safety last: hold the servo where it is
             wanted = self.servo_counts
-        clipped = min(max(wanted, p.servo_min_counts), p.servo_max_counts)
-        if clipped != wanted or clipped in (p.servo_min_counts, p.servo_max_counts):
-            self.flags.add("arm_limit")
+        low, high = p.servo_min_counts, p.servo_max_counts
+        clipped = min(max(wanted, low), high)
+        if clipped != wanted or clipped == low or clipped == high:
+            flags.add("arm_limit")
             if self.command.mode == "discrete" and clipped != wanted:
                 self.command = STOP  # a discrete action ends at the arm's limit
         else:
-            self.flags.discard("arm_limit")
+            flags.discard("arm_limit")
         self.servo_counts = clipped
         return clipped
+
+    def _onboard_wanted(self, now_ms: int, raw_counts: int | None) -> int:
+        """The target an acting tick wants while the uploaded controller runs (before the stops)."""
+        p, onboard = self.params, self.onboard
+        policy_runs = onboard.runs_a_policy
+        if policy_runs:
+            action = onboard.policy_tick(self.last_observation, now_ms)
+            if action is None:
+                pass
+            elif onboard.runtime.continuous:  # a target, already through its own filter
+                self.command = ServoCommand("continuous", target_unit=action)
+            else:  # as a host's action command would, without feeding the watchdog
+                self.command = discrete_command(action, p)
+        if onboard.running and raw_counts is not None and not onboard.runs_a_policy:
+            target_rad = onboard.tick(self.pendulum_rad(raw_counts), p.servo_counts_to_rad(self.servo_counts))
+            counts = p.servo_centre_counts + target_rad / p.servo_rad_per_count
+            return round_half_up(counts) if math.isfinite(counts) else self.servo_counts  # diverged: hold
+        if self.command.mode == "continuous":
+            c = 0.0 if policy_runs else self.device_filter
+            self._filtered_unit = c * self._filtered_unit + (1 - c) * self.command.target_unit
+            return round_half_up(p.servo_centre_counts + self._filtered_unit * p.servo_span_counts / 2)
+        return self.servo_counts + self.command.increment_counts
 
     # --- streaming tick ---
     def streaming_frame(self, frame: int, now_ms: int) -> McuObservation:
@@ -181,27 +196,27 @@ class McuLogic:
         return self._stream(raw_counts, now_ms, frame_error=False)
 
     def _stream(self, raw_counts: int, now_ms: int, frame_error: bool) -> McuObservation:
-        p = self.params
+        flags, servo_counts = self.flags, self.servo_counts
         if not frame_error:
             if raw_counts != self._last_raw:
-                self._servo_at_last_change = self.servo_counts
+                self._servo_at_last_change = servo_counts
                 if self._bad_frames == 0:
-                    self.flags.discard("stuck_encoder")
-            elif abs(self.servo_counts - self._servo_at_last_change) >= STUCK_TRAVEL_COUNTS:
-                self.flags.add("stuck_encoder")
+                    flags.discard("stuck_encoder")
+            elif abs(servo_counts - self._servo_at_last_change) >= STUCK_TRAVEL_COUNTS:
+                flags.add("stuck_encoder")
             self._last_raw = raw_counts
-        position = (raw_counts - self.offset_counts) % p.encoder_counts
+        position = (raw_counts - self.offset_counts) % self.params.encoder_counts
         omega, accel = self.estimator.update(position, now_ms)
         self.omega_rev_s = omega
         if self.overspin_limit_rev_s > 0 and abs(omega) > self.overspin_limit_rev_s:
-            self.flags.add("overspin")
+            flags.add("overspin")
         else:
-            self.flags.discard("overspin")
+            flags.discard("overspin")
         dt_ms = now_ms - self._last_stream_ms
-        arm_velocity = ((self.servo_counts - self._last_stream_servo) * 1000.0 / dt_ms) if dt_ms > 0 else 0.0
-        self._last_stream_servo, self._last_stream_ms = self.servo_counts, now_ms
-        flags = frozenset(self.flags | ({"frame_error"} if frame_error else set()))
-        self.last_observation = McuObservation(now_ms, position, self.servo_counts, omega, accel, arm_velocity, flags)
+        arm_velocity = ((servo_counts - self._last_stream_servo) * 1000.0 / dt_ms) if dt_ms > 0 else 0.0
+        self._last_stream_servo, self._last_stream_ms = servo_counts, now_ms
+        shown = frozenset(flags | FRAME_ERROR) if frame_error else frozenset(flags)
+        self.last_observation = McuObservation(now_ms, position, servo_counts, omega, accel, arm_velocity, shown)
         return self.last_observation
 
 

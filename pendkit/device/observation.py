@@ -23,6 +23,14 @@ class McuObservation:
     arm_velocity_counts_s: float
     flags: frozenset[str]
 
+    def __init__(self, millis: int, position_counts: int, servo_counts: int, omega_rev_s: float,
+                 acceleration_rev_s2: float, arm_velocity_counts_s: float, flags: frozenset[str]) -> None:
+        # Made on every streaming tick: filled in one go, where a frozen dataclass's own __init__ sets each
+        # field through object.__setattr__ (about twice the time)
+        self.__dict__.update(millis=millis, position_counts=position_counts, servo_counts=servo_counts,
+                             omega_rev_s=omega_rev_s, acceleration_rev_s2=acceleration_rev_s2,
+                             arm_velocity_counts_s=arm_velocity_counts_s, flags=flags)
+
     @property
     def flag_bits(self) -> int:
         return sum(FLAG_BITS[f] for f in self.flags)
