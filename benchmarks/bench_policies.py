@@ -38,7 +38,7 @@ from pendkit.agents.pretrained import (
     weights_digest,
 )
 from pendkit.agents.runs import Evaluation, build_run, evaluate_agent, held_fraction, make_env
-from pendkit.demo import CONTROLLERS
+from pendkit.deploy.controllers import CONTROLLER_NAMES, controller_named
 from pendkit.episode import run_episode, time_to_upright_s
 from pendkit.features import holds_upright
 from pendkit.sim.pushes import PendulumPushes
@@ -68,7 +68,7 @@ def controller_outcomes(name: str, fidelity: str, starts: int, rest: int, pushes
         for k in range(count):
             env = pushed(pendkit.make(action_mode="continuous", fidelity=fidelity, filter_coefficient=0.0), pushes,
                          seed + k)
-            trace = run_episode(env, CONTROLLERS[name](env), seed=seed + k, options={"start": start})
+            trace = run_episode(env, controller_named(name).host(env), seed=seed + k, options={"start": start})
             angles = trace.pendulum_from_upright_rad
             together += Evaluation([holds_upright(angles, 200)], [time_to_upright_s(angles, env.unwrapped.dt)],
                                    [trace.episode_return], [held_fraction(angles)])
@@ -107,7 +107,7 @@ def main() -> None:
     parser.add_argument("--rest", type=int, default=10, help="episodes from hanging still")
     parser.add_argument("--pushes", default=None, help="also run every row with two pushes of this size (hand)")
     parser.add_argument("--policies", nargs="*", default=None, help="shipped policies (default: all)")
-    parser.add_argument("--controllers", nargs="*", default=list(CONTROLLERS), choices=list(CONTROLLERS))
+    parser.add_argument("--controllers", nargs="*", default=list(CONTROLLER_NAMES), choices=CONTROLLER_NAMES)
     parser.add_argument("--controller-fidelity", default="realistic")
     parser.add_argument("--record", action="store_true", help=f"write the figures to {MEASURED_FILE.name}")
     args = parser.parse_args()

@@ -23,7 +23,7 @@ import numpy as np
 
 import pendkit
 from pendkit.control.trajopt import StepModel, fastest_bang_bang, initial_state, polish_with_ocp
-from pendkit.demo import CONTROLLERS
+from pendkit.deploy.controllers import CONTROLLER_NAMES, controller_named
 from pendkit.episode import run_episode, time_to_upright_s
 
 
@@ -32,7 +32,7 @@ def run(fidelity: str, starts: int, env_filter: bool, controller: str = "energy"
     for seed in range(starts):
         env = pendkit.make(action_mode="continuous", fidelity=fidelity,
                            **({} if env_filter else {"filter_coefficient": 0.0}))
-        trace = run_episode(env, CONTROLLERS[controller](env), seed=seed)
+        trace = run_episode(env, controller_named(controller).host(env), seed=seed)
         upright_at = time_to_upright_s(trace.pendulum_from_upright_rad, env.unwrapped.dt)
         if upright_at is None:
             failures += 1
@@ -45,7 +45,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--starts", type=int, default=100)
     parser.add_argument("--fidelity", nargs="+", default=["ideal", "realistic"])
-    parser.add_argument("--controller", nargs="+", default=list(CONTROLLERS), choices=list(CONTROLLERS))
+    parser.add_argument("--controller", nargs="+", default=list(CONTROLLER_NAMES), choices=CONTROLLER_NAMES)
     parser.add_argument("--env-filter", action="store_true", help="keep the env's c=0.85 action filter")
     parser.add_argument("--no-bound", action="store_true", help="skip the lower bound")
     parser.add_argument("--bound-iterations", type=int, default=40, help="SLSQP iterations for one step fewer")

@@ -121,7 +121,7 @@ def ceiling(starts: int, seed: int = 10_000, networks=("rig", "none"), controlle
     from pendkit.adapt.routes import CLASSICAL
     from pendkit.agents.rig_suite import preset_rigs, random_rigs, rig_env
     from pendkit.agents.runs import SOLVED_TAIL_STEPS, Evaluation
-    from pendkit.demo import CONTROLLERS
+    from pendkit.deploy.controllers import controller_named
     from pendkit.episode import UNTIL_DONE, run_episode
     from pendkit.features import holds_upright, time_to_upright_s
 
@@ -154,7 +154,7 @@ def ceiling(starts: int, seed: int = 10_000, networks=("rig", "none"), controlle
                 rig = rig if network == "rig" else without_network(rig)
                 env = rig_env(rig, action_mode="continuous", filter_coefficient=0.0)
                 design = rig_env(rig, action_mode="continuous", filter_coefficient=0.0)
-                policy = CONTROLLERS[controller](design)
+                policy = controller_named(controller).host(design)
                 outcomes[rig_name] = sum((episode(env, policy, seed + k, start) for k, start in
                                           enumerate(["rest"] + ["random"] * starts)), Evaluation([], [], [], []))
                 env.close()

@@ -19,6 +19,7 @@ LAYERS = (
     ("safe_write",),
     ("rig", "encoder", "features", "wiring", "bom", "network", "timing"),
     ("device",),
+    ("telemetry",),
     ("control", "firmware_constants"),
     ("sim",),
     ("link", "cad"),

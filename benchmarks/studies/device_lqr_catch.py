@@ -25,8 +25,8 @@ import numpy as np
 def candidate_gains():
     """(gain over [arm, from upright, arm rate, pendulum rate, filtered target], filter) per bank candidate."""
     from pendkit.control.lqr import LqrBalancer
-    from pendkit.timing import device_command_delay_s as device_delay_s
     from pendkit.sim.randomize import observer_bank
+    from pendkit.timing import device_command_delay_s as device_delay_s
 
     balancers = [LqrBalancer(p, period_s=p.control_step_ms / 1000, delay_s=device_delay_s(p), internal_filter=True)
                  for p in observer_bank()]

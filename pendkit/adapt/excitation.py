@@ -18,8 +18,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pendkit.adapt.replay import DeviceTrace, trace_from_log
-from pendkit.device.log import read_log
 from pendkit.encoder import wrapped_rad
+from pendkit.telemetry.log import read_log
 
 CENTRE = 0.0
 # (half-period in steps, amplitude as a fraction of the arm's half range), one per episode, cycled

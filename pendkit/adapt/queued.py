@@ -14,11 +14,11 @@ from collections.abc import Callable
 from pendkit.adapt.excitation import EXCITATION_STREAM, Excitation, Recording, schedule
 from pendkit.adapt.recording_checks import check_recordings
 from pendkit.adapt.replay import trace_from_log
-from pendkit.device.log import LogRecord
 from pendkit.errors import RecordingError
 from pendkit.queue.rig_episodes import Sample, angle_from_upright_rad
 from pendkit.queue.rig_reset import JobStopped, RigWatch, reset_rig
 from pendkit.rig import RigParams
+from pendkit.telemetry.log import LogRecord
 
 
 def record_excitation(session, params: RigParams, speed: float, spec: dict, check: Callable[[], None],

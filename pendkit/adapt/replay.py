@@ -17,10 +17,10 @@ import mujoco
 import numpy as np
 
 from pendkit.device.commands import parse_command
-from pendkit.device.log import LogRecord, readings_of
 from pendkit.device.protocol import ProtocolError
 from pendkit.rig import RigParams
 from pendkit.sim.model import ARM_JOINT, PENDULUM_JOINT, build_model
+from pendkit.telemetry.log import LogRecord, readings_of
 
 
 @dataclass(frozen=True)

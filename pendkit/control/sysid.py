@@ -1,7 +1,7 @@
 """System identification from logs: the pendulum's natural frequency and damping from a free swing,
 the servo's lag and slew rate from step responses, each with a standard error.
 
-Works on any arrays of times and angles: a twin episode, `pendkit.device.log.readings_from_log` of a rig's
+Works on any arrays of times and angles: a twin episode, `pendkit.telemetry.log.readings_from_log` of a rig's
 or the realistic twin's episode log, or the labs' sampled swings.
 """
 

@@ -16,11 +16,12 @@ from urllib.parse import urlparse
 
 import paho.mqtt.client as mqtt
 
-from pendkit.device.log import EpisodeLog
-from pendkit.device.protocol import ANY_DEVICE, ProtocolError, ReadingLimits, ReceivedObservation, parse_observation
+from pendkit.device.protocol import ProtocolError
 from pendkit.errors import ConfigError, PendkitError
 from pendkit.link import DEFAULT_BROKER
 from pendkit.link.diagnose import rig_user_mismatch, why_no_connection, why_rig_silent
+from pendkit.telemetry.log import EpisodeLog
+from pendkit.telemetry.parse import ANY_DEVICE, ReadingLimits, ReceivedObservation, parse_observation
 
 LOG = logging.getLogger("pendkit.link")
 # While the stream is live, an observation older than the newest (time or v2 sequence) or further ahead than

@@ -17,14 +17,14 @@ import numpy as np
 
 from pendkit.backend_contract import STOP, RigState, ServoCommand
 from pendkit.device.commands import command_body, frame_command
-from pendkit.device.log import EpisodeLog
 from pendkit.device.observation import observation_to_state
-from pendkit.device.protocol import ReadingLimits
 from pendkit.device.scheduler import PROTOCOLS
 from pendkit.errors import ConfigError
 from pendkit.link.driver import DEFAULT_BROKER, RigLink, RigLinkError
 from pendkit.network import CLASSROOM_WIFI, median_latency_ms
 from pendkit.rig import SERVO_PRESETS, RigParams
+from pendkit.telemetry.log import EpisodeLog
+from pendkit.telemetry.parse import ReadingLimits
 from pendkit.timing import host_timing
 
 SETTLED_REV_S = 0.05

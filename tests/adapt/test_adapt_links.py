@@ -10,9 +10,9 @@ from pendkit.adapt.session import OUTPUTS, save_device_design
 from pendkit.adapt.trials import Design
 from pendkit.agents.data_files import save_data
 from pendkit.cli import main
-from pendkit.device.log import EpisodeLog
 from pendkit.rig import RigParams
 from pendkit.safe_write import LinkRefused
+from pendkit.telemetry.log import EpisodeLog
 
 NOTES = "the instructor's notes\n"
 pytestmark = pytest.mark.skipif(os.name == "nt", reason="symbolic links (POSIX)")

@@ -13,9 +13,9 @@ from pendkit.adapt.excitation import EXCITATION_STREAM, Excitation, Recording, r
 from pendkit.adapt.recording_checks import check_recordings, max_pendulum_speed_rad_s
 from pendkit.adapt.replay import trace_from_log
 from pendkit.adapt.rigs import configured_prior, twin_rig
-from pendkit.device.log import LogRecord
 from pendkit.errors import RecordingError
 from pendkit.rig import RigParams
+from pendkit.telemetry.log import LogRecord
 
 HIDDEN = RigParams.preset("mks-x5-hbl550").with_dowel_length(0.34)  # the fastest preset servo, a short pendulum
 

@@ -8,11 +8,11 @@ import pytest
 import pendkit
 from pendkit.control.model import FurutaModel
 from pendkit.control.sysid import identify_free_swing, identify_servo_steps
-from pendkit.device.log import readings_from_log
 from pendkit.encoder import counts_to_rad
 from pendkit.errors import ConfigError
 from pendkit.rig import RigParams
 from pendkit.sim.lab_readings import free_swing_readings, servo_step_readings
+from pendkit.telemetry.log import readings_from_log
 
 
 def hanging_mode(params):

@@ -8,8 +8,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from pendkit.device.commands import REASONS, parse_command
-from pendkit.device.protocol import ProtocolError, parse_observation_v1
+from pendkit.device.protocol import ProtocolError
 from pendkit.firmware_constants import render_header
+from pendkit.telemetry.parse import parse_observation_v1
 from tests.vectors.make_device_vectors import build
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -56,7 +56,7 @@ def test_lab02_notes_name_a_swapped_alpha_and_an_unpadded_mean():
 def free_swing():
     """Lab 03's free swing (ci's 200 steps): times, angles from the bottom, the kit's fit."""
     from pendkit.control.sysid import identify_free_swing
-    from pendkit.device.log import readings_from_log
+    from pendkit.telemetry.log import readings_from_log
 
     folder = tempfile.mkdtemp()
     env = pendkit.make(fidelity="realistic", log_dir=folder)

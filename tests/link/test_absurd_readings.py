@@ -4,9 +4,10 @@ from types import SimpleNamespace
 
 import pytest
 
-from pendkit.device.protocol import ANY_DEVICE, ProtocolError, ReadingLimits, parse_observation
+from pendkit.device.protocol import ProtocolError
 from pendkit.link.driver import RESYNC_AFTER_S, RigLink
 from pendkit.rig import RigParams
+from pendkit.telemetry.parse import ANY_DEVICE, ReadingLimits, parse_observation
 
 GOOD_V2 = "R1000,10,512,300,0.5000,1.2000,10.0,0,3,99"
 

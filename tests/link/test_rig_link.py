@@ -8,10 +8,10 @@ import time
 import pytest
 
 import pendkit
-from pendkit.device.log import readings_from_log
 from pendkit.link.broker import MosquittoBroker, free_port
 from pendkit.link.driver import RigLink, RigLinkError
 from pendkit.link.virtual_rig import VirtualRig, VirtualRigGroup
+from pendkit.telemetry.log import readings_from_log
 from tests.system_needs import needs
 
 FAST_RESET = {"reset_stop_s": 0.3}

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import pendkit
-from pendkit.demo import CONTROLLERS
+from pendkit.deploy.controllers import CONTROLLER_NAMES, controller_named
 from pendkit.episode import run_episode
 from pendkit.errors import ConfigError
 from pendkit.features import holds_upright
@@ -41,10 +41,10 @@ def test_the_same_seed_pushes_at_the_same_moments_and_another_seed_elsewhere():
     assert all(PUSH_WINDOW_STEPS[0] <= k < PUSH_WINDOW_STEPS[1] for k in first)
 
 
-@pytest.mark.parametrize("controller", sorted(CONTROLLERS))
+@pytest.mark.parametrize("controller", CONTROLLER_NAMES)
 def test_the_classical_controllers_catch_two_hand_pushes_on_the_realistic_twin(controller):
     env = PendulumPushes(pendkit.make(action_mode="continuous", fidelity="realistic", filter_coefficient=0.0), "hand")
-    trace = run_episode(env, CONTROLLERS[controller](env), seed=10_001, options={"start": "rest"})
+    trace = run_episode(env, controller_named(controller).host(env), seed=10_001, options={"start": "rest"})
     assert holds_upright(trace.pendulum_from_upright_rad, 200)
 
 

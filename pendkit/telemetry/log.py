@@ -14,7 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pendkit.device.protocol import ProtocolError, parse_observation
+from pendkit.device.protocol import ProtocolError
+from pendkit.telemetry.parse import parse_observation
 
 
 @dataclass(frozen=True)
