@@ -10,7 +10,15 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pendkit.adapt.identify import Identification
-from pendkit.agents.runs import Evaluation, RunSpec, build_run, evaluate_agent, held_fraction, save_weights
+from pendkit.agents.runs import (
+    Evaluation,
+    RunSpec,
+    build_run,
+    evaluate_agent,
+    judge_runs,
+    judged_episodes,
+    save_weights,
+)
 from pendkit.deploy.controllers import adapt_controllers, controller_named
 from pendkit.env import OBSERVED_SOURCES
 from pendkit.network import LatencyModel, NetworkImpairment
@@ -257,19 +265,7 @@ def classical_on_env(design_env, env, controller: str, episodes: int, seed: int 
                      start: str | None = None) -> Evaluation:
     """A classical controller designed on `design_env` (a twin) run greedy on `env` (a rig, or another
     twin), both continuous and unfiltered; judged by the kit's "solved" rule."""
-    from pendkit.agents.runs import SOLVED_TAIL_STEPS
-    from pendkit.episode import run_episode, time_to_upright_s
-    from pendkit.features import holds_upright
-
-    policy = controller_named(controller).host(design_env)
-    outcome = Evaluation([], [], [], [])
-    for k in range(episodes):
-        trace = run_episode(env, policy, seed=seed + k, options={"start": start} if start else None)
-        angles = trace.pendulum_from_upright_rad
-        outcome += Evaluation([holds_upright(angles, SOLVED_TAIL_STEPS)],
-                              [time_to_upright_s(angles, env.unwrapped.dt)], [trace.episode_return],
-                              [held_fraction(angles)])
-    return outcome
+    return judge_runs(env, controller_named(controller).host(design_env), [start] * episodes, seed)
 
 
 def classical_on_device(rig, identification: Identification, episodes: int, tried=None, made=None) -> dict:
@@ -297,14 +293,7 @@ def classical_on_device(rig, identification: Identification, episodes: int, trie
 
 def judged(runs: list[list[float]], step_s: float) -> Evaluation:
     """Episodes run by a rig's device (each its angles from upright) judged as the laptop's are."""
-    from pendkit.agents.runs import SOLVED_TAIL_STEPS
-    from pendkit.features import holds_upright, time_to_upright_s
-
-    outcome = Evaluation([], [], [], [])
-    for angles in runs:
-        outcome += Evaluation([holds_upright(angles, SOLVED_TAIL_STEPS)], [time_to_upright_s(angles, step_s)],
-                              [0.0], [held_fraction(angles)])
-    return outcome
+    return judged_episodes(runs, step_s)
 
 
 def policy_on_device(rig, run: AgentRun | None, identification: Identification, episodes: int,

@@ -18,9 +18,9 @@ from dataclasses import dataclass
 
 from pendkit.agents.base import Agent
 from pendkit.agents.inputs import StepInputs
-from pendkit.agents.runs import SOLVED_TAIL_STEPS, Evaluation, greedy_episode, held_fraction, solved
+from pendkit.agents.runs import SOLVED_TAIL_STEPS, Evaluation, greedy_episode, judged_episode
 from pendkit.agents.train import train_sync
-from pendkit.features import UPRIGHT_RAD, time_to_upright_s
+from pendkit.features import UPRIGHT_RAD
 
 RULE_STARTS = ("rest", "random") * 5  # interleaved: a check stopped early has seen both kinds
 RULE_MIN_HELD = 9
@@ -95,9 +95,8 @@ def judge_policy(env, agent: Agent, inputs: StepInputs, seed: int = REPORT_SEED,
     outcome, run = Evaluation([], [], [], []), []
     for k, start in enumerate(starts):
         total, infos = greedy_episode(env, agent, inputs, seed=seed + k, start=start)
-        angles = [info["angle_from_upright_rad"] for info in infos]
-        held = solved(infos)
-        outcome += Evaluation([held], [time_to_upright_s(angles, env.unwrapped.dt)], [total], [held_fraction(angles)])
+        outcome += judged_episode([info["angle_from_upright_rad"] for info in infos], env.unwrapped.dt, total)
+        held = outcome.solved[-1]
         run.append(start)
         misses = len(run) - sum(outcome.solved)
         if (screen and k == 0 and not held) or (stop_when_decided and misses > len(starts) - RULE_MIN_HELD):

@@ -205,17 +205,45 @@ class Evaluation:
         return f"solved={sum(self.solved)}/{len(self.solved)} median_upright_s={shown}"
 
 
+def judged_episode(angles_from_upright_rad, step_s: float, episode_return: float = 0.0) -> Evaluation:
+    """One episode (its angles from upright, a step apart) judged as every episode in the kit is: held by the
+    solved rule's tail, its time to upright, its return and its held fraction."""
+    from pendkit.features import holds_upright, time_to_upright_s
+
+    angles = list(angles_from_upright_rad)
+    return Evaluation([holds_upright(angles, SOLVED_TAIL_STEPS)], [time_to_upright_s(angles, step_s)],
+                      [float(episode_return)], [held_fraction(angles)])
+
+
+def judged_episodes(runs, step_s: float, returns=None) -> Evaluation:
+    """Several episodes' angles judged by `judged_episode` (returns 0 unless given)."""
+    returns = [0.0] * len(runs) if returns is None else returns
+    return sum((judged_episode(angles, step_s, r) for angles, r in zip(runs, returns)), Evaluation([], [], [], []))
+
+
+def judge_runs(env, policy, starts, seed: int, said=None) -> Evaluation:
+    """`policy` (any `run_episode` policy, e.g. a classical controller) for one episode per entry of `starts`
+    (None: as the env starts, e.g. a rig hanging still), episode k from seed `seed + k`, each judged by
+    `judged_episode`; `said(k, start, one_episode)` after each, for a progress line."""
+    from pendkit.episode import run_episode
+
+    outcome = Evaluation([], [], [], [])
+    for k, start in enumerate(starts):
+        trace = run_episode(env, policy, seed=seed + k, options={"start": start} if start else None)
+        one = judged_episode(trace.pendulum_from_upright_rad, env.unwrapped.dt, trace.episode_return)
+        outcome += one
+        if said is not None:
+            said(k, start, one)
+    return outcome
+
+
 def evaluate_agent(env, agent: Agent, inputs: StepInputs, episodes: int, seed: int = 10_000,
                    start: str | None | list[str] = "random") -> Evaluation:
     """`episodes` greedy episodes from seeds `seed`, `seed + 1`, ...; `start` for all of them or one per
     episode (None leaves the env's own)."""
-    from pendkit.features import time_to_upright_s
-
     starts = start if isinstance(start, list) else [start] * episodes
     outcome = Evaluation([], [], [], [])
     for k, first in enumerate(starts[:episodes]):
         total, infos = greedy_episode(env, agent, inputs, seed=seed + k, start=first)
-        angles = [info["angle_from_upright_rad"] for info in infos]
-        outcome += Evaluation([solved(infos)], [time_to_upright_s(angles, env.unwrapped.dt)], [total],
-                              [held_fraction(angles)])
+        outcome += judged_episode([info["angle_from_upright_rad"] for info in infos], env.unwrapped.dt, total)
     return outcome

@@ -66,24 +66,15 @@ def judge_controller(env, name: str, starts: list[str | None], seed: int,
                      say: Callable[[str], None] | None = None):
     """One episode per entry of `starts` (None: as the env starts, e.g. a rig hanging still), episode k from
     seed `seed + k`; each judged by the rule's tail (held within 0.3 rad of upright for its last 200 steps)."""
-    from pendkit.agents.runs import SOLVED_TAIL_STEPS, Evaluation, held_fraction
+    from pendkit.agents.runs import judge_runs
     from pendkit.deploy.controllers import controller_named
-    from pendkit.episode import run_episode
-    from pendkit.features import holds_upright, time_to_upright_s
 
-    controller = controller_named(name).host(env)
-    outcome = Evaluation([], [], [], [])
-    for k, start in enumerate(starts):
-        trace = run_episode(env, controller, seed=seed + k, options={"start": start} if start else None)
-        angles = trace.pendulum_from_upright_rad
-        held = holds_upright(angles, SOLVED_TAIL_STEPS)
-        upright_s = time_to_upright_s(angles, env.unwrapped.dt)
-        outcome += Evaluation([held], [upright_s], [trace.episode_return], [held_fraction(angles)])
-        if say is not None:
-            where = f"from {start}" if start else "from rest"
-            shown = f"held, upright after {upright_s:.2f} s" if held else "not held"
-            say(f"episode {k + 1}/{len(starts)} {where}: {shown}")
-    return outcome
+    def said(k: int, start: str | None, one) -> None:
+        where = f"from {start}" if start else "from rest"
+        shown = f"held, upright after {one.upright_s[0]:.2f} s" if one.solved[0] else "not held"
+        say(f"episode {k + 1}/{len(starts)} {where}: {shown}")
+
+    return judge_runs(env, controller_named(name).host(env), starts, seed, said if say is not None else None)
 
 
 def rule_verdict(outcome, starts: list[str | None], seed: int):

@@ -63,19 +63,15 @@ def blob_on_rigs(blob: bytes, rigs: dict, starts: int = 5, seed: int = 10_000, s
     """A controller blob uploaded to each rig's twin device (`rigs`: name -> `RandomRig`) and run from rest and
     `starts` random starts (seeds `seed`, `seed + 1`, ...): an `Evaluation` per rig. `say`: told each rig's line."""
     from pendkit.agents.rig_suite import rig_env
-    from pendkit.agents.runs import SOLVED_TAIL_STEPS, Evaluation, held_fraction
-    from pendkit.features import holds_upright, time_to_upright_s
+    from pendkit.agents.runs import judged_episodes
 
     outcomes = {}
     for name, rig in rigs.items():
         env = rig_env(rig, action_mode="continuous")
         upload_to_twin(env, blob)
         step_s = rig.params.control_step_ms / 1000
-        outcome = Evaluation([], [], [], [])
-        for k, start in enumerate(["rest"] + ["random"] * starts):
-            angles = onboard_episode(env, seed=seed + k, start=start, steps=steps)
-            outcome += Evaluation([holds_upright(angles, SOLVED_TAIL_STEPS)], [time_to_upright_s(angles, step_s)],
-                                  [0.0], [held_fraction(angles)])
+        outcome = judged_episodes([onboard_episode(env, seed=seed + k, start=start, steps=steps)
+                                   for k, start in enumerate(["rest"] + ["random"] * starts)], step_s)
         env.close()
         outcomes[name] = outcome
         if say is not None:
