@@ -26,12 +26,10 @@ import time
 import numpy as np
 
 import pendkit
-from pendkit.agents.runs import SOLVED_TAIL_STEPS, Evaluation, held_fraction
+from pendkit.agents.runs import Evaluation, judged_episodes
 from pendkit.deploy.on_twin import onboard_episode, upload_to_twin
 from pendkit.deploy.swingup_design import design_swing_up
 from pendkit.device.controller_blob import pack
-from pendkit.episode import time_to_upright_s
-from pendkit.features import holds_upright
 from pendkit.network import IMPAIRMENTS
 from pendkit.sim.fidelity import FIDELITY_PRESETS
 
@@ -68,11 +66,7 @@ def twin_env(network: str, controller: str = "energy"):
 
 
 def judged(episodes: list[list[float]], dt_s: float) -> Evaluation:
-    outcome = Evaluation([], [], [], [])
-    for angles in episodes:
-        outcome += Evaluation([holds_upright(angles, SOLVED_TAIL_STEPS)], [time_to_upright_s(angles, dt_s)], [0.0],
-                              [held_fraction(angles)])
-    return outcome
+    return judged_episodes(episodes, dt_s)
 
 
 def twin_row(where: str, controller: str, network: str, starts: int) -> Evaluation:

@@ -37,10 +37,8 @@ from pendkit.agents.pretrained import (
     policy_weights,
     weights_digest,
 )
-from pendkit.agents.runs import Evaluation, build_run, evaluate_agent, held_fraction, make_env
+from pendkit.agents.runs import Evaluation, build_run, evaluate_agent, judge_runs, make_env
 from pendkit.deploy.controllers import CONTROLLER_NAMES, controller_named
-from pendkit.episode import run_episode, time_to_upright_s
-from pendkit.features import holds_upright
 from pendkit.sim.pushes import PendulumPushes
 
 REST_SEED = REPORT_SEED + 500  # apart from the random starts' seeds
@@ -68,10 +66,7 @@ def controller_outcomes(name: str, fidelity: str, starts: int, rest: int, pushes
         for k in range(count):
             env = pushed(pendkit.make(action_mode="continuous", fidelity=fidelity, filter_coefficient=0.0), pushes,
                          seed + k)
-            trace = run_episode(env, controller_named(name).host(env), seed=seed + k, options={"start": start})
-            angles = trace.pendulum_from_upright_rad
-            together += Evaluation([holds_upright(angles, 200)], [time_to_upright_s(angles, env.unwrapped.dt)],
-                                   [trace.episode_return], [held_fraction(angles)])
+            together += judge_runs(env, controller_named(name).host(env), [start], seed + k)
         outcomes.append(together)
     return tuple(outcomes)
 

@@ -120,10 +120,9 @@ def ceiling(starts: int, seed: int = 10_000, networks=("rig", "none"), controlle
 
     from pendkit.adapt.routes import CLASSICAL
     from pendkit.agents.rig_suite import preset_rigs, random_rigs, rig_env
-    from pendkit.agents.runs import SOLVED_TAIL_STEPS, Evaluation
+    from pendkit.agents.runs import Evaluation, judged_episode
     from pendkit.deploy.controllers import controller_named
     from pendkit.episode import UNTIL_DONE, run_episode
-    from pendkit.features import holds_upright, time_to_upright_s
 
     def true_state(info):  # the twin's exact joint state, in place of what the host reads
         truth = info["true_state"]
@@ -143,8 +142,7 @@ def ceiling(starts: int, seed: int = 10_000, networks=("rig", "none"), controlle
 
         run_episode(env, lambda observation, state: policy(None, true_state(seen["info"])), steps=UNTIL_DONE,
                     started=(None, seen["info"]), on_step=observe)
-        return Evaluation([holds_upright(angles, SOLVED_TAIL_STEPS)], [time_to_upright_s(angles, env.unwrapped.dt)],
-                          [0.0], [None])
+        return judged_episode(angles, env.unwrapped.dt)
 
     rigs, found = {**preset_rigs(), **random_rigs()}, {}
     for network in networks:
