@@ -196,9 +196,10 @@ class FirmwareVelocityEstimator:
             dt_ms = now_ms - self._last_time_ms
             delta = wrap_delta(position_counts, self._last_position, self.counts)
             raw = delta * 1000.0 / (self.counts * dt_ms) if dt_ms > 0 else 0.0
-        self._ring[self._index] = raw
-        self._index = (self._index + 1) % self.window
-        mean = sum(self._ring) / self.window
+        ring, window = self._ring, self.window
+        ring[self._index] = raw
+        self._index = (self._index + 1) % window
+        mean = sum(ring) / window
         accel = 0.0 if not dt_ms or dt_ms <= 0 else (mean - self._last_mean) * 1000.0 / dt_ms
         self._last_position, self._last_time_ms, self._last_mean = position_counts, now_ms, mean
         return mean, accel

@@ -164,6 +164,7 @@ class SwingUpEnv(gym.Env):
         self.backend = _make_backend(backend, self.params, fidelity, log_dir, rig, broker, rig_options)
         self.action_mode = action_mode
         self.features = resolve_features(observation)
+        self._readers = tuple(feature.read for feature in self.features)
         self.start = start
         self.max_episode_steps = max_episode_steps
         self.render_mode = render_mode
@@ -323,6 +324,8 @@ class SwingUpEnv(gym.Env):
 
     def _discrete_index(self, action) -> int:
         n = len(self._increments)
+        if type(action) is int and 0 <= action < n:  # the common case, ahead of the checks below
+            return action
         array = np.asarray(action) if isinstance(action, (np.ndarray, np.generic)) else None
         if isinstance(action, (bool, np.bool_)) or (array is not None and array.dtype == bool):
             raise ActionError(f"Discrete action must be an integer in [0, {n - 1}], got a boolean {action!r}")
@@ -342,9 +345,10 @@ class SwingUpEnv(gym.Env):
 
     # --- observation ---
     def _observation(self) -> np.ndarray:
-        values = [feature.read(self._shown) for feature in self.features]
+        shown, readers = self._shown, self._readers
+        values = [read(shown) for read in readers]
         if self.feature_source == "estimated+measured":
-            values += [feature.read(self._state) for feature in self.features]
+            values += [read(self._state) for read in readers]
         self._clipped = False
         for index, low, high in self._bounded:  # plain floats: cheaper than numpy on 7 values
             value = values[index]

@@ -146,7 +146,7 @@ class McuLogic:
         if not flags.isdisjoint(HOLDING_FLAGS):  # safety last: hold the servo where it is
             wanted = self.servo_counts
         low, high = p.servo_min_counts, p.servo_max_counts
-        clipped = min(max(wanted, low), high)
+        clipped = low if wanted < low else high if wanted > high else wanted
         if clipped != wanted or clipped == low or clipped == high:
             flags.add("arm_limit")
             if self.command.mode == "discrete" and clipped != wanted:

@@ -41,16 +41,13 @@ def observation_to_state(observation: McuObservation, params: RigParams, observa
     """What the host knows from one observation, in SI units. A hobby servo reports no position, so the
     arm angle is the servo command; the target is the device's current one when known."""
     target = observation.servo_counts if servo_target_counts is None else servo_target_counts
-    return RigState(
-        time_s=observation.millis / 1000.0,
-        pendulum_angle_rad=observation.position_counts * (2 * math.pi / params.encoder_counts),
-        pendulum_velocity_rad_s=observation.omega_rev_s * 2 * math.pi,
-        pendulum_acceleration_rad_s2=observation.acceleration_rev_s2 * 2 * math.pi,
-        arm_angle_rad=params.servo_counts_to_rad(observation.servo_counts),
-        arm_velocity_rad_s=observation.arm_velocity_counts_s * params.servo_rad_per_count,
-        servo_target_rad=params.servo_counts_to_rad(target),
-        observation_age_s=observation_age_s,
-        time_since_action_s=time_since_action_s,
-        encoder_counts=observation.position_counts,
-        safety_flags=observation.flags,
-    )
+    to_rad = params.servo_counts_to_rad
+    # RigState's fields in order (positional: made on every step)
+    return RigState(observation.millis / 1000.0,  # time_s
+                    observation.position_counts * (2 * math.pi / params.encoder_counts),  # pendulum_angle_rad
+                    observation.omega_rev_s * 2 * math.pi,  # pendulum_velocity_rad_s
+                    observation.acceleration_rev_s2 * 2 * math.pi,  # pendulum_acceleration_rad_s2
+                    to_rad(observation.servo_counts),  # arm_angle_rad
+                    observation.arm_velocity_counts_s * params.servo_rad_per_count,  # arm_velocity_rad_s
+                    to_rad(target),  # servo_target_rad
+                    observation_age_s, time_since_action_s, observation.position_counts, observation.flags)

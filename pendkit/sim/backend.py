@@ -51,6 +51,8 @@ class SimBackend:
         self.fidelity = resolve_fidelity(fidelity)
         self.model = build_model(self.params)
         self.data = mujoco.MjData(self.model)
+        # MjData hands out a new array view on every attribute read: the ones read on every step, taken once
+        self._qpos, self._qvel, self._qacc = self.data.qpos, self.data.qvel, self.data.qacc
         self._arm_q = self.model.joint(ARM_JOINT).qposadr[0]
         self._pend_q = self.model.joint(PENDULUM_JOINT).qposadr[0]
         self._arm_v = self.model.joint(ARM_JOINT).dofadr[0]
@@ -159,7 +161,7 @@ class SimBackend:
         return state
 
     def _observe_true(self, age_s: float, since_action_s: float) -> RigState:
-        qpos, qvel, qacc = self.data.qpos.tolist(), self.data.qvel.tolist(), self.data.qacc.tolist()
+        qpos, qvel, qacc = self._qpos.tolist(), self._qvel.tolist(), self._qacc.tolist()
         return RigState(
             time_s=self.data.time,
             pendulum_angle_rad=qpos[self._pend_q] % (2 * math.pi),
@@ -208,10 +210,11 @@ class SimBackend:
         return self._device
 
     def _run_mcu_substeps(self, count: int) -> None:
-        self._device.run(count, self._in_flight_append)
-        now_ms = self._device.now_ms
-        while self._in_flight and self._in_flight[0][0] <= now_ms:
-            self._newest = self._in_flight.popleft()
+        device, in_flight = self._device, self._in_flight
+        device.run(count, self._in_flight_append)
+        now_ms = device.now_ms
+        while in_flight and in_flight[0][0] <= now_ms:
+            self._newest = in_flight.popleft()
             if self._log is not None:
                 self._log.write(self._newest[0] / 1000, "rx", TWIN_OBS_TOPIC, format_observation_v1(self._newest[1]))
 
@@ -235,7 +238,7 @@ class SimBackend:
     # --- inspection ---
     def true_state(self) -> dict[str, float]:
         """The twin's exact joint state (for info and tests; a real rig has no such thing)."""
-        qpos, qvel = self.data.qpos.tolist(), self.data.qvel.tolist()
+        qpos, qvel = self._qpos.tolist(), self._qvel.tolist()
         return {
             "arm_angle_rad": qpos[self._arm_q],
             "arm_velocity_rad_s": qvel[self._arm_v],
