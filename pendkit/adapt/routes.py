@@ -40,13 +40,15 @@ def starting_weights(name: str) -> tuple[RunSpec, dict | None]:
     """The shipped policy to start from, or (its learner, None) when it is not there or `name` is a learner's
     (`pendkit.agents.learners.LEARNER_NAMES`): trained afresh."""
     from pendkit.agents.learners import LEARNER_NAMES
-    from pendkit.agents.pretrained import POLICIES, policy_weights
+    from pendkit.agents.policy_artifact import policy_artifact
+    from pendkit.agents.pretrained import POLICIES
     from pendkit.errors import ConfigError
 
     if name in LEARNER_NAMES:  # a learner rather than a policy: trained afresh, its observer the identified rig's
         return RunSpec(name, "realistic", observer="rig"), None
     try:
-        return policy_weights(name)
+        artifact = policy_artifact(name=name)
+        return artifact.spec, artifact.state
     except ConfigError:
         spec = POLICIES[name].run if name in POLICIES else RunSpec("r-dqn", "realistic")
         return dataclasses.replace(spec, randomize=""), None

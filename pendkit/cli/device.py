@@ -24,22 +24,14 @@ def _rig_params(params_path: Path | None):
 def _learned_blob(run_dir: Path | None, policy_name: str | None, params_path: Path | None):
     """A trained policy as the device runs it, from RUN_DIR or a shipped policy, and the rig it was made for
     (--params, else the servo preset it was trained on)."""
-    from pendkit.agents.run_folder import load_run
+    from pendkit.agents.policy_artifact import policy_artifact
     from pendkit.deploy.learned_blob import learned_policy_blob
     from pendkit.errors import ConfigError
-    from pendkit.rig import RigParams
 
-    if policy_name is not None:
-        from pendkit.agents.pretrained import policy_weights
-
-        (spec, state), source = policy_weights(policy_name), f"policy {policy_name}"
-    else:
-        spec, state, source = load_run(run_dir)  # checked: a crafted folder is one line (issue 72)
-    made_for = (_rig_params(params_path) if params_path is not None
-                else RigParams.preset(spec.preset) if spec.preset else RigParams())
     try:
-        return learned_policy_blob(spec, state, None if params_path is None else made_for,
-                                   source=str(source)), made_for
+        artifact = policy_artifact(run_dir, policy_name)
+        made_for = _rig_params(params_path) if params_path is not None else artifact.trained_rig
+        return learned_policy_blob(artifact.spec, artifact.state, made_for, source=artifact.source), made_for
     except ConfigError as error:
         raise click.ClickException(str(error)) from None
 

@@ -158,19 +158,16 @@ def evaluate(run_dir: Path | None, policy_name: str | None, controller: str | No
                                    login_from(username, password, tls_ca))
     import dataclasses
 
+    from pendkit.agents.policy_artifact import policy_artifact
     from pendkit.agents.policy_rule import REPORT_SEED, RULE_STARTS, RULE_TEXT, PolicyVerdict
-    from pendkit.agents.run_folder import load_run, restore
+    from pendkit.agents.run_folder import restore
     from pendkit.agents.runs import build_run, evaluate_agent, make_env
     from pendkit.errors import ConfigError
 
     try:
-        if policy_name is not None:
-            from pendkit.agents.pretrained import policy_weights
-
-            (spec, state), source = policy_weights(policy_name), f"policy {policy_name}"
-        else:
-            spec, state, source = load_run(run_dir)  # checked: a crafted folder is one line (issue 72)
-        spec = dataclasses.replace(spec, preset=preset or spec.preset, randomize="")
+        artifact = policy_artifact(run_dir, policy_name)
+        state, source = artifact.state, artifact.source
+        spec = dataclasses.replace(artifact.spec, preset=preset or artifact.spec.preset, randomize="")
         login = login_from(username, password, tls_ca)
         options = ({"backend": "rig", "rig": rig_id, "broker": broker, "rig_options": login.rig_options() or None}
                    if backend == "rig" else {})

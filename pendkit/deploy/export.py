@@ -68,13 +68,13 @@ def state_feedback_blob(gain, reference, output_limit: float) -> StateFeedbackBl
 def record_vectors(name: str = "r-dqn-realistic", steps: int = 10_000, seed: int = 0):
     """(blob, starts, inputs, torch outputs): a shipped policy driving its twin greedily, every step's raw
     input and the Q-values torch computes for it."""
-    from pendkit.agents.pretrained import policy_weights
+    from pendkit.agents.policy_artifact import policy_artifact
     from pendkit.agents.runs import build_run
     from pendkit.episode import run_episode
 
-    spec, state = policy_weights(name)
-    env, agent, inputs = build_run(spec)
-    agent.load_policy(state)
+    artifact = policy_artifact(name=name)
+    env, agent, inputs = build_run(artifact.spec)
+    agent.load_policy(artifact.state)
     starts, xs, outputs = [], [], []
     episode = 0
     now = {}

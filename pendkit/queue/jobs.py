@@ -27,6 +27,8 @@ from pendkit.errors import ConfigError
 from pendkit.features import SOLVED_TAIL_STEPS
 from pendkit.rig import SERVO_PRESETS, RigParams
 
+DEFAULT_PRESET = next(iter(SERVO_PRESETS))  # the kit's own servo (RigParams())
+
 KINDS = ("controller", "blob", "policy", "excitation")
 RULE_EPISODES = len(RULE_STARTS)  # the kit's rule judges 10 episodes
 MAX_EPISODES = 20
@@ -142,7 +144,7 @@ def _params(options: dict) -> tuple[RigParams, str]:
     if preset is not None and (not isinstance(preset, str) or preset not in SERVO_PRESETS):
         raise ConfigError(f"unknown servo preset {str(preset)[:40]!r}; choose one of "
                           f"{', '.join(sorted(SERVO_PRESETS))}")
-    return RigParams.preset(preset or "hitec-d645mw"), preset or "hitec-d645mw"
+    return RigParams.preset(preset or DEFAULT_PRESET), preset or DEFAULT_PRESET
 
 
 def _controller_blob(name, params: RigParams) -> bytes:
@@ -159,19 +161,16 @@ def _controller_blob(name, params: RigParams) -> bytes:
 
 def _policy_blob(name) -> tuple[bytes, RigParams, str]:
     """A shipped policy as its device blob (`pendkit export --policy`), for the servo it was trained on."""
-    from pendkit.agents.pretrained import POLICIES, policy_weights
+    from pendkit.agents.policy_artifact import policy_artifact
     from pendkit.deploy.learned_blob import learned_policy_blob
     from pendkit.device.controller_blob import BlobError, pack
 
-    if not isinstance(name, str) or name not in POLICIES:
-        raise ConfigError(f"unknown policy {str(name)[:40]!r}; the kit ships {', '.join(sorted(POLICIES))}")
-    spec, state = policy_weights(name)
-    preset = spec.preset or "hitec-d645mw"
+    artifact = policy_artifact(name=name if isinstance(name, str) else repr(name))
     try:  # a learner the device does not run is refused here with the reason
-        blob = pack(learned_policy_blob(spec, state, source=f"policy {name}"))
+        blob = pack(learned_policy_blob(artifact.spec, artifact.state, artifact.trained_rig, source=artifact.source))
     except BlobError as error:
         raise ConfigError(f"policy {name}: {error}") from None
-    return blob, RigParams.preset(preset), preset
+    return blob, artifact.trained_rig, artifact.spec.preset or DEFAULT_PRESET
 
 
 def _checked_blob(payload) -> tuple[bytes, object]:
