@@ -6,17 +6,17 @@ spread of rigs makes a policy that works for any of them, and a policy with a me
 infer the rig it is on from what it has seen (rapid motor adaptation: a history-conditioned policy trained
 over many dynamics). What varies, and why (`TRAINING_RANGES`; docs/adapt.md has the table):
 
-- servo: speed and stall torque between the kit's presets (MKS X5 0.12 s/60 deg to the D645MW at 4.8 V,
-  0.28; 6 to 25.5 kg cm), its loop's stiffness and damping between the presets' (1-5 deg, 0.2-0.7);
+- servo: speed, stall torque, its loop's stiffness and damping from the smallest to the largest of the kit's
+  presets (`preset_ranges`: today 0.12-0.28 s/60 deg, 6-25.5 kg cm, 1-5 deg, 0.2-0.7);
 - masses: each +-20% (another aluminium tube, a heavier encoder), the tip weight 0.6-1.8x (reprinted at
   another infill, or with a nut inside);
 - pendulum: the dowel 0.30-0.45 m long (cut short, or a longer stock piece; its mass follows its length),
   the bearing's damping 0.5-3x the default (a dry or a stiff encoder shaft);
-- pulses: the servo's end counts 150-200 and 400-450 (the D645MW's and the Turnigy's ranges: a worn horn
+- pulses: the servo's end counts between the presets' (the D645MW's and the Turnigy's ranges: a worn horn
   or a servo that needs a narrower range) and one preset's step sizes;
 - encoder: a residual calibration error of up to 6 counts (2 degrees) after `o<offset>`;
-- network: from none to the virtual rig's poor WiFi (latency floor 0-4 ms, median 0-15 ms above it,
-  spread 0-0.8, 0-3% of messages lost each way).
+- network: from none to the virtual rig's poor WiFi (`network_ranges`: its latency floor, median above it,
+  spread and loss).
 
 `held_out_rigs(n, seed)` draws rigs from ranges 20% wider (`widened(1.2)`), for evaluation only.
 """
@@ -30,8 +30,8 @@ import gymnasium as gym
 import numpy as np
 
 from pendkit.errors import ConfigError
-from pendkit.network import LatencyModel, NetworkImpairment
-from pendkit.rig import RigParams
+from pendkit.network import IMPAIRMENTS, LatencyModel, NetworkImpairment
+from pendkit.rig import SERVO_PRESETS, RigParams
 from pendkit.sim.fidelity import Fidelity, resolve_fidelity
 
 RANDOMIZABLE = ("servo", "latency", "masses", "pendulum", "pulses", "encoder", "network")
@@ -42,27 +42,46 @@ SERVO_FIELDS = ("servo_speed_s_per_60deg", "servo_stall_torque_kg_cm", "servo_fu
 STEP_FIELDS = ("discrete_slow_step_counts", "discrete_fast_step_counts")
 MASS_FIELDS = tuple(f.name for f in dataclasses.fields(RigParams) if f.name.endswith("_mass_kg"))
 Range = tuple[float, float]
+WORST_NETWORK = "poor-wifi"  # the network ranges run from none to this impairment's figures
+
+
+def preset_ranges(presets: dict = SERVO_PRESETS) -> dict[str, Range]:
+    """Each servo field (and the pulse ends) from its smallest to its largest value over the servo presets."""
+    rigs = [RigParams(**changes) for changes in presets.values()]
+    return {name: (min(getattr(r, name) for r in rigs), max(getattr(r, name) for r in rigs))
+            for name in (*SERVO_FIELDS, "servo_min_counts", "servo_max_counts")}
+
+
+def network_ranges(worst: NetworkImpairment = IMPAIRMENTS[WORST_NETWORK]) -> dict[str, Range]:
+    """From a perfect network to `worst`: its latency floor, median above it, spread and the larger loss."""
+    return {"latency_floor_ms": (0.0, worst.latency.floor_ms), "latency_median_ms": (0.0, worst.latency.median_ms),
+            "latency_spread": (0.0, worst.latency.spread),
+            "loss_pct": (0.0, max(worst.command_loss_pct, worst.observation_loss_pct))}
+
+
+_PRESETS, _NETWORK = preset_ranges(), network_ranges()
 
 
 @dataclass(frozen=True)
 class RigRanges:
-    """Uniform ranges of what differs from rig to rig (scales multiply the base rig's value)."""
+    """Uniform ranges of what differs from rig to rig (scales multiply the base rig's value); the servo's,
+    the pulses' and the network's defaults come from the presets (`preset_ranges`, `network_ranges`)."""
 
-    servo_speed_s_per_60deg: Range = (0.12, 0.28)
-    servo_stall_torque_kg_cm: Range = (6.0, 25.5)
-    servo_full_torque_error_deg: Range = (1.0, 5.0)
-    servo_damping_ratio: Range = (0.2, 0.7)
+    servo_speed_s_per_60deg: Range = _PRESETS["servo_speed_s_per_60deg"]
+    servo_stall_torque_kg_cm: Range = _PRESETS["servo_stall_torque_kg_cm"]
+    servo_full_torque_error_deg: Range = _PRESETS["servo_full_torque_error_deg"]
+    servo_damping_ratio: Range = _PRESETS["servo_damping_ratio"]
     mass_scale: Range = (0.8, 1.2)
     tip_mass_scale: Range = (0.6, 1.8)
     dowel_length_m: Range = (0.30, 0.45)
     pendulum_damping_scale: Range = (0.5, 3.0)
-    servo_min_counts: Range = (150, 200)
-    servo_max_counts: Range = (400, 450)
+    servo_min_counts: Range = _PRESETS["servo_min_counts"]
+    servo_max_counts: Range = _PRESETS["servo_max_counts"]
     residual_offset_counts: Range = (-6, 6)
-    latency_floor_ms: Range = (0.0, 4.0)
-    latency_median_ms: Range = (0.0, 15.0)
-    latency_spread: Range = (0.0, 0.8)
-    loss_pct: Range = (0.0, 3.0)
+    latency_floor_ms: Range = _NETWORK["latency_floor_ms"]
+    latency_median_ms: Range = _NETWORK["latency_median_ms"]
+    latency_spread: Range = _NETWORK["latency_spread"]
+    loss_pct: Range = _NETWORK["loss_pct"]
 
     def widened(self, factor: float) -> RigRanges:
         """Every range `factor` times as wide about its centre, kept physical (positive, counts ordered)."""

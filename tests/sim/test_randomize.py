@@ -159,3 +159,23 @@ def test_a_preset_added_to_the_kit_leaves_the_drawn_rigs_as_they_were(monkeypatc
     extra = {**SERVO_PRESETS["hitec-d645mw"], "discrete_slow_step_counts": 3}
     monkeypatch.setitem(SERVO_PRESETS, "aaa-new-servo", extra)  # sorts first: it would shift a preset draw
     assert [rig.params for rig in held_out_rigs(8, seed=5)] == before
+
+
+def test_the_ranges_follow_the_presets_and_the_worst_network():
+    """A servo preset added to the kit widens the servo ranges it lies outside; the network ranges reach the
+    worst impairment's figures (nothing copied by hand)."""
+    from pendkit.network import IMPAIRMENTS, LatencyModel, NetworkImpairment
+    from pendkit.rig import SERVO_PRESETS, RigParams
+    from pendkit.sim.randomize import TRAINING_RANGES, network_ranges, preset_ranges
+
+    speeds = [RigParams.preset(name).servo_speed_s_per_60deg for name in SERVO_PRESETS]
+    assert TRAINING_RANGES.servo_speed_s_per_60deg == (min(speeds), max(speeds))
+    slower = {**SERVO_PRESETS, "a-slow-servo": {"servo_speed_s_per_60deg": 0.4, "servo_damping_ratio": 1.1}}
+    widened = preset_ranges(slower)
+    assert widened["servo_speed_s_per_60deg"][1] == 0.4 and widened["servo_damping_ratio"][1] == 1.1
+    assert widened["servo_stall_torque_kg_cm"] == TRAINING_RANGES.servo_stall_torque_kg_cm
+    poor = IMPAIRMENTS["poor-wifi"]
+    assert TRAINING_RANGES.latency_median_ms == (0.0, poor.latency.median_ms)
+    assert TRAINING_RANGES.loss_pct == (0.0, max(poor.command_loss_pct, poor.observation_loss_pct))
+    worse = network_ranges(NetworkImpairment(LatencyModel(floor_ms=9.0, median_ms=40.0, spread=1.0), 10.0, 5.0))
+    assert worse["latency_floor_ms"] == (0.0, 9.0) and worse["loss_pct"] == (0.0, 10.0)
