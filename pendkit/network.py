@@ -139,16 +139,18 @@ class NetworkPath:
 
     def command_arrival_ms(self, sent_ms: float) -> float | None:
         """When a command sent at `sent_ms` reaches the device; None when it is lost."""
-        if self._lost(self.impairment.command_loss_pct):
+        impairment = self.impairment
+        if impairment.command_loss_pct and self._lost(impairment.command_loss_pct):
             return None
-        self._last_command_ms = max(sent_ms + self.impairment.latency.sample_ms(self.rng), self._last_command_ms)
+        self._last_command_ms = max(sent_ms + impairment.latency.sample_ms(self.rng), self._last_command_ms)
         return self._last_command_ms
 
     def observation_delivery_ms(self, sent_ms: float) -> float | None:
         """When a reading published at `sent_ms` reaches the host; None when it is lost."""
-        if self._lost(self.impairment.observation_loss_pct):
+        impairment = self.impairment
+        if impairment.observation_loss_pct and self._lost(impairment.observation_loss_pct):
             return None
-        delay_ms = self.impairment.observation_latency_model.sample_ms(self.rng)
+        delay_ms = impairment.observation_latency_model.sample_ms(self.rng)
         self._last_observation_ms = max(sent_ms + delay_ms, self._last_observation_ms)
         return self._last_observation_ms
 

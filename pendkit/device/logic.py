@@ -26,6 +26,7 @@ HOLDING_FLAGS = frozenset(("watchdog", "overspin", "stuck_encoder"))
 STUCK_BAD_FRAMES = 8
 STUCK_TRAVEL_COUNTS = 60
 FRAME_ERROR = frozenset(("frame_error",))
+NO_FLAGS: frozenset[str] = frozenset()
 
 
 def action_increments_counts(params: RigParams) -> tuple[int, ...]:
@@ -143,7 +144,7 @@ class McuLogic:
             wanted = round_half_up(p.servo_centre_counts + self._filtered_unit * p.servo_span_counts / 2)
         else:
             wanted = self.servo_counts + self.command.increment_counts
-        if not flags.isdisjoint(HOLDING_FLAGS):  # safety last: hold the servo where it is
+        if flags and not flags.isdisjoint(HOLDING_FLAGS):  # safety last: hold the servo where it is
             wanted = self.servo_counts
         low, high = p.servo_min_counts, p.servo_max_counts
         clipped = low if wanted < low else high if wanted > high else wanted
@@ -151,7 +152,7 @@ class McuLogic:
             flags.add("arm_limit")
             if self.command.mode == "discrete" and clipped != wanted:
                 self.command = STOP  # a discrete action ends at the arm's limit
-        else:
+        elif flags:
             flags.discard("arm_limit")
         self.servo_counts = clipped
         return clipped
@@ -215,7 +216,7 @@ class McuLogic:
         dt_ms = now_ms - self._last_stream_ms
         arm_velocity = ((servo_counts - self._last_stream_servo) * 1000.0 / dt_ms) if dt_ms > 0 else 0.0
         self._last_stream_servo, self._last_stream_ms = servo_counts, now_ms
-        shown = frozenset(flags | FRAME_ERROR) if frame_error else frozenset(flags)
+        shown = frozenset(flags | FRAME_ERROR) if frame_error else frozenset(flags) if flags else NO_FLAGS
         self.last_observation = McuObservation(now_ms, position, servo_counts, omega, accel, arm_velocity, shown)
         return self.last_observation
 

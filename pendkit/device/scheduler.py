@@ -92,7 +92,7 @@ class DeviceScheduler:
     def receive(self, payload: str | bytes | DeviceCommand, now_ms: int) -> DeviceCommand | None:
         """Take one command (or upload chunk) as it arrived; a malformed or unknown one is counted and
         changes nothing."""
-        if is_chunk(payload):
+        if type(payload) is not str and is_chunk(payload):  # commands are text; chunks bytes
             if self.protocol == 1:  # the authors' firmware has no controller topic
                 self.rejected_commands += 1
             else:

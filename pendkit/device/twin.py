@@ -97,36 +97,31 @@ class TwinDevice:
         """What the device does at the current tick without stepping the physics: commands that have arrived,
         acting ticks, the PWM frame, a due reading. Safe to call again at the same tick (nothing repeats);
         a real-time rig calls it after `run` so a reading due now leaves now, not a tick later."""
-        tick = self.tick
-        now_ms = tick * self._tick_ms
-        scheduler, pending = self.scheduler, self._pending
+        tick, tick_ms = self.tick, self._tick_ms
+        now_ms = tick * tick_ms
+        scheduler, pending, mcu = self.scheduler, self._pending, self.mcu
+        acting, onboard = scheduler.acting, mcu.onboard
         at_pwm = (tick - self._pwm_phase_ticks) % self._pwm_ticks == 0
-        if (at_pwm or (pending and pending[0][0] <= now_ms)
-                or (self.mcu.onboard.running and scheduler.acting.next_ms <= now_ms)
+        if (at_pwm or (pending and pending[0][0] <= now_ms) or (onboard.running and acting.next_ms <= now_ms)
                 or (scheduler.streaming_on and scheduler.streaming.next_ms <= now_ms) or scheduler.observe_once):
-            self._catch_up(now_ms)
+            # Acting ticks and command arrivals up to now, in time order (a command before a tick at the same
+            # moment). Commands act on arrival, as in the firmware's message callback.
+            while True:
+                acting_ms = acting.next_ms
+                if pending and pending[0][0] <= now_ms and pending[0][0] <= acting_ms:
+                    arrival_ms, payload = pending.popleft()
+                    scheduler.receive(payload, int(math.ceil(arrival_ms / tick_ms) * tick_ms))
+                elif acting_ms <= now_ms:
+                    acting.next_ms = acting_ms + acting.period_ms  # Schedule.due at its own deadline: never a skip
+                    mcu.acting_tick(int(acting_ms), self._onboard_reading() if onboard.running else None)
+                else:
+                    break
         if at_pwm:
-            self._act[0] = self.params.servo_counts_to_rad(self.mcu.servo_counts)
+            self._act[0] = self.params.servo_counts_to_rad(mcu.servo_counts)
         # streaming_due has effects only when it says yes: asked only when it may
         if ((scheduler.streaming_on and scheduler.streaming.next_ms <= now_ms) or scheduler.observe_once) \
                 and scheduler.streaming_due(now_ms):
             emit(now_ms, self._read_and_stream())
-
-    def _catch_up(self, now_ms: float) -> None:
-        """Acting ticks and command arrivals up to now, in time order (a command before a tick at the
-        same moment). Commands act on arrival, as in the firmware's message callback."""
-        scheduler, mcu, pending, tick_ms = self.scheduler, self.mcu, self._pending, self._tick_ms
-        acting, onboard = scheduler.acting, mcu.onboard
-        while True:
-            acting_ms = acting.next_ms
-            if pending and pending[0][0] <= now_ms and pending[0][0] <= acting_ms:
-                arrival_ms, payload = pending.popleft()
-                scheduler.receive(payload, int(math.ceil(arrival_ms / tick_ms) * tick_ms))
-            elif acting_ms <= now_ms:
-                acting.next_ms = acting_ms + acting.period_ms  # Schedule.due at its own deadline: never a skip
-                mcu.acting_tick(int(acting_ms), self._onboard_reading() if onboard.running else None)
-            else:
-                return
 
     def raw_encoder_counts(self) -> int:
         counts = self.params.encoder_counts
