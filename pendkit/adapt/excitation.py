@@ -118,6 +118,7 @@ def hold_until_at_rest(env, state) -> tuple[object, int]:
     perhaps still swinging; the twin matched to it starts from rest). Returns the state it rests in and the
     steps it took."""
     angles = [state.pendulum_angle_rad]
+    # not `run_episode`: holding may take longer than the env's episode (its truncation is not an end here)
     for _ in range(REST_LIMIT_STEPS):
         recent = wrapped_rad(np.asarray(angles[-REST_STEPS:]) - angles[-1])
         if len(angles) >= REST_STEPS and np.ptp(recent) <= REST_SPREAD_RAD:
@@ -140,7 +141,7 @@ def record(env, excitation: Excitation, seed: int = 0) -> Recording:
                           rest_steps=rest_steps)
     log = getattr(env.unwrapped.backend, "episode_log", None)
     logged_before = logged_count(log)
-    for action in recording.actions:
+    for action in recording.actions:  # not `run_episode`: continues the held episode past the env's limit
         _, _, _, _, info = env.step(np.array([action], dtype=np.float32))
         recording.pendulum_rad.append(float(info["state"].pendulum_angle_rad))
         recording.pendulum_velocity_rad_s.append(float(info["state"].pendulum_velocity_rad_s))

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 
 from pendkit.agents.base import Agent
 from pendkit.agents.inputs import StepInputs
+from pendkit.episode import UNTIL_DONE, run_episode
 
 
 @dataclass
@@ -127,28 +128,33 @@ class AsyncTrainer:
     def _act(self, k: int) -> None:
         env, inputs = self.envs[k], self.inputs[k]
         actor = copy.deepcopy(self.agent)  # its own policy copy: the learner's updates never race its forward pass
-        version, episode = 0, 0
+        now = {"version": 0}
+
+        def act(observation, state):
+            try:  # the newest weights the learner sent, if any since the last step
+                now["version"], policy = self.weights[k].get_nowait()
+                actor.load_policy(policy)
+            except queue.Empty:
+                pass
+            self.stats.versions_used[k].add(now["version"])
+            return actor.act(now["x"])
+
+        def stepped(action, observation, reward, terminated, truncated, info) -> None:
+            x_next = inputs.step(observation, action)
+            extras = {"episode": 1_000_000 * k + now["episode"], "step": now["step"], **actor.step_extras()}
+            try:
+                self.transitions.put_nowait((now["x"], action, reward, x_next, terminated, extras))
+            except queue.Full:
+                self.stats.dropped_transitions += 1
+            now.update(x=x_next, total=now["total"] + reward, step=now["step"] + 1)
+            self.stats.actor_steps[k] += 1
+
+        episode = 0
         while not self.stop.is_set() and self._start_episode():
-            observation, _ = env.reset(seed=self.seed + 1000 * k + episode)
-            x = inputs.reset(observation)
+            started = env.reset(seed=self.seed + 1000 * k + episode)
+            now.update(x=inputs.reset(started[0]), total=0.0, step=0, episode=episode)
             actor.reset()
-            done, total, step = False, 0.0, 0
-            while not done and not self.stop.is_set():
-                try:
-                    version, policy = self.weights[k].get_nowait()
-                    actor.load_policy(policy)
-                except queue.Empty:
-                    pass
-                self.stats.versions_used[k].add(version)
-                action = actor.act(x)
-                observation, reward, terminated, truncated, _ = env.step(action)
-                x_next = inputs.step(observation, action)
-                extras = {"episode": 1_000_000 * k + episode, "step": step, **actor.step_extras()}
-                try:
-                    self.transitions.put_nowait((x, action, reward, x_next, terminated, extras))
-                except queue.Full:
-                    self.stats.dropped_transitions += 1
-                x, total, done, step = x_next, total + reward, terminated or truncated, step + 1
-                self.stats.actor_steps[k] += 1
-            self.stats.episodes[k].append(total)
+            run_episode(env, act, started=started, steps=UNTIL_DONE, on_step=stepped,
+                        should_stop=lambda state: "stopped" if self.stop.is_set() else None)
+            self.stats.episodes[k].append(now["total"])
             episode += 1

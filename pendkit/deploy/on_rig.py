@@ -118,6 +118,7 @@ def run_on_rig(session: RigSession, seconds: float | None = None,
     next_report = next_start_check = started
     running = False
     try:
+        # not `run_episode`: no env here, only the link's heartbeats while the device's controller runs
         while seconds is None or time.monotonic() - started < seconds:
             now = time.monotonic()
             if not running and now >= next_start_check:

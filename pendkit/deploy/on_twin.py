@@ -52,6 +52,7 @@ def onboard_episode(env, seed: int | None = None, start: str = "random", steps: 
     backend = base.backend
     _, info = env.reset(seed=seed, options={"start": start})
     angles = [angle_from_upright_rad(info["state"])]
+    # not `run_episode`: the device's controller acts, so the host sends heartbeats below the env's actions
     for _ in range(steps or episode_limit(env)):
         message = "h" if _status(backend)["running"] else "k1"
         state = backend.step_with_message(message)
