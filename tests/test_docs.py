@@ -309,3 +309,14 @@ def test_every_study_is_a_results_tables_command():
     commands = "\n".join(re.findall(r"^```\w*\n(.*?)^```", pages, re.S | re.M))  # the pages' fenced commands
     for study in sorted((ROOT / "benchmarks" / "studies").glob("*.py")):
         assert f"benchmarks/studies/{study.name}" in commands, f"no results table runs {study.name}: move it out"
+
+
+def test_the_controllers_table_lists_every_registered_controller():
+    """docs/control.md's table of `--controller` names is the registry's (pendkit.deploy.controllers)."""
+    import re
+
+    from pendkit.deploy.controllers import CONTROLLER_NAMES
+
+    text = (ROOT / "docs" / "control.md").read_text()
+    table = text.split("## The classical controllers", 1)[1].split("\n## ", 1)[0]
+    assert sorted(re.findall(r"^\| `([a-z][a-z-]*)` \|", table, flags=re.M)) == sorted(CONTROLLER_NAMES)
