@@ -24,7 +24,6 @@ import numpy as np
 import paho.mqtt.client as mqtt
 
 from pendkit.device.observation import McuObservation
-from pendkit.device.twin import ENCODER_FAULTS, TwinDevice
 from pendkit.errors import ConfigError
 from pendkit.link.diagnose import why_no_connection
 from pendkit.link.driver import (
@@ -38,6 +37,7 @@ from pendkit.link.driver import (
 from pendkit.network import IMPAIRMENTS, NetworkImpairment, NetworkPath
 from pendkit.rig import RigParams
 from pendkit.sim.model import PENDULUM_JOINT, build_model
+from pendkit.sim.twin_device import ENCODER_FAULTS, TwinDevice
 
 LOG = logging.getLogger("pendkit.virtual_rig")
 FIRMWARE_VERSION = "0.1.0-virtual"

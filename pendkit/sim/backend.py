@@ -14,12 +14,12 @@ from pendkit.backend_contract import BackendTiming, RigState, ServoCommand
 from pendkit.device.commands import command_body, frame_command
 from pendkit.device.observation import McuObservation, observation_to_state
 from pendkit.device.protocol import format_observation_v1
-from pendkit.device.twin import TwinDevice
 from pendkit.errors import ConfigError
 from pendkit.network import NetworkPath
 from pendkit.rig import RigParams
 from pendkit.sim.fidelity import Fidelity, resolve_fidelity
 from pendkit.sim.model import ARM_JOINT, PENDULUM_JOINT, build_model
+from pendkit.sim.twin_device import TwinDevice
 from pendkit.telemetry.log import EpisodeLog
 
 Start = Literal["random", "rest", "upright"]

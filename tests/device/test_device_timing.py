@@ -10,9 +10,9 @@ import pytest
 
 from pendkit.backend_contract import ServoCommand
 from pendkit.device.commands import command_body, frame_command
-from pendkit.device.twin import TwinDevice
 from pendkit.rig import SERVO_PRESETS, RigParams
 from pendkit.sim.model import PENDULUM_JOINT, build_model
+from pendkit.sim.twin_device import TwinDevice
 from pendkit.timing import acting_wait_ms, device_command_delay_s, device_timing, pwm_wait_ms
 
 
@@ -64,7 +64,7 @@ def test_a_host_command_waits_for_the_acting_tick_then_a_frame(preset):
     assert device_timing(params).command_delay_s == device_command_delay_s(params) == pwm_wait_ms(params) / 1000
 
 
-@pytest.mark.xfail(strict=True, reason="the twin's PWM frames start with its acting ticks (pendkit/device/twin.py): "
+@pytest.mark.xfail(strict=True, reason="the twin's PWM frames start with its acting ticks (sim/twin_device.py): "
                    "a target waits about 5 ms there, half a frame (10 ms) on a rig; frames out of step cost the "
                    "realistic policies trained on the twin until they are retrained")
 @pytest.mark.parametrize("preset", [None, "hitec-hsb-9380th"])
