@@ -36,7 +36,8 @@ MISTAKES = {
     "the arm's push is missing: - coupling cos(angle) * arm acceleration": lambda a, w, p: reference(a, w, 0.0),
     "the arm's push has the wrong sign": lambda a, w, p: reference(a, w, -p),
     "sine and cosine are swapped": lambda a, w, p: -W0**2 * math.cos(a) - DAMPING * w - COUPLING * math.sin(a) * p,
-    "gravity has the wrong sign (it pulls the pendulum down, towards 0)": lambda a, w, p: reference(a, w, p, -W0),
+    "gravity has the wrong sign (it pulls the pendulum down, towards 0)":
+        lambda a, w, p: reference(a, w, p) + 2 * W0**2 * math.sin(a),  # +w0^2 sin (flipping w0 squares away)
     "the damping has the wrong sign (it slows the pendulum)": lambda a, w, p: reference(a, w, p, damping=-DAMPING),
 }
 CASES = [(0.4, 2.0, 10.0), (2.5, -3.0, -20.0), (math.pi - 0.1, 0.5, 5.0), (-1.2, 6.0, 30.0)]
