@@ -18,6 +18,10 @@ from pendkit.features import PAPER_FEATURES, angle_from_upright_rad, resolve_fea
 from pendkit.rig import RigParams
 from pendkit.sim.backend import STARTS, SimBackend
 from pendkit.sim.fidelity import Fidelity
+from pendkit.sim.render import DrawnFrames, mujoco_renderer
+
+# pendkit modules that load matplotlib, python-control, manifold3d and paho-mqtt are imported inside the functions
+# that use them: importing this module does not need them (start-up).
 
 ACTION_MODES = ("discrete", "continuous")
 FEATURE_SOURCES = ("measured", "estimated", "estimated+measured")
@@ -286,8 +290,6 @@ class SwingUpEnv(gym.Env):
                 self._gl_renderer.update_scene(self._gl_data, camera="front")
                 return self._gl_renderer.render()
         if self._drawn_frames is None:
-            from pendkit.sim.render import DrawnFrames
-
             self._drawn_frames = DrawnFrames(self.params)
         true = self.backend.true_state() if isinstance(self.backend, SimBackend) else None
         arm = true["arm_angle_rad"] if true else self._state.arm_angle_rad
@@ -299,7 +301,6 @@ class SwingUpEnv(gym.Env):
         import mujoco
 
         from pendkit.cad.twin_meshes import visual_twin_model
-        from pendkit.sim.render import mujoco_renderer
 
         model = visual_twin_model(self.params)
         self._gl_renderer = mujoco_renderer(model)

@@ -17,6 +17,9 @@ from pendkit.features import (  # time_to_upright_s: read here by the labs
     time_to_upright_s,  # noqa: F401
 )
 
+# pendkit modules that load MuJoCo are imported inside the functions that use them: importing this module does not
+# need them (start-up).
+
 Policy = Callable[[np.ndarray, RigState], object]
 NO_STATE = RigState(*([math.nan] * len(RigState._fields)))
 UNTIL_DONE = 2**62  # `run_episode(steps=UNTIL_DONE)`: until the env says the episode is over

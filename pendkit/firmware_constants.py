@@ -8,6 +8,8 @@ built with another servo (flash that rig with it, and give the host the same pre
 from __future__ import annotations
 
 from pendkit.device.logic import STUCK_BAD_FRAMES, STUCK_TRAVEL_COUNTS
+from pendkit.device.physical_ranges import MODEL_RANGES, SWING_UP_RANGES
+from pendkit.device.swingup_blob import SCALARS
 from pendkit.rig import RigParams
 
 FLOAT32_MAX = 3.4028234663852886e38
@@ -47,8 +49,6 @@ def render_header(params: RigParams | None = None) -> str:
 def model_range_lines() -> list[str]:
     """An observer model's physical ranges, in MODEL_FIELDS' order (pendkit.device.physical_ranges: the kit's
     rig with margins, whatever the servo the header is written for), so both parsers refuse the same blobs."""
-    from pendkit.device.physical_ranges import MODEL_RANGES, SWING_UP_RANGES
-    from pendkit.device.swingup_blob import SCALARS
 
     unbounded = (-FLOAT32_MAX, FLOAT32_MAX)  # a controller's gains: any finite float
     swing_up = [SWING_UP_RANGES.get(name, unbounded) for name in SCALARS]

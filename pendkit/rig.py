@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from pendkit.errors import ConfigError
+from pendkit.safe_write import write_text
 
 GRAVITY_M_S2 = 9.81
 KG_CM_TO_N_M = GRAVITY_M_S2 / 100.0
@@ -273,8 +274,6 @@ class RigParams:
         """Write these parameters as JSON (e.g. a rig's identified values, for the twin and later labs), whole
         or not at all, never through a link planted at `path` (`pendkit.safe_write`)."""
         import json
-
-        from pendkit.safe_write import write_text
 
         write_text(path, json.dumps(self.to_dict(), indent=1) + "\n")
 

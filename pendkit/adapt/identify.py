@@ -30,9 +30,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pendkit.adapt.excitation import Recording
-from pendkit.adapt.replay import angle_error_rad2
+from pendkit.adapt.excitation import EXCITATION_STREAM, Excitation, Recording, free_from
+from pendkit.adapt.replay import angle_error_rad2, replay_cost
 from pendkit.backend_contract import ServoCommand
+from pendkit.control.sysid import identify_free_swing
 from pendkit.errors import ConfigError
 from pendkit.network import LatencyModel, NetworkImpairment
 from pendkit.rig import RigParams
@@ -96,7 +97,6 @@ def search_box(last: tuple[float, float] = SERVO_BOUNDS["latency_ms"]) -> list[t
 
 def free_swing(recording: Recording, period_s: float):
     """The free swing at the end of an excitation episode as (times, angles), or None if too small."""
-    from pendkit.adapt.excitation import free_from
 
     first_free = free_from(recording.actions)
     if first_free is None:
@@ -107,7 +107,6 @@ def free_swing(recording: Recording, period_s: float):
 
 def swing_estimates(recordings: list[Recording], period_s: float) -> tuple[float, float] | None:
     """(natural frequency rad/s, damping ratio) from every usable free swing, weighted by cycles."""
-    from pendkit.control.sysid import identify_free_swing
 
     fits = []
     for recording in recordings:
@@ -158,7 +157,6 @@ def identifying_twin(params: RigParams, latency_ms: float):
     """The realistic twin of `params` (a fixed latency, no loss) that `simulate` runs recordings on: one
     made per candidate and reset for each recording (making it costs as much as a tenth of a recording)."""
     import pendkit
-    from pendkit.adapt.excitation import Excitation
 
     network = NetworkImpairment(LatencyModel(floor_ms=latency_ms))
     fidelity = FIDELITY_PRESETS["realistic"].replace(name="identifying", network=network)
@@ -221,8 +219,6 @@ def identify(recordings: list[Recording], prior: RigParams | None = None, max_ev
     differential evolution on `cost` (default the kit's `matching_cost`; lab 09 passes the student's).
     With the kit's cost and recordings on the device's clock, the servo and its PWM phase by `replay_cost`."""
     from scipy.optimize import differential_evolution, minimize
-
-    from pendkit.adapt.replay import replay_cost
 
     prior = prior or RigParams()
     started = time.perf_counter()
@@ -302,8 +298,6 @@ def refine_servo(fit: Identification, recordings: list[Recording], prior: RigPar
     (the `prior`'s) are then over `recordings`."""
     from scipy.optimize import minimize
 
-    from pendkit.adapt.replay import replay_cost
-
     started = time.perf_counter()
     replayed = fit.pwm_phase_ms is not None and on_device_clock(recordings)
     cost = replay_cost if replayed else matching_cost
@@ -332,7 +326,6 @@ def refine_servo(fit: Identification, recordings: list[Recording], prior: RigPar
 
 def measured_latency_ms(recordings: list[Recording], prior: RigParams) -> float:
     """The one-way latency from the loops the host timed during excitation (the prior's when none)."""
-    from pendkit.adapt.excitation import EXCITATION_STREAM
 
     loops = [loop for r in recordings for loop in r.device.loops_ms]
     if not loops:

@@ -11,6 +11,7 @@ from pendkit.adapt.excitation import Recording
 from pendkit.adapt.identify import PRIOR_LATENCY_MS, Identification, simulate
 from pendkit.adapt.replay import replay
 from pendkit.encoder import wrapped_rad
+from pendkit.episode import PALETTE
 from pendkit.rig import RigParams
 from pendkit.safe_write import replacing
 
@@ -32,8 +33,6 @@ def matched_traces(recording: Recording, identification: Identification):
 
 def plot_identification(recordings: list[Recording], identification: Identification, path: str | Path) -> Path:
     from matplotlib.figure import Figure
-
-    from pendkit.episode import PALETTE
 
     shown = recordings[:SHOWN]
     figure = Figure(figsize=(9, 2.2 * len(shown)), layout="constrained")

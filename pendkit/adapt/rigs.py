@@ -13,8 +13,16 @@ import time
 import gymnasium as gym
 
 from pendkit.adapt.session import Rig
+from pendkit.deploy.on_rig import RigSession, device_episode, upload_to_rig
+from pendkit.deploy.on_twin import onboard_episode, upload_to_twin
+from pendkit.device.commands import frame_command
 from pendkit.env_name import EPISODE_STEPS
+from pendkit.link import DEFAULT_BROKER
+from pendkit.link.driver import RigLink
+from pendkit.link.rig_backend import is_servo_counts_range
+from pendkit.network import IMPAIRMENTS
 from pendkit.rig import RigParams
+from pendkit.sim.fidelity import FIDELITY_PRESETS
 
 DEVICE_SEED = 20_000  # the twin's first episode on its device (from rest; each draws the network's delays anew)
 
@@ -37,8 +45,6 @@ def twin_rig(params, impairment="classroom-wifi", residual_offset_counts: int = 
     `pendkit.network.IMPAIRMENTS` or a NetworkImpairment), read through an encoder calibrated
     `residual_offset_counts` off."""
     import pendkit
-    from pendkit.network import IMPAIRMENTS
-    from pendkit.sim.fidelity import FIDELITY_PRESETS
 
     network = IMPAIRMENTS[impairment] if isinstance(impairment, str) else impairment
     steps, device_seeds, residual = [0], itertools.count(DEVICE_SEED), [residual_offset_counts]
@@ -53,8 +59,6 @@ def twin_rig(params, impairment="classroom-wifi", residual_offset_counts: int = 
         residual[0] -= shift_counts  # the device's zero moved by the shift: a hanging pendulum reads that less
 
     def run_on_device(blob: bytes, episodes: int, episode_steps: int = EPISODE_STEPS) -> list[list[float]]:
-        from pendkit.deploy.on_twin import onboard_episode, upload_to_twin
-
         env = make_env(action_mode="continuous")
         upload_to_twin(env, blob)
         runs = [onboard_episode(env, seed=next(device_seeds), start="rest", steps=episode_steps)
@@ -79,7 +83,6 @@ def mqtt_rig(rig_id: str, broker: str | None, login=None) -> Rig:
     measured from the host's first command to its last instead, and says so in the name). `login`: a
     `BrokerLogin` (username, password, TLS CA) for a classroom broker."""
     import pendkit
-    from pendkit.link.rig_backend import is_servo_counts_range
 
     login_options = login.rig_options() if login is not None else {}
     link_arguments = login.link_arguments() if login is not None else {}
@@ -115,10 +118,6 @@ def mqtt_rig(rig_id: str, broker: str | None, login=None) -> Rig:
         return time.monotonic() - first[0] if first else 0.0
 
     def run_on_device(blob: bytes, episodes: int, episode_steps: int = EPISODE_STEPS) -> list[list[float]]:
-        from pendkit.deploy.on_rig import RigSession, device_episode, upload_to_rig
-        from pendkit.link import DEFAULT_BROKER
-        from pendkit.link.driver import RigLink
-
         link = RigLink(rig_id, broker or DEFAULT_BROKER, **link_arguments)
         link.connect()
         try:
@@ -140,9 +139,6 @@ def mqtt_rig(rig_id: str, broker: str | None, login=None) -> Rig:
 def rig_status(rig_id: str, broker: str | None, wait_s: float = 2.0, link_arguments: dict | None = None) -> dict:
     """The rig's status after asking it for a fresh one (command `r`); the retained one if no fresh one
     comes within `wait_s` (a v1 rig, or a device that is off)."""
-    from pendkit.device.commands import frame_command
-    from pendkit.link import DEFAULT_BROKER
-    from pendkit.link.driver import RigLink
 
     link = RigLink(rig_id, broker or DEFAULT_BROKER, **(link_arguments or {}))
     try:

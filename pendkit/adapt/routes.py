@@ -10,7 +10,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pendkit.adapt.identify import Identification
+from pendkit.adapt.uncertainty import AroundTheFit
+from pendkit.agents.async_trainer import AsyncTrainer
+from pendkit.agents.learners import LEARNER_NAMES, learner
+from pendkit.agents.policy_artifact import policy_artifact
+from pendkit.agents.pretrained import POLICIES
 from pendkit.agents.runs import (
+    SOLVED_TAIL_STEPS,
     Evaluation,
     RunSpec,
     build_run,
@@ -20,10 +26,22 @@ from pendkit.agents.runs import (
     save_weights,
 )
 from pendkit.deploy.controllers import adapt_controllers, controller_named
+from pendkit.deploy.learned_blob import DEVICE_LEARNERS, learned_policy_blob
+from pendkit.deploy.on_twin import onboard_episode, upload_to_twin
+from pendkit.deploy.swingup_design import design_swing_up
+from pendkit.device.controller_blob import pack
 from pendkit.env import OBSERVED_SOURCES
+from pendkit.env_name import EPISODE_STEPS
+from pendkit.errors import ConfigError
+from pendkit.features import holds_upright
 from pendkit.network import LatencyModel, NetworkImpairment
 from pendkit.rig import RigParams
+from pendkit.safe_write import write_bytes
 from pendkit.sim.fidelity import FIDELITY_PRESETS
+from pendkit.sim.randomize import observer_bank
+
+# pendkit modules that load torch are imported inside the functions that use them: importing this module does not need
+# them (start-up; torch is an optional extra).
 
 
 def identified_twin(identification: Identification, **env_kwargs):
@@ -39,10 +57,6 @@ def identified_twin(identification: Identification, **env_kwargs):
 def starting_weights(name: str) -> tuple[RunSpec, dict | None]:
     """The shipped policy to start from, or (its learner, None) when it is not there or `name` is a learner's
     (`pendkit.agents.learners.LEARNER_NAMES`): trained afresh."""
-    from pendkit.agents.learners import LEARNER_NAMES
-    from pendkit.agents.policy_artifact import policy_artifact
-    from pendkit.agents.pretrained import POLICIES
-    from pendkit.errors import ConfigError
 
     if name in LEARNER_NAMES:  # a learner rather than a policy: trained afresh, its observer the identified rig's
         return RunSpec(name, "realistic", observer="rig"), None
@@ -65,8 +79,6 @@ class AgentRun:
     observer_params: RigParams | tuple[RigParams, ...] | None = None
 
     def env_kwargs(self) -> dict:
-        from pendkit.agents.learners import learner
-
         kwargs = learner(self.spec.learner).env_kwargs()
         if kwargs.get("features") in OBSERVED_SOURCES and self.observer_params is not None:
             kwargs["observer_params"] = self.observer_params  # what the laptop knows of the rig, not the rig
@@ -74,7 +86,6 @@ class AgentRun:
 
     def make_env(self, rig):
         """`rig`'s env as this policy acts on it (a target-level policy through its levels)."""
-        from pendkit.agents.learners import learner
 
         return learner(self.spec.learner).wrap(rig.make_env(**self.env_kwargs()))
 
@@ -93,13 +104,10 @@ def _as_report(outcome: Evaluation) -> dict:
 
 def _twin_env(spec: RunSpec, identification: Identification, observer, spread: dict | None, seed: int):
     """The identified twin as `spec`'s learner acts on it; with `spread`, a rig drawn from it every episode."""
-    from pendkit.agents.learners import learner
 
     kwargs = AgentRun(spec, None, None, observer).env_kwargs()
     env = learner(spec.learner).wrap(identified_twin(identification, **kwargs))
     if spread:
-        from pendkit.adapt.uncertainty import AroundTheFit
-
         env = AroundTheFit(env, identification, spread, seed=seed, observer_params=observer)
     return env
 
@@ -147,7 +155,6 @@ def choose_on_twin(identification: Identification, config, weights_path: Path, s
 
     from pendkit.agents.policy_rule import REPORT_SEED, judge_policy
     from pendkit.agents.train import train_sync
-    from pendkit.errors import ConfigError
 
     starts = {name: starting_weights(name) for name in (config.policy, *config.candidates)}
     for name, (_, state) in starts.items():
@@ -204,11 +211,6 @@ def held_on_device(identification: Identification, spec: RunSpec, agent, inputs,
     blob as `policy_on_device` makes it; no network between the readings and the targets, what the device's
     route meets); None for a learner the device does not run."""
     from pendkit.agents.policy_rule import RULE_STARTS
-    from pendkit.agents.runs import SOLVED_TAIL_STEPS
-    from pendkit.deploy.learned_blob import DEVICE_LEARNERS
-    from pendkit.deploy.on_twin import onboard_episode, upload_to_twin
-    from pendkit.env_name import EPISODE_STEPS
-    from pendkit.features import holds_upright
 
     if spec.learner not in DEVICE_LEARNERS:
         return None
@@ -224,8 +226,6 @@ def held_on_device(identification: Identification, spec: RunSpec, agent, inputs,
 def device_blob(run: AgentRun, identification: Identification) -> bytes:
     """`run`'s policy as the rig's device runs it (`pendkit.deploy.learned_blob`): its observers designed as on
     the way to the rig, a single one on the delays of the identified twin it was trained on."""
-    from pendkit.deploy.learned_blob import learned_policy_blob
-    from pendkit.device.controller_blob import pack
 
     twin = identified_twin(identification, **run.env_kwargs())
     return pack(learned_policy_blob(run.spec, None, identification.params, run.observer_params, twin.unwrapped.timing,
@@ -239,8 +239,6 @@ def policy_observer(spec: RunSpec, identification: Identification) -> RigParams 
     them); else the nominal rig it was trained with (a recurrent policy that reads the nominal observer's
     errors to tell the rig)."""
     if spec.observer == "bank":
-        from pendkit.sim.randomize import observer_bank
-
         return (identification.params, *observer_bank())
     return identification.params if spec.observer == "rig" else RigParams()
 
@@ -250,7 +248,6 @@ def fine_tune_on_rig(rig, run: AgentRun, episodes: int, config, weights_path: Pa
     """(d): the episodes left on the rig, acting greedily-ish while the non-blocking trainer learns."""
     if episodes <= 0:
         return
-    from pendkit.agents.async_trainer import AsyncTrainer
 
     env = run.make_env(rig)
     trainer = AsyncTrainer(run.agent, [env], [run.inputs], seed=config.seed)
@@ -277,8 +274,6 @@ def classical_on_device(rig, identification: Identification, episodes: int, trie
     two already made (an untried `Design` on the identified parameters), not designed again."""
     if episodes == 0 or rig.run_on_device is None:
         return {name: {"summary": "not evaluated"} for name in CLASSICAL}
-    from pendkit.deploy.swingup_design import design_swing_up
-    from pendkit.device.controller_blob import pack
 
     step_s = identification.params.control_step_ms / 1000
 
@@ -304,14 +299,11 @@ def policy_on_device(rig, run: AgentRun | None, identification: Identification, 
     on the way to the rig, on the identified twin's delays for a single one, the device's for a bank),
     uploaded and run from rest as the classical designs are there; written to `blob_path` for `pendkit deploy
     --blob`. Not evaluated for a learner the device does not run."""
-    from pendkit.deploy.learned_blob import DEVICE_LEARNERS
 
     if episodes == 0 or rig.run_on_device is None or run is None or run.spec.learner not in DEVICE_LEARNERS:
         return {"summary": "not evaluated"}
     blob = device_blob(run, identification)
     if blob_path is not None:
-        from pendkit.safe_write import write_bytes
-
         write_bytes(blob_path, blob)
     return _as_report(judged(rig.run_on_device(blob, episodes), identification.params.control_step_ms / 1000))
 

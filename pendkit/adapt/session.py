@@ -46,6 +46,7 @@ from pendkit.adapt.routes import (
 )
 from pendkit.adapt.trials import Design, identified_design, trial_steps, try_on_device
 from pendkit.adapt.uncertainty import fit_spread, spread_table
+from pendkit.agents.pretrained import POLICIES
 from pendkit.env_name import EPISODE_STEPS
 from pendkit.errors import ConfigError, IdentificationError
 from pendkit.rig import RigParams
@@ -127,7 +128,6 @@ class AdaptConfig:
             raise ConfigError(f"twin_tolerance must be > 0 (or None), got {self.twin_tolerance}")
         if self.identification_restarts < 1:
             raise ConfigError(f"identification_restarts must be >= 1, got {self.identification_restarts}")
-        from pendkit.agents.pretrained import POLICIES
 
         unknown = [name for name in self.candidates if name not in POLICIES]
         if unknown:  # said before any rig time is spent

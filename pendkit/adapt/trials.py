@@ -19,7 +19,10 @@ import numpy as np
 
 from pendkit.agents.runs import SOLVED_TAIL_STEPS, held_fraction
 from pendkit.deploy.controllers import adapt_controllers
+from pendkit.deploy.swingup_design import design_swing_up
+from pendkit.device.controller_blob import pack
 from pendkit.env_name import EPISODE_STEPS
+from pendkit.errors import PendkitError
 from pendkit.features import UPRIGHT_RAD, holds_upright
 from pendkit.rig import RigParams
 
@@ -101,9 +104,6 @@ def make_designs(params: RigParams, say: Callable[[str], None] = print) -> list[
 
 def with_blob(design: Design, say: Callable[[str], None] = print) -> Design:
     """`design` with its blob made; without one (and said) when python-control cannot make it."""
-    from pendkit.deploy.swingup_design import design_swing_up
-    from pendkit.device.controller_blob import pack
-    from pendkit.errors import PendkitError
 
     try:
         design.blob = pack(design_swing_up(design.params, design.controller))
@@ -127,7 +127,6 @@ def run_trials(designs: list[Design], run_on_device: Callable[..., list[list[flo
                finalists: int = FINALISTS) -> Design | None:
     """Screen every design that has a blob on the rig's device for `screen_steps`, run the best `finalists`
     for a whole episode; the best finalist, None when no design could be run (the device refused each)."""
-    from pendkit.errors import PendkitError
 
     for design in (d for d in designs if d.blob is not None):
         try:

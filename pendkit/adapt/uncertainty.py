@@ -21,8 +21,11 @@ import numpy as np
 
 from pendkit.adapt.excitation import Recording
 from pendkit.adapt.identify import FITTED, Identification, guarded_cost, matching_cost, on_device_clock
+from pendkit.adapt.replay import replay_cost
 from pendkit.network import LatencyModel, NetworkImpairment
 from pendkit.rig import RigParams
+from pendkit.sim.fidelity import resolve_fidelity
+from pendkit.sim.randomize import TRAINING_RANGES
 
 Interval = tuple[float, float]
 # how far each walk looks: log-scale steps for the rig's fields (x1.05 .. x2.7), ms for a fitted latency
@@ -45,7 +48,6 @@ def fit_spread(fit: Identification, recordings: list[Recording], tolerance: floa
     """{field: (low, high)} over which the twin still matches `recordings` within `tolerance` of `fit`'s cost,
     each field walked alone from the fit; "latency_ms" too when the fit matched it (not on the device's
     clock, where the latency is measured, not fitted)."""
-    from pendkit.adapt.replay import replay_cost
 
     replayed = fit.pwm_phase_ms is not None and on_device_clock(recordings)
     cost = cost or (replay_cost if replayed else matching_cost)
@@ -100,7 +102,6 @@ class AroundTheFit(gym.Wrapper):
 
     def __init__(self, env: gym.Env, fit: Identification, spread: dict[str, Interval], seed: int = 0,
                  observer_params: RigParams | tuple[RigParams, ...] | None = None) -> None:
-        from pendkit.sim.fidelity import resolve_fidelity
 
         super().__init__(env)
         base = env.unwrapped
@@ -112,8 +113,6 @@ class AroundTheFit(gym.Wrapper):
         self.drawn: RigParams | None = None
 
     def draw(self) -> tuple[RigParams, NetworkImpairment]:
-        from pendkit.sim.randomize import TRAINING_RANGES
-
         params = self.fit.params
         for name in RIG_FIELDS:
             if name in self.spread:

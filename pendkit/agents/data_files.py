@@ -16,6 +16,7 @@ import numpy as np
 import torch
 
 from pendkit.errors import ConfigError
+from pendkit.safe_write import replacing
 
 _ARRAY = "__ndarray__"
 
@@ -47,7 +48,6 @@ def from_data(value: Any) -> Any:
 def save_data(path: str | Path, value: Any) -> Path:
     """Write `value` atomically (a kill leaves the old file or the new one, never half of one), never through
     a link planted at `path` (`pendkit.safe_write`)."""
-    from pendkit.safe_write import replacing
 
     path = Path(path)
     with replacing(path, binary=True) as handle:

@@ -28,7 +28,12 @@ from dataclasses import dataclass
 
 from pendkit.agents.base import Agent
 from pendkit.agents.inputs import StepInputs, actions_for_delay
+from pendkit.agents.spec_checks import check_agent_types, check_agent_values
+from pendkit.agents.target_levels import TargetLevels
 from pendkit.errors import ConfigError
+
+# pendkit modules that load torch are imported inside the functions that use them: importing this module does not need
+# them (start-up; torch is an optional extra).
 
 RESERVOIR_SIZE = 32
 TARGET_LEVELS = 9  # 22.5 deg apart, smoothed by the c = 0.85 filter
@@ -99,7 +104,6 @@ def check_agent_settings(name: str, settings: dict) -> None:
     if unknown:
         raise ConfigError(f"agent: {', '.join(map(str, unknown))} is not a setting of {name}; its settings: "
                           f"{', '.join(sorted(known))}")
-    from pendkit.agents.spec_checks import check_agent_types, check_agent_values
 
     check_agent_values(settings)  # sizes in their bounds
     check_agent_types(config_class, settings)
@@ -137,7 +141,6 @@ class Learner:
         """`env` (made with `env_kwargs`) as this learner acts on it."""
         if not self.target_levels:
             return env
-        from pendkit.agents.target_levels import TargetLevels
 
         return TargetLevels(env, self.target_levels)
 

@@ -26,8 +26,15 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from pendkit.agents.learners import learner
+from pendkit.agents.rig_suite import policy_on_rigs, summary, unknown_rig_observer, validation_rigs
 from pendkit.agents.runs import RunSpec, build_run, load_weights, save_weights
 from pendkit.errors import ConfigError
+from pendkit.rig import RigParams
+from pendkit.sim.randomize import RandomRig
+
+# pendkit modules that load torch are imported inside the functions that use them: importing this module does not need
+# them (start-up; torch is an optional extra).
 
 POLICY_DIR = Path(__file__).resolve().parents[1] / "data" / "policies"
 MEASURED_FILE = POLICY_DIR / "measured.json"  # written by benchmarks/bench_policies.py --record
@@ -127,8 +134,6 @@ def policy_env_options(name: str) -> dict:
     only), action mode and features, e.g. `pendkit.make(**policy_env_options(name), start="rest")`; a policy
     trained with observers told each rig meets the rig with the observer bank
     (`pendkit.sim.randomize.observer_bank`)."""
-    from pendkit.agents.learners import learner
-    from pendkit.agents.rig_suite import unknown_rig_observer
 
     if name not in POLICIES:
         raise ConfigError(f"unknown policy {name!r}; the kit ships {sorted(POLICIES)}")
@@ -170,7 +175,6 @@ def policy_weights(name: str) -> tuple[RunSpec, dict]:
 
 def load_policy(name: str, env) -> GreedyPolicy:
     """The shipped policy `name` for `env` (an env of the policy's action mode: twin or rig)."""
-    from pendkit.agents.learners import learner
 
     spec, state = policy_weights(name)
     chosen = learner(spec.learner)
@@ -207,7 +211,6 @@ def build(names: list[str] | None = None) -> None:
 def validation_score(spec: PretrainedSpec, state: dict) -> tuple[int, float]:
     """(episodes solved, mean return) of the greedy agent on the validation rigs, from rest and one random
     start each: higher is better."""
-    from pendkit.agents.rig_suite import policy_on_rigs, summary, validation_rigs
 
     together = summary(policy_on_rigs(spec.run, state, validation_rigs(spec.validation_rigs), starts=1,
                                       observer_knows_rig=spec.run.observer == "rig"))
@@ -218,9 +221,6 @@ def validation_and_default_score(spec: PretrainedSpec, state: dict, starts: int 
                                  say=print) -> tuple[int, float]:
     """`validation_score` plus the episodes held on the default rig (rest + `starts` random starts): a
     validation that also sees the rig most users have. Each part is said."""
-    from pendkit.agents.rig_suite import policy_on_rigs
-    from pendkit.rig import RigParams
-    from pendkit.sim.randomize import RandomRig
 
     solved, mean_return = validation_score(spec, state)
     default = policy_on_rigs(spec.run, state, {"default": RandomRig(RigParams(), None, 0)}, starts=starts,

@@ -8,6 +8,7 @@ through the same code; `bench_transfer.py` and `pendkit adapt` use it.
 
 from __future__ import annotations
 
+from pendkit.agents.learners import learner
 from pendkit.agents.runs import Evaluation, RunSpec, build_run, evaluate_agent
 from pendkit.env import OBSERVED_SOURCES
 from pendkit.rig import SERVO_PRESETS, RigParams
@@ -39,7 +40,6 @@ def unknown_rig_observer(spec: RunSpec) -> dict:
     """`pendkit.make`'s observer option for `spec`'s learner on a rig the laptop does not know: none for a
     learner without an observer, the `observer_bank` for one trained with observers told each rig or with the
     bank itself (`spec.observer` "rig" or "bank"), else the nominal rig's observer (what it was trained with)."""
-    from pendkit.agents.learners import learner
 
     if learner(spec.learner).features not in OBSERVED_SOURCES:
         return {}
@@ -53,7 +53,6 @@ def rig_env(rig: RandomRig, spec: RunSpec | None = None, observer_knows_rig: boo
     gets the `observer_bank` instead), or for the rig itself with `observer_knows_rig` (what identifying it
     perfectly would give)."""
     import pendkit
-    from pendkit.agents.learners import learner
 
     fidelity = rig.fidelity(FIDELITY_PRESETS["realistic"])
     kwargs = learner(spec.learner).env_kwargs() if spec is not None else {}

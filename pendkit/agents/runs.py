@@ -13,9 +13,17 @@ from pathlib import Path
 from pendkit.agents.base import Agent
 from pendkit.agents.inputs import StepInputs
 from pendkit.agents.learners import build_learner, check_agent_settings, learner
+from pendkit.agents.spec_checks import check_run_spec
 from pendkit.env import OBSERVED_SOURCES
+from pendkit.episode import run_episode
 from pendkit.errors import ConfigError
-from pendkit.features import SOLVED_TAIL_STEPS
+from pendkit.features import SOLVED_TAIL_STEPS, UPRIGHT_RAD, holds_upright, time_to_upright_s
+from pendkit.rig import RigParams
+from pendkit.sim.observation_delay import ObservationDelay
+from pendkit.sim.randomize import DomainRandomization, observer_bank
+
+# pendkit modules that load torch are imported inside the functions that use them: importing this module does not need
+# them (start-up; torch is an optional extra).
 
 WEIGHTS_FORMAT = "pendkit-weights/1"
 OBSERVERS = ("base", "rig", "bank")  # RunSpec.observer: what a learner's observer is designed for
@@ -43,8 +51,6 @@ class RunSpec:
     observer: str = "base"
 
     def __post_init__(self) -> None:
-        from pendkit.agents.spec_checks import check_run_spec
-
         check_run_spec(self)  # every field's type and range (a run folder is input like any other)
         learner(self.learner)  # an unknown name, with the known ones
         if not isinstance(self.observer, str) or self.observer not in OBSERVERS:
@@ -72,23 +78,16 @@ class RunSpec:
 def make_env(spec: RunSpec, **env_options):
     """The env `spec` learns on; `env_options` go to `pendkit.make` (a rig backend, a start, ...)."""
     import pendkit
-    from pendkit.rig import RigParams
 
     params = RigParams.preset(spec.preset) if spec.preset else env_options.pop("params", None)
     chosen = learner(spec.learner)
     if spec.observer == "bank" and chosen.features in OBSERVED_SOURCES:
-        from pendkit.sim.randomize import observer_bank
-
         env_options.setdefault("observer_params", observer_bank())
     env = chosen.wrap(pendkit.make(fidelity=spec.fidelity, max_episode_steps=spec.max_steps, params=params,
                                    **chosen.env_kwargs(), **env_options))
     if spec.delay_steps:
-        from pendkit.sim.observation_delay import ObservationDelay
-
         env = ObservationDelay(env, spec.delay_steps)
     if spec.randomize:
-        from pendkit.sim.randomize import DomainRandomization
-
         env = DomainRandomization(env, spec.randomize, spec.seed, observer_follows_rig=spec.observer == "rig")
     return env
 
@@ -143,7 +142,6 @@ def greedy_episode(env, agent: Agent, inputs: StepInputs, seed: int = SOLVED_SEE
 def solved(infos: list[dict], tail_steps: int = SOLVED_TAIL_STEPS) -> bool:
     """One episode holds: within 0.3 rad of upright for its last `tail_steps` steps (a *policy* is solved
     only by the rule over many starts: `pendkit.agents.policy_rule`)."""
-    from pendkit.features import holds_upright
 
     return holds_upright([info["angle_from_upright_rad"] for info in infos], tail_steps)
 
@@ -157,8 +155,6 @@ def held_fraction(angles_from_upright_rad) -> float | None:
     for every step of a fall and a swing back. A pass over the top that is not caught is part of the swing-up,
     not a fall. None if it is never caught."""
     import numpy as np
-
-    from pendkit.features import UPRIGHT_RAD
 
     inside = np.abs(np.asarray(angles_from_upright_rad)) < UPRIGHT_RAD
     if len(inside) < CAUGHT_STEPS:
@@ -208,7 +204,6 @@ class Evaluation:
 def judged_episode(angles_from_upright_rad, step_s: float, episode_return: float = 0.0) -> Evaluation:
     """One episode (its angles from upright, a step apart) judged as every episode in the kit is: held by the
     solved rule's tail, its time to upright, its return and its held fraction."""
-    from pendkit.features import holds_upright, time_to_upright_s
 
     angles = list(angles_from_upright_rad)
     return Evaluation([holds_upright(angles, SOLVED_TAIL_STEPS)], [time_to_upright_s(angles, step_s)],
@@ -225,7 +220,6 @@ def judge_runs(env, policy, starts, seed: int, said=None) -> Evaluation:
     """`policy` (any `run_episode` policy, e.g. a classical controller) for one episode per entry of `starts`
     (None: as the env starts, e.g. a rig hanging still), episode k from seed `seed + k`, each judged by
     `judged_episode`; `said(k, start, one_episode)` after each, for a progress line."""
-    from pendkit.episode import run_episode
 
     outcome = Evaluation([], [], [], [])
     for k, start in enumerate(starts):

@@ -14,6 +14,9 @@ import math
 import numbers
 
 from pendkit.errors import ConfigError
+from pendkit.rig import SERVO_PRESETS
+from pendkit.sim.fidelity import FIDELITY_PRESETS, Fidelity
+from pendkit.sim.randomize import parse_randomize
 
 MAX_SEED = 2**32 - 1  # numpy's and torch's seeds
 # RunSpec's whole-number fields: (lowest, highest, what they count)
@@ -98,9 +101,6 @@ def check_agent_types(config_class, settings: dict) -> None:
 def check_run_spec(spec) -> None:
     """Every field of `spec` (a RunSpec) of its type and in range; ConfigError naming the first that is not (the
     learner's name is RunSpec's to resolve)."""
-    from pendkit.rig import SERVO_PRESETS
-    from pendkit.sim.fidelity import FIDELITY_PRESETS, Fidelity
-    from pendkit.sim.randomize import parse_randomize
 
     if not isinstance(spec.learner, str):
         raise ConfigError(f"learner = {spec.learner!r} is not a learner's name")

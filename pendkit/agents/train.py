@@ -9,6 +9,7 @@ from pathlib import Path
 from pendkit.agents.base import Agent
 from pendkit.agents.checkpoint import load_checkpoint, save_checkpoint
 from pendkit.agents.inputs import StepInputs
+from pendkit.episode import UNTIL_DONE, run_episode
 
 __all__ = ["agent_episode", "train_sync"]
 
@@ -17,7 +18,6 @@ def agent_episode(env, agent: Agent, inputs: StepInputs, buffer=None, seed: int 
                   explore: bool = True, options: dict | None = None) -> tuple[float, list[dict]]:
     """One episode of `agent` on `env` (the kit's episode loop, `pendkit.episode.run_episode`); with a
     `buffer`, every step is stored and the agent learns as it goes. Returns the return and the per-step infos."""
-    from pendkit.episode import UNTIL_DONE, run_episode
 
     started = env.reset(seed=seed, options=options)
     now = {"x": inputs.reset(started[0]), "step": 0}

@@ -11,6 +11,7 @@ from pendkit.cad.assembly import bought_parts, printed_parts, to_stl_bytes
 from pendkit.cad.parts import PrintSettings, pivot_mm
 from pendkit.errors import ConfigError
 from pendkit.rig import RigParams
+from pendkit.sim.render import mujoco_renderer
 
 COLOURS = {"printed": ".00 .45 .70 1", "arm_tube": ".75 .77 .80 1", "dowel": ".87 .72 .48 1",
            "table": ".60 .45 .30 1", "other": ".20 .20 .22 1"}
@@ -47,8 +48,6 @@ def render(params: RigParams | None = None, out_dir: str | Path = "docs/img", wi
     """Write cad-<view>.png (assembled) and cad-<view>-exploded.png for every view; needs a GL backend."""
     import mujoco
     from PIL import Image
-
-    from pendkit.sim.render import mujoco_renderer
 
     params = params or RigParams()
     printed = printed_parts(params, PrintSettings())

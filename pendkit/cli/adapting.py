@@ -8,7 +8,12 @@ import click
 
 from pendkit.cli.broker_login import broker_login_options, login_from
 from pendkit.cli.learning import torch_or_exit
+from pendkit.errors import ConfigError, IdentificationError, RecordingError
 from pendkit.link import DEFAULT_BROKER
+from pendkit.rig import RigParams
+
+# pendkit modules that load MuJoCo, matplotlib, python-control and paho-mqtt are imported inside the functions that
+# use them: importing this module does not need them (`pendkit --help` stays quick).
 
 
 @click.command()
@@ -70,8 +75,6 @@ def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, f
     from pendkit.adapt.rigs import mqtt_rig, twin_rig
     from pendkit.adapt.session import AdaptConfig
     from pendkit.adapt.session import adapt as run_adaptation
-    from pendkit.errors import ConfigError, IdentificationError, RecordingError
-    from pendkit.rig import RigParams
 
     try:  # the settings checked before the rig is reached
         config = AdaptConfig(episodes=episodes, excitation_episodes=min(6, episodes), fine_tune=fine_tune,

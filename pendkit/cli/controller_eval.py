@@ -11,7 +11,11 @@ from pathlib import Path
 
 import click
 
+from pendkit.deploy.controllers import controller_named
 from pendkit.rig import RigParams
+
+# pendkit modules that load torch and MuJoCo are imported inside the functions that use them: importing this module
+# does not need them (`pendkit --help` stays quick).
 
 
 def evaluate_controller(name: str, episodes: int, backend: str, rig_id: str, broker: str | None,
@@ -67,7 +71,6 @@ def judge_controller(env, name: str, starts: list[str | None], seed: int,
     """One episode per entry of `starts` (None: as the env starts, e.g. a rig hanging still), episode k from
     seed `seed + k`; each judged by the rule's tail (held within 0.3 rad of upright for its last 200 steps)."""
     from pendkit.agents.runs import judge_runs
-    from pendkit.deploy.controllers import controller_named
 
     def said(k: int, start: str | None, one) -> None:
         where = f"from {start}" if start else "from rest"

@@ -9,15 +9,21 @@ from pathlib import Path
 import click
 
 from pendkit.cli.broker_login import broker_login_options, login_from
-from pendkit.deploy.controllers import CONTROLLER_NAMES
+from pendkit.deploy.controllers import CONTROLLER_NAMES, controller_named
+from pendkit.deploy.learned_blob import learned_policy_blob
+from pendkit.device.controller_blob import BlobError, pack, parse
+from pendkit.errors import ConfigError
+from pendkit.link import DEFAULT_BROKER
+from pendkit.rig import RigParams
+
+# pendkit modules that load MuJoCo, matplotlib, python-control and paho-mqtt are imported inside the functions that
+# use them: importing this module does not need them (`pendkit --help` stays quick).
 
 CONTROLLER_CHOICES = CONTROLLER_NAMES
 STALE_TELEMETRY_S = 0.5  # an older reading says nothing of the pendulum now
 
 
 def _rig_params(params_path: Path | None):
-    from pendkit.rig import RigParams
-
     return RigParams() if params_path is None else RigParams.load(params_path)
 
 
@@ -25,8 +31,6 @@ def _learned_blob(run_dir: Path | None, policy_name: str | None, params_path: Pa
     """A trained policy as the device runs it, from RUN_DIR or a shipped policy, and the rig it was made for
     (--params, else the servo preset it was trained on)."""
     from pendkit.agents.policy_artifact import policy_artifact
-    from pendkit.deploy.learned_blob import learned_policy_blob
-    from pendkit.errors import ConfigError
 
     try:
         artifact = policy_artifact(run_dir, policy_name)
@@ -42,7 +46,6 @@ def _blob(run_dir: Path | None, policy_name: str | None, controller: str | None,
         raise click.UsageError(f"give one of RUN_DIR, --policy NAME or --controller {'|'.join(CONTROLLER_NAMES)}")
     if controller is None:
         return _learned_blob(run_dir, policy_name, params_path)
-    from pendkit.deploy.controllers import controller_named
     from pendkit.deploy.swingup_design import design_swing_up
 
     params = _rig_params(params_path)
@@ -87,7 +90,6 @@ def _with_source(function):
               help="The blob to write (.pkcb).")
 def export(run_dir, policy_name, controller, params_path, out_path: Path) -> None:
     """Write a controller (RUN_DIR, --policy NAME or --controller NAME) as a blob for the device."""
-    from pendkit.device.controller_blob import pack
 
     blob, _ = _blob(run_dir, policy_name, controller, params_path)
     data = pack(blob)
@@ -118,10 +120,7 @@ def deploy(run_dir, policy_name, controller, params_path, blob_path, rig_id: str
         servo_range_problem,
         upload_to_rig,
     )
-    from pendkit.device.controller_blob import BlobError, pack, parse
-    from pendkit.link import DEFAULT_BROKER
     from pendkit.link.driver import RigLink, check_rig_id
-    from pendkit.rig import RigParams
 
     check_rig_id(rig_id)
     if blob_path is not None:

@@ -8,8 +8,18 @@ from pathlib import Path
 
 import click
 
+from pendkit.bom import cost_summary, read_bom
+from pendkit.demo import run_demo
 from pendkit.deploy.controllers import CONTROLLER_NAMES
+from pendkit.errors import ConfigError
+from pendkit.firmware_constants import render_header
+from pendkit.rig import RigParams
 from pendkit.sim.fidelity import FIDELITY_PRESETS
+from pendkit.sim.render import mujoco_renderer
+from pendkit.wiring import draw_wiring
+
+# pendkit modules that load MuJoCo and manifold3d are imported inside the functions that use them: importing this
+# module does not need them (`pendkit --help` stays quick).
 
 FIDELITIES = tuple(FIDELITY_PRESETS)
 
@@ -31,8 +41,6 @@ def demo(fidelity: str, seed: int, start: str, out_dir: Path, no_animation: bool
     """Swing up and balance on the MuJoCo twin (energy or minimum-time swing-up + LQR); save a plot and a GIF."""
     import warnings
 
-    from pendkit.demo import run_demo
-
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # no GL here: frames are drawn instead
         result = run_demo(fidelity, seed, start, out_dir, progress=not quiet, animate=not no_animation,
@@ -53,7 +61,6 @@ def demo(fidelity: str, seed: int, start: str, out_dir: Path, no_animation: bool
 def info(as_json: bool, preset: str) -> None:
     """Versions, the GL backend for rendering, and the rig's parameters."""
     import pendkit
-    from pendkit.errors import ConfigError
 
     try:
         params = pendkit.RigParams.preset(preset)
@@ -93,8 +100,6 @@ def info(as_json: bool, preset: str) -> None:
 @click.option("--rigs", type=click.IntRange(1, 1000), default=10, show_default=True, help="Rigs in the class.")
 def bom(csv_path: Path, rigs: int) -> None:
     """Check the bill of materials and print its cost per rig and for a class."""
-    from pendkit.bom import cost_summary, read_bom
-    from pendkit.errors import ConfigError
 
     try:
         click.echo(cost_summary(read_bom(csv_path), rigs))
@@ -111,8 +116,6 @@ def bom(csv_path: Path, rigs: int) -> None:
 def cad(out_dir: Path, preset: str | None, render_dir: Path | None) -> None:
     """Write the printed parts as STL (mm) from RigParams, check they fit together, print their masses."""
     from pendkit.cad.assembly import export, overlaps_mm3
-    from pendkit.errors import ConfigError
-    from pendkit.rig import RigParams
 
     try:
         params = RigParams.preset(preset) if preset else RigParams()
@@ -144,7 +147,6 @@ def cad(out_dir: Path, preset: str | None, render_dir: Path | None) -> None:
               default=Path("docs/img/wiring.png"), show_default=True)
 def wiring(pins_path: Path, out_path: Path) -> None:
     """Draw the rig's wiring diagram from the firmware's pin map."""
-    from pendkit.wiring import draw_wiring
 
     click.echo(f"wiring diagram: {draw_wiring(pins_path, out_path)}")
 
@@ -167,7 +169,6 @@ def _gl_status() -> str:
 
     import pendkit  # noqa: F401  (chooses MUJOCO_GL before mujoco loads)
     from pendkit.sim.model import build_model
-    from pendkit.sim.render import mujoco_renderer
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -183,9 +184,6 @@ def _gl_status() -> str:
 @click.option("--preset", default=None, help="A servo preset (default: RigParams' defaults, the paper's D645MW).")
 def firmware_header(preset: str | None) -> None:
     """Print the firmware's rig_constants.h, generated from RigParams (firmware/lib/pendcore/src)."""
-    from pendkit.errors import ConfigError
-    from pendkit.firmware_constants import render_header
-    from pendkit.rig import RigParams
 
     try:
         params = RigParams.preset(preset) if preset else None

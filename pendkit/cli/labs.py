@@ -7,6 +7,16 @@ from pathlib import Path
 
 import click
 
+from pendkit.errors import ConfigError
+from pendkit.grading.core import kit_hidden_tests, known_labs
+from pendkit.grading.gradescope import build_autograder, run
+from pendkit.grading.on_rigs import RigQueue
+from pendkit.grading.sandbox import isolation_problem
+from pendkit.queue.client import read_token_file
+
+# pendkit modules that load nbformat are imported inside the functions that use them: importing this module does not
+# need them (`pendkit --help` stays quick).
+
 
 @click.group()
 def labs() -> None:
@@ -20,7 +30,6 @@ def labs() -> None:
               show_default=True, help="Where to write the student copies.")
 def labs_build(solutions_dir: Path, labs_dir: Path) -> None:
     """Write labs/NN_name.ipynb from solutions/ (stubs for solutions, no instructor cells)."""
-    from pendkit.errors import ConfigError
     from pendkit.labs.build import build
 
     try:
@@ -38,7 +47,6 @@ def labs_build(solutions_dir: Path, labs_dir: Path) -> None:
               show_default=True)
 def labs_check(solutions_dir: Path, labs_dir: Path) -> None:
     """Fail if labs/ differs from what `pendkit labs build` would write."""
-    from pendkit.errors import ConfigError
     from pendkit.labs.build import stale
 
     try:
@@ -60,8 +68,6 @@ def _seconds(ctx, param, value: float | None) -> float | None:
 
 
 def _lab(ctx, param, value: str | None) -> str | None:
-    from pendkit.grading.core import known_labs
-
     if value is not None and value not in known_labs():
         raise click.BadParameter(f"the kit has no lab {value!r}: its labs are {', '.join(known_labs())}")
     return value
@@ -108,9 +114,7 @@ def grade(ctx: click.Context, submissions: Path | None, lab: str | None, autogra
           check_timeout: float | None, jobs: int, quiet: bool, queue_server: str | None, queue_db: str | None,
           queue_token_file: Path | None, queue_tls_ca: Path | None, queue_wait_minutes: float) -> None:
     """Run and grade every submitted notebook; write Gradescope results.json files and a CSV."""
-    from pendkit.grading.core import kit_hidden_tests
     from pendkit.grading.report import grade_folder
-    from pendkit.grading.sandbox import isolation_problem
 
     if hidden_dir is not None and not any(hidden_dir.glob("lab??_*.py")):
         raise click.BadParameter(f"{hidden_dir} holds no hidden tests (labNN_*.py)", param_hint="--hidden")
@@ -121,8 +125,6 @@ def grade(ctx: click.Context, submissions: Path | None, lab: str | None, autogra
                                "out of the public points alone")
     public_note = "graded with the public tests only (--public-only): every score is out of the public points"
     if autograder_zip is not None:
-        from pendkit.grading.gradescope import build_autograder
-
         if lab is None:
             raise click.BadParameter("say which lab the autograder is for", param_hint="--lab")
         click.echo(f"wrote {build_autograder(autograder_zip, lab, hidden)} with "
@@ -160,9 +162,6 @@ def _rig_queue(server: str | None, db: str | None, token_file: Path | None, tls_
     this process's environment first: no grading worker inherits it (students' kernels get a short list)."""
     import os
 
-    from pendkit.errors import ConfigError
-    from pendkit.grading.on_rigs import RigQueue
-
     token = os.environ.pop("PENDKIT_QUEUE_TOKEN", None)
     if server is None and db is None:
         if token_file is not None or tls_ca is not None:
@@ -173,7 +172,6 @@ def _rig_queue(server: str | None, db: str | None, token_file: Path | None, tls_
     if token_file is not None:
         if token is not None:
             raise click.UsageError("the token comes from PENDKIT_QUEUE_TOKEN or --queue-token-file, not both")
-        from pendkit.queue.client import read_token_file
 
         token = read_token_file(token_file)
     try:
@@ -192,7 +190,6 @@ def _rig_queue(server: str | None, db: str | None, token_file: Path | None, tls_
 @click.option("--lab", required=True, callback=_lab, help="The lab (NN) this autograder grades.")
 def autograder_run(root: Path, lab: str) -> None:
     """Grade one Gradescope submission (the autograder zip's run_autograder calls this)."""
-    from pendkit.grading.gradescope import run
 
     result = run(root, lab)
     click.echo(f"score {result['score']:g}", err=True)

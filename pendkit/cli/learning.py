@@ -9,17 +9,25 @@ from pathlib import Path
 
 import click
 
+from pendkit.agents.async_trainer import AsyncTrainer
+from pendkit.agents.learners import LEARNER_NAMES
 from pendkit.cli.broker_login import broker_login_options, login_from
+from pendkit.cli.controller_eval import evaluate_controller
 from pendkit.deploy.controllers import CONTROLLER_NAMES
+from pendkit.episode import PALETTE
+from pendkit.errors import ConfigError
 from pendkit.link import DEFAULT_BROKER
+from pendkit.rig import SERVO_PRESETS, RigParams
 from pendkit.sim.fidelity import FIDELITY_PRESETS
+from pendkit.sim.randomize import parse_randomize
+
+# pendkit modules that load torch and MuJoCo are imported inside the functions that use them: importing this module
+# does not need them (`pendkit --help` stays quick).
 
 FIDELITIES = tuple(FIDELITY_PRESETS)
 
 
 def _algorithms() -> tuple[str, ...]:
-    from pendkit.agents.learners import LEARNER_NAMES
-
     return LEARNER_NAMES
 
 
@@ -32,9 +40,6 @@ def torch_or_exit() -> None:
 
 
 def _check_randomize(ctx, param, value: str) -> str:
-    from pendkit.errors import ConfigError
-    from pendkit.sim.randomize import parse_randomize
-
     try:
         return ",".join(parse_randomize(value or ""))
     except ConfigError as error:
@@ -42,8 +47,6 @@ def _check_randomize(ctx, param, value: str) -> str:
 
 
 def _preset_names() -> list[str]:
-    from pendkit.rig import SERVO_PRESETS
-
     return sorted(SERVO_PRESETS)
 
 
@@ -98,7 +101,6 @@ def train(algo, fidelity, seed, episodes, max_steps, out_dir, checkpoint_every, 
 def _train_on_rig(spec, out_dir, rig_id, broker, seconds, login) -> None:
     import csv
 
-    from pendkit.agents.async_trainer import AsyncTrainer
     from pendkit.agents.runs import build_run, make_env, save_weights
 
     env, agent, inputs = build_run(spec, make_env(spec, backend="rig", rig=rig_id, broker=broker,
@@ -152,8 +154,6 @@ def evaluate(run_dir: Path | None, policy_name: str | None, controller: str | No
     if sum(x is not None for x in (run_dir, policy_name, controller)) != 1:
         raise click.UsageError(f"give one of RUN_DIR, --policy NAME or --controller {'|'.join(CONTROLLER_NAMES)}")
     if controller is not None:
-        from pendkit.cli.controller_eval import evaluate_controller
-
         return evaluate_controller(controller, episodes, backend, rig_id, broker, preset, params_path, start, seed,
                                    login_from(username, password, tls_ca))
     import dataclasses
@@ -162,7 +162,6 @@ def evaluate(run_dir: Path | None, policy_name: str | None, controller: str | No
     from pendkit.agents.policy_rule import REPORT_SEED, RULE_STARTS, RULE_TEXT, PolicyVerdict
     from pendkit.agents.run_folder import restore
     from pendkit.agents.runs import build_run, evaluate_agent, make_env
-    from pendkit.errors import ConfigError
 
     try:
         artifact = policy_artifact(run_dir, policy_name)
@@ -172,8 +171,6 @@ def evaluate(run_dir: Path | None, policy_name: str | None, controller: str | No
         options = ({"backend": "rig", "rig": rig_id, "broker": broker, "rig_options": login.rig_options() or None}
                    if backend == "rig" else {})
         if params_path is not None:
-            from pendkit.rig import RigParams
-
             spec = dataclasses.replace(spec, preset=None)
             options["params"] = RigParams.load(params_path)
         if backend == "rig" and params_path is None:  # a rig the laptop does not know
@@ -215,8 +212,6 @@ def plot(run_dir: Path) -> None:
 
     import numpy as np
     from matplotlib.figure import Figure
-
-    from pendkit.episode import PALETTE
 
     if not (run_dir / "returns.csv").is_file():
         raise click.ClickException(f"{run_dir} is not a training run (it has no returns.csv): give the --out folder "
@@ -299,7 +294,6 @@ def policies_build(names: tuple[str, ...]) -> None:
     """Train the named shipped policies again (all by default) into pendkit/data/policies."""
     torch_or_exit()
     from pendkit.agents.pretrained import build
-    from pendkit.errors import ConfigError
 
     try:
         build(list(names) or None)

@@ -9,9 +9,15 @@ from pathlib import Path
 import click
 
 from pendkit.cli.broker_login import broker_login_options, login_from, password_options
+from pendkit.errors import ConfigError
 from pendkit.link import DEFAULT_BROKER
+from pendkit.link.broker import EmbeddedBroker, read_credentials, write_classroom_config
+from pendkit.link.secret_files import folder_closed_to_broker
 from pendkit.network import IMPAIRMENTS
-from pendkit.rig import SERVO_PRESETS
+from pendkit.rig import SERVO_PRESETS, RigParams
+
+# pendkit modules that load MuJoCo and paho-mqtt are imported inside the functions that use them: importing this
+# module does not need them (`pendkit --help` stays quick).
 
 
 @click.command()
@@ -19,7 +25,6 @@ from pendkit.rig import SERVO_PRESETS
 @click.option("--port", type=click.IntRange(1, 65535), default=1883, show_default=True)
 def broker(host: str, port: int) -> None:
     """Run the embedded MQTT broker (amqtt) until Ctrl-C: enough for one or a few rigs on a laptop."""
-    from pendkit.link.broker import EmbeddedBroker
 
     stop = threading.Event()
     signal.signal(signal.SIGINT, lambda *_: stop.set())
@@ -47,8 +52,6 @@ def broker_config(rig_ids: tuple[str, ...], out_dir: Path, port: int, bind: str,
                   addresses: tuple[str, ...], new_ca: bool) -> None:
     """Write a classroom Mosquitto configuration: per-rig users, an ACL, client ids tied to usernames, no
     anonymous clients. Run it again with more rigs to add them: existing users keep their passwords."""
-    from pendkit.errors import ConfigError
-    from pendkit.link.broker import write_classroom_config
 
     try:
         paths = write_classroom_config(list(rig_ids), out_dir, port, bind, tls_port=tls_port,
@@ -65,7 +68,6 @@ def broker_config(rig_ids: tuple[str, ...], out_dir: Path, port: int, bind: str,
     click.echo(f"passwords for rigs, hosts and the instructor: {paths['credentials']} (keep it private); each "
                f"user's alone in {paths['logins']}/USER.txt: give a team its host-rNN.txt for --password-file")
     click.echo(f"start it with: mosquitto -c {paths['conf']}")
-    from pendkit.link.secret_files import folder_closed_to_broker
 
     closed = folder_closed_to_broker(paths["conf"].parent)
     if closed is not None:
@@ -101,10 +103,8 @@ def broker_config(rig_ids: tuple[str, ...], out_dir: Path, port: int, bind: str,
 def virtual_rig(rig_ids, broker_url, speed, impairment, credentials_path, tls_ca, username, password, password_file,
                 encoder_fault, protocol, preset, params_path) -> None:
     """Run virtual rigs: the twin with the firmware's logic, speaking the rig protocol over MQTT."""
-    from pendkit.errors import ConfigError
     from pendkit.link.driver import RigLinkError, check_rig_id
     from pendkit.link.virtual_rig import VirtualRig, VirtualRigGroup
-    from pendkit.rig import RigParams
 
     for rig in rig_ids:
         try:
@@ -165,7 +165,6 @@ COMMANDS = (broker, broker_config, virtual_rig, rigs)
 def _rig_logins(rig_ids, credentials_path: Path | None, username: str | None,
                 password: str | None) -> dict[str, tuple[str | None, str | None]]:
     """Each rig's (user, password): its own row of credentials.csv, or one --username/--password for one rig."""
-    from pendkit.link.broker import read_credentials
 
     if credentials_path is not None:
         if username or password:

@@ -14,7 +14,13 @@ import click
 
 from pendkit.cli.broker_login import refused_on_command_line
 from pendkit.deploy.controllers import CONTROLLER_NAMES
+from pendkit.errors import MissingExtraError
+from pendkit.link.broker import read_credentials
+from pendkit.queue.client import QueueClient
 from pendkit.rig import SERVO_PRESETS
+
+# pendkit modules that load SQLAlchemy are imported inside the functions that use them: importing this module does not
+# need them (`pendkit --help` stays quick).
 
 DB_HELP = "The queue's database: an SQLite file, or an SQLAlchemy URL (postgresql+psycopg://...)."
 
@@ -30,8 +36,6 @@ def _db_option(function):
 
 
 def _open_store(db: str):
-    from pendkit.errors import MissingExtraError
-
     try:
         from pendkit.queue.store import QueueStore
     except ImportError:
@@ -106,8 +110,6 @@ def _client_options(function):
 
 
 def _client(server: str, token: str | None, token_file: Path | None, tls_ca: Path | None):
-    from pendkit.queue.client import QueueClient
-
     if token is not None and token_file is not None:
         raise click.UsageError("the token comes from PENDKIT_QUEUE_TOKEN or --token-file, not both")
     return QueueClient(server, token=token, token_file=token_file, tls_ca=tls_ca)
@@ -230,7 +232,6 @@ def cancel(job_id, server, token, token_file, tls_ca) -> None:
 def teams(credentials_path: Path, quota_minutes: float | None, db: str) -> None:
     """Load the teams into the queue: each host-rNN user of broker-config is a team whose token is its password,
     the instructor user the instructor. Prints the teams, never a token."""
-    from pendkit.link.broker import read_credentials
 
     logins = read_credentials(credentials_path)
     team_logins = {user: password for user, password in logins.items() if user.startswith("host-")}

@@ -10,7 +10,11 @@ import threading
 import click
 
 from pendkit.cli.broker_login import broker_login_options, login_from
+from pendkit.errors import ConfigError, MissingExtraError
 from pendkit.link import DEFAULT_BROKER
+
+# pendkit modules that load torch, MuJoCo, SQLAlchemy, matplotlib, python-control and paho-mqtt are imported inside
+# the functions that use them: importing this module does not need them (`pendkit --help` stays quick).
 
 
 @click.command("run")
@@ -33,7 +37,6 @@ def run(db, rig_ids, broker, virtual_ids, speed, name, twin, once, username, pas
 
     On a classroom broker a runner serving several rigs logs in as the instructor (a team's host user reaches
     its own rig only)."""
-    from pendkit.errors import ConfigError, MissingExtraError
     from pendkit.link.driver import RigLink, RigLinkError, check_rig_id
 
     if not rig_ids and not virtual_ids:

@@ -9,6 +9,13 @@ from pathlib import Path
 
 import click
 
+from pendkit.safe_write import check_no_links, write_text
+from pendkit.sweep.ray_runner import run_sweep
+from pendkit.sweep.spec import load_spec
+
+# pendkit modules that load torch and MuJoCo are imported inside the functions that use them: importing this module
+# does not need them (`pendkit --help` stays quick).
+
 
 class SweepGroup(click.Group):
     """`pendkit sweep SPEC ...` runs a spec; `pendkit sweep report DIR` reports (a subcommand by name)."""
@@ -43,10 +50,7 @@ def sweep() -> None:
 def run(spec_path: Path, out: Path, address: str | None, resume: bool, cpus_per_trial: float,
         cpus: int | None, seeds: tuple[int, ...]) -> None:
     """Run SPEC's trials through Ray Tune into --out, then print the summary."""
-    from pendkit.safe_write import write_text
-    from pendkit.sweep.ray_runner import run_sweep
     from pendkit.sweep.report import report
-    from pendkit.sweep.spec import load_spec
 
     spec = load_spec(spec_path, list(seeds))
     click.echo(f"sweep {spec.name}: {len(spec.trials)} trials ({', '.join(spec.learners)})")
@@ -68,7 +72,6 @@ def run(spec_path: Path, out: Path, address: str | None, resume: bool, cpus_per_
 def report_command(out: Path, more: tuple[Path, ...], delay_sweep_json: Path | None, no_figure: bool) -> None:
     """Gather DIR's trials (and MORE_DIRS', a class's runs side by side) into DIR's table.csv/table.json,
     print the summary lines, draw summary.png."""
-    from pendkit.safe_write import check_no_links, write_text
     from pendkit.sweep.report import delay_sweep_record, report
 
     if delay_sweep_json is not None:

@@ -13,7 +13,13 @@ from pathlib import Path
 import numpy as np
 
 from pendkit.device.controller_blob import StateFeedbackBlob, pack
+from pendkit.device.observer_blob import MODEL_FIELDS, ObserverSection
+from pendkit.device.policy_blob import PolicyBlob
+from pendkit.episode import run_episode
 from pendkit.timing import device_timing
+
+# pendkit modules that load MuJoCo, matplotlib and python-control are imported inside the functions that use them:
+# importing this module does not need them (start-up).
 
 VECTORS_MAGIC = b"PKTV"
 VECTOR_HEADER = struct.Struct("<4sIHH")  # magic, steps, input size, output size
@@ -22,7 +28,6 @@ VECTOR_HEADER = struct.Struct("<4sIHH")  # magic, steps, input size, output size
 def policy_blob(agent, params):
     """A trained R-DQN as a policy the device runs itself: the network its agent provides
     (`device_network()`) and the inputs the device makes, one action per output."""
-    from pendkit.device.policy_blob import PolicyBlob
 
     network = agent.device_network()
     return PolicyBlob(network, params.control_step_ms / 1000.0, params.acting_period_ms / 1000.0,
@@ -35,7 +40,6 @@ def observer_section(candidates, params, filter_coefficient: float, actions_seen
     from pendkit.control.model import FurutaModel
     from pendkit.control.observer import DelayedAngleObserver
     from pendkit.control.observer_bank import DEFAULT_MEMORY_S
-    from pendkit.device.observer_blob import MODEL_FIELDS, ObserverSection
 
     timing, period_s = timing or device_timing(params), params.control_step_ms / 1000.0
     models, gains = [], []
@@ -53,7 +57,6 @@ def observed_policy_blob(agent, inputs, params, candidates, filter_coefficient: 
     """A trained R-TD3 reading the observers' estimate and the readings (`features="estimated+measured"`) as a
     policy the device runs itself (layout 2), its observers designed for `candidates` (RigParams: the rig,
     or a bank of them) on `timing` (default the device's); `params`: the rig it runs on."""
-    from pendkit.device.policy_blob import PolicyBlob
 
     candidates = candidates if isinstance(candidates, (tuple, list)) else (candidates,)
     return PolicyBlob(agent.device_network(), params.control_step_ms / 1000.0, params.acting_period_ms / 1000.0,
@@ -70,7 +73,6 @@ def record_vectors(name: str = "r-dqn-realistic", steps: int = 10_000, seed: int
     input and the Q-values torch computes for it."""
     from pendkit.agents.policy_artifact import policy_artifact
     from pendkit.agents.runs import build_run
-    from pendkit.episode import run_episode
 
     artifact = policy_artifact(name=name)
     env, agent, inputs = build_run(artifact.spec)

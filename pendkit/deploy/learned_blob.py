@@ -5,7 +5,11 @@ or an R-TD3 reading its observers' estimate beside the readings (layout 2, its o
 from __future__ import annotations
 
 from pendkit.agents.learners import DEVICE_LEARNERS
+from pendkit.deploy.export import observed_policy_blob, policy_blob
 from pendkit.errors import ConfigError
+
+# pendkit modules that load MuJoCo are imported inside the functions that use them: importing this module does not
+# need them (start-up).
 
 __all__ = ["DEVICE_LEARNERS", "learned_policy_blob", "observer_timing"]
 
@@ -22,7 +26,6 @@ def learned_policy_blob(spec, state: dict | None, params=None, observer=None, tr
     from pendkit.agents.rig_suite import unknown_rig_observer
     from pendkit.agents.run_folder import restore
     from pendkit.agents.runs import build_run
-    from pendkit.deploy.export import observed_policy_blob, policy_blob
 
     layout = DEVICE_LEARNERS.get(spec.learner)  # the learner registry's rows say which the device runs
     if layout is None:

@@ -3,9 +3,15 @@
 
 from __future__ import annotations
 
+from pendkit.deploy.learned_blob import learned_policy_blob
+from pendkit.device.controller_blob import pack
 from pendkit.device.onboard import blob_chunks
+from pendkit.episode import episode_limit
 from pendkit.errors import PendkitError
 from pendkit.features import angle_from_upright_rad
+
+# pendkit modules that load MuJoCo are imported inside the functions that use them: importing this module does not
+# need them (start-up).
 
 SETTLE_STEPS = 3  # env steps for the last chunk to arrive before the status is read
 
@@ -46,7 +52,6 @@ def upload_to_twin(env, blob: bytes, rounds: int = 20) -> int:
 def onboard_episode(env, seed: int | None = None, start: str = "random", steps: int | None = None) -> list[float]:
     """Reset, start the device's controller (`k1`, sent again until the device says it runs) and send only
     heartbeats; the pendulum's angle from upright at every step as the host receives it."""
-    from pendkit.episode import episode_limit
 
     base = env.unwrapped
     backend = base.backend
@@ -83,7 +88,5 @@ def blob_on_rigs(blob: bytes, rigs: dict, starts: int = 5, seed: int = 10_000, s
 def policy_on_devices(spec, state: dict, rigs: dict, starts: int = 5) -> dict:
     """A trained policy (`spec`, its policy state) as its device blob, run on each rig's device from rest and
     `starts` random starts (`blob_on_rigs`)."""
-    from pendkit.deploy.learned_blob import learned_policy_blob
-    from pendkit.device.controller_blob import pack
 
     return blob_on_rigs(pack(learned_policy_blob(spec, state)), rigs, starts)

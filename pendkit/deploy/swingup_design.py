@@ -18,6 +18,7 @@ from pendkit.control.model import FurutaModel
 from pendkit.control.swingup import SwingUpConfig
 from pendkit.control.tracking import TRACKING_WEIGHTS, time_varying_lqr
 from pendkit.control.trajopt import StepModel, SwingUpLimits, fastest_bang_bang, initial_state
+from pendkit.deploy.controllers import controller_named  # the controllers' modules build on this one
 from pendkit.device.swingup_blob import SwingUpBlob
 from pendkit.errors import ConfigError
 from pendkit.rig import RigParams
@@ -72,7 +73,6 @@ def design_swing_up(params: RigParams | None = None, controller: str = "energy",
     """The device's swing-up for a rig by the controller's name (`pendkit.deploy.controllers`: "energy",
     pump and catch with LQR; "trajopt", the fastest plan from rest first, ...). `observer_gains` (angle,
     rate) replaces the pendulum filter's designed gains (lab 10)."""
-    from pendkit.deploy.controllers import controller_named  # the controllers' modules build on this one
 
     return controller_named(controller).design(params or RigParams(), config=config, weights=weights,
                                                limits=limits, observer_gains=observer_gains)

@@ -10,8 +10,10 @@ import math
 
 import numpy as np
 
+from pendkit.device.observation import observation_to_state
 from pendkit.device.observer_runtime import DeviceObserverBank
 from pendkit.device.policy_runtime import NetworkRuntime
+from pendkit.features import resolve_features
 
 F32 = np.float32
 FLT_MAX = float(np.finfo(np.float32).max)
@@ -24,8 +26,6 @@ class ObservedDevicePolicy:
     continuous = True
 
     def __init__(self, blob, params) -> None:
-        from pendkit.features import resolve_features
-
         self.blob, self.params = blob, params
         self.network = NetworkRuntime(blob.network)
         self.bank = DeviceObserverBank(blob.observers, blob.period_s)
@@ -43,8 +43,6 @@ class ObservedDevicePolicy:
         self.action = 0.0  # the network's last output, before the filter
 
     def inputs(self, observation, now_ms: float) -> np.ndarray:
-        from pendkit.device.observation import observation_to_state
-
         state = observation_to_state(observation, self.params, (now_ms - observation.millis) / 1000.0,
                                      self.blob.period_s)
         if not self.started:

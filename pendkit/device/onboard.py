@@ -19,6 +19,10 @@ import struct
 import zlib
 
 from pendkit.device.controller_blob import MAX_BLOB_BYTES, BlobError, parse
+from pendkit.device.observed_policy import ObservedDevicePolicy
+from pendkit.device.policy_runtime import DevicePolicy
+from pendkit.device.swingup_runtime import SwingUpRuntime
+from pendkit.rig import RigParams
 
 DIVERGED = (ArithmeticError, ValueError)  # math.sin(inf) and friends: NaN in the C++ core
 CHUNK_MAGIC = b"PKUP"
@@ -92,14 +96,8 @@ class OnboardController:
             self._refuse(f"a {blob.kind} controller: this device runs {', '.join(RUNNABLE_KINDS)}")
             return
         if blob.kind == "policy":
-            from pendkit.device.observed_policy import ObservedDevicePolicy
-            from pendkit.device.policy_runtime import DevicePolicy
-            from pendkit.rig import RigParams
-
             runtime = (ObservedDevicePolicy if blob.layout == 2 else DevicePolicy)(blob, self.params or RigParams())
         else:
-            from pendkit.device.swingup_runtime import SwingUpRuntime
-
             runtime = SwingUpRuntime(blob)
         self.blob, self.runtime = blob, runtime
         self.active_bytes, self.active_crc = len(data), zlib.crc32(data)

@@ -7,6 +7,8 @@ from __future__ import annotations
 import numpy as np
 
 from pendkit.device.controller_blob import NetworkBlob, StateFeedbackBlob
+from pendkit.device.observation import observation_to_state
+from pendkit.features import resolve_features
 
 F32 = np.float32
 
@@ -84,8 +86,6 @@ class DevicePolicy:
     continuous = False  # an action index (layout 1); `pendkit.device.observed_policy` gives a target
 
     def __init__(self, blob, params) -> None:
-        from pendkit.features import resolve_features
-
         self.blob, self.params = blob, params
         self.network = NetworkRuntime(blob.network)
         self.features = resolve_features("paper")
@@ -97,8 +97,6 @@ class DevicePolicy:
         self.last_action, self.tick_count = 0, self.ticks_per_step - 1  # the first tick decides
 
     def inputs(self, observation, now_ms: float) -> np.ndarray:
-        from pendkit.device.observation import observation_to_state
-
         state = observation_to_state(observation, self.params, (now_ms - observation.millis) / 1000.0,
                                      self.blob.period_s)
         values = [min(max(f.read(state), f.low), f.high) for f in self.features]

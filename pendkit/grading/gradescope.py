@@ -15,6 +15,12 @@ import tempfile
 import zipfile
 from pathlib import Path
 
+from pendkit.grading.core import load_lab
+from pendkit.safe_write import check_no_links, write_text
+
+# pendkit modules that load nbformat are imported inside the functions that use them: importing this module does not
+# need them (start-up).
+
 TORCH_VERSION = "2.13.0"
 SOURCE_FILES = ("pyproject.toml", "README.md")
 
@@ -42,7 +48,6 @@ exec "$PYTHON" -m pendkit.cli autograder-run --root "$ROOT" --lab {lab}
 def build_autograder(zip_path: Path, lab: str, hidden_dir: Path | None, repo: Path | None = None) -> Path:
     """Write Gradescope's autograder zip for lab `lab`; returns its path."""
     import pendkit
-    from pendkit.grading.core import load_lab
 
     load_lab(lab)  # fails early with a clear message for a lab without a graded suite
     repo = repo or Path(pendkit.__file__).resolve().parents[1]
@@ -68,7 +73,6 @@ def build_autograder(zip_path: Path, lab: str, hidden_dir: Path | None, repo: Pa
 def run(root: Path, lab: str) -> dict:
     """Grade the one submission in `root/submission`; write `root/results/results.json`; return it."""
     from pendkit.grading.report import grade_folder, gradescope_results
-    from pendkit.safe_write import check_no_links, write_text
 
     results_dir = root / "results"
     check_no_links(results_dir / "results.json", root)

@@ -18,8 +18,15 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from pendkit.deploy.on_twin import DeployError, onboard_episode, upload_to_twin
+from pendkit.env_name import EPISODE_STEPS
 from pendkit.errors import ConfigError, PendkitError
+from pendkit.features import SOLVED_TAIL_STEPS, holds_upright, time_to_upright_s
 from pendkit.grading.core import Failed, Pending
+from pendkit.queue.client import QueueClient
+
+# pendkit modules that load torch, MuJoCo and SQLAlchemy are imported inside the functions that use them: importing
+# this module does not need them (start-up; torch is an optional extra).
 
 ON_RIGS_VARIABLE = "PENDKIT_GRADE_ON_RIGS"  # "queue": judged tests keep their blobs for `judge_on_rigs`
 INSTRUCTOR_TEAM = "instructor"  # the team `pendkit queue teams` makes of broker-config's instructor user
@@ -63,9 +70,6 @@ def twin_verdict(blob: bytes) -> dict:
 
     import pendkit
     from pendkit.agents.policy_rule import REPORT_SEED, RULE_MIN_HELD, RULE_STARTS
-    from pendkit.deploy.on_twin import DeployError, onboard_episode, upload_to_twin
-    from pendkit.env_name import EPISODE_STEPS
-    from pendkit.features import SOLVED_TAIL_STEPS, holds_upright, time_to_upright_s
 
     env = pendkit.make(action_mode="continuous", fidelity="realistic", filter_coefficient=0.0)
     held, upright_s = [], []
@@ -134,8 +138,6 @@ class _Served:
     """Jobs through `pendkit queue serve`, as the instructor's team."""
 
     def __init__(self, queue: RigQueue) -> None:
-        from pendkit.queue.client import QueueClient
-
         self.client = QueueClient(queue.server, token=queue.token, tls_ca=queue.tls_ca)
 
     def check(self) -> None:

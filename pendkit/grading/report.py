@@ -17,6 +17,7 @@ from pathlib import Path
 
 from pendkit.errors import ConfigError, PendkitError
 from pendkit.grading.core import known_labs, load_hidden_source, load_lab
+from pendkit.grading.on_rigs import ON_RIGS_VARIABLE, judge_on_rigs
 from pendkit.grading.process_guard import carrying, end_processes, new_run_token
 from pendkit.grading.runner import SubmissionGrade, grade_notebook, zero_grade
 from pendkit.grading.sandbox import isolation_problem
@@ -155,7 +156,6 @@ def grade_folder(folder: Path, out: Path, lab: str | None, hidden_dir: Path | No
             else:
                 _grade_in_pool(submissions, settings, sources, jobs, scratch, grades, bar)
         if rig_queue is not None:  # every kernel has ended: the rigs judge what the notebooks' tests kept
-            from pendkit.grading.on_rigs import judge_on_rigs
 
             judge_on_rigs([grades[k] for k in sorted(grades)], rig_queue)
     except KeyboardInterrupt:
@@ -235,7 +235,6 @@ def _short_temporary_folder() -> str | None:
 def _rig_tests_wait(waiting: bool):
     """With a rig queue, the tests judged on a rig keep their blobs (`pendkit.grading.on_rigs`); set in this
     process's environment, which the grading workers inherit and students' kernels do not."""
-    from pendkit.grading.on_rigs import ON_RIGS_VARIABLE
 
     saved = os.environ.pop(ON_RIGS_VARIABLE, None)
     if waiting:

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pendkit.errors import ConfigError
+from pendkit.grading.local_kernels import unix_socket_kernel_manager
 
 KERNEL_NAME = "pendkit-sandbox"
 MAX_SOCKET_PATH = 100  # Linux allows 108 bytes, macOS 104
@@ -196,8 +197,6 @@ class Sandbox:
         """A kernel manager for start `start` of the notebook: each start binds its sockets in a folder of its
         own, so a new kernel never takes the socket paths an earlier one's client may still hold."""
         from jupyter_client.kernelspec import KernelSpecManager
-
-        from pendkit.grading.local_kernels import unix_socket_kernel_manager
 
         specs = KernelSpecManager(kernel_dirs=[str(self.root / "specs")], ensure_native_kernel=False)
         return unix_socket_kernel_manager(self._sockets(start), KERNEL_NAME,  # the kernel binds these sockets

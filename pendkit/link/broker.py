@@ -22,6 +22,7 @@ from pathlib import Path
 
 from pendkit.errors import ConfigError, PendkitError
 from pendkit.link.secret_files import mosquitto_hash, write_private
+from pendkit.link.tls import make_classroom_ca
 
 
 def free_port(host: str = "127.0.0.1") -> int:
@@ -206,8 +207,6 @@ def write_classroom_config(rigs: list[str], out_dir: str | Path, port: int = 188
         f"listener {port} {bind}",
     ]
     if tls_port is not None:
-        from pendkit.link.tls import make_classroom_ca
-
         tls = make_classroom_ca(out, extra_names=addresses or [], new_ca=new_ca)
         paths.update(tls)
         lines += [f"listener {tls_port} {bind}", f"cafile {tls['ca']}", f"certfile {tls['cert']}",

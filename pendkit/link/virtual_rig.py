@@ -25,10 +25,12 @@ import paho.mqtt.client as mqtt
 
 from pendkit.device.observation import McuObservation
 from pendkit.errors import ConfigError
+from pendkit.link.broker import EmbeddedBroker, free_port
 from pendkit.link.diagnose import why_no_connection
 from pendkit.link.driver import (
     DEFAULT_BROKER,
     BrokerAddress,
+    RigLink,
     RigLinkError,
     controller_topic,
     send_without_delay,
@@ -283,7 +285,6 @@ class LocalRig:
 
     def __init__(self, rig: str = "r01", impairment: str | NetworkImpairment = "none", speed: float = 1.0,
                  **rig_kwargs) -> None:
-        from pendkit.link.broker import EmbeddedBroker, free_port
 
         self.rig = rig
         self.broker = EmbeddedBroker(port=free_port()).start()
@@ -297,7 +298,6 @@ class LocalRig:
 
     def measure_latency_ms(self, seconds: float = 2.0) -> np.ndarray:
         """One-way latencies (ms) of this rig's observations: valid here, where rig and host share a clock."""
-        from pendkit.link.driver import RigLink
 
         samples: list[float] = []
         link = RigLink(self.rig, self.url)

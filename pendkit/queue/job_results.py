@@ -25,10 +25,13 @@ import numpy as np
 from pendkit.agents.policy_rule import REPORT_SEED, RULE_MIN_HELD, RULE_STARTS
 from pendkit.agents.runs import held_fraction
 from pendkit.backend_contract import FLAG_BITS
+from pendkit.deploy.on_twin import upload_to_twin
 from pendkit.episode import PALETTE
 from pendkit.errors import ConfigError
-from pendkit.features import SOLVED_TAIL_STEPS, UPRIGHT_RAD, holds_upright, time_to_upright_s
+from pendkit.features import SOLVED_TAIL_STEPS, UPRIGHT_RAD, angle_from_upright_rad, holds_upright, time_to_upright_s
 from pendkit.queue.rig_episodes import Sample
+from pendkit.rig import RigParams
+from pendkit.safe_write import write_text
 from pendkit.sim.pushes import PUSH_SIZES_RAD_S, PUSH_WINDOW_STEPS
 
 PUSH_SIZE, PUSHES_PER_EPISODE = "hand", 2  # bench_policies' "pushes" condition
@@ -107,9 +110,6 @@ def twin_with_pushes(blob: bytes, params: dict, episodes: int, episode_steps: in
     (`REPORT_SEED`), two hand pushes an episode (`pendkit.sim.pushes`' window): the leaderboard's other column.
     About 0.1 s of CPU an episode."""
     import pendkit
-    from pendkit.deploy.on_twin import upload_to_twin
-    from pendkit.features import angle_from_upright_rad
-    from pendkit.rig import RigParams
 
     env = pendkit.make(action_mode="continuous", fidelity="realistic", filter_coefficient=0.0,
                        params=RigParams(**params))
@@ -148,7 +148,6 @@ def excitation_summary(recordings: list, rig_range: tuple[int, int] | None) -> d
 def save_excitation(result: dict, folder: str | Path) -> Path:
     """Write an excitation job's recordings as `pendkit adapt` writes them (excitation.json) and its telemetry
     (telemetry.csv) into `folder`; the JSON's path."""
-    from pendkit.safe_write import write_text
 
     summary = result["summary"]
     if "excitation" not in summary:

@@ -20,12 +20,19 @@ from __future__ import annotations
 import math
 import zlib
 
+from pendkit.agents.policy_artifact import policy_artifact
 from pendkit.agents.policy_rule import RULE_STARTS
 from pendkit.deploy.controllers import CONTROLLER_NAMES
+from pendkit.deploy.learned_blob import learned_policy_blob
+from pendkit.device.controller_blob import BlobError, pack, parse
+from pendkit.device.onboard import RUNNABLE_KINDS
 from pendkit.env_name import EPISODE_STEPS
 from pendkit.errors import ConfigError
 from pendkit.features import SOLVED_TAIL_STEPS
 from pendkit.rig import SERVO_PRESETS, RigParams
+
+# pendkit modules that load matplotlib and python-control are imported inside the functions that use them: importing
+# this module does not need them (start-up).
 
 DEFAULT_PRESET = next(iter(SERVO_PRESETS))  # the kit's own servo (RigParams())
 
@@ -149,7 +156,6 @@ def _params(options: dict) -> tuple[RigParams, str]:
 
 def _controller_blob(name, params: RigParams) -> bytes:
     from pendkit.deploy.swingup_design import design_swing_up
-    from pendkit.device.controller_blob import BlobError, pack
 
     if name not in CONTROLLER_NAMES:
         raise ConfigError(f"controller must be one of {', '.join(CONTROLLER_NAMES)}, got {str(name)[:40]!r}")
@@ -161,9 +167,6 @@ def _controller_blob(name, params: RigParams) -> bytes:
 
 def _policy_blob(name) -> tuple[bytes, RigParams, str]:
     """A shipped policy as its device blob (`pendkit export --policy`), for the servo it was trained on."""
-    from pendkit.agents.policy_artifact import policy_artifact
-    from pendkit.deploy.learned_blob import learned_policy_blob
-    from pendkit.device.controller_blob import BlobError, pack
 
     artifact = policy_artifact(name=name if isinstance(name, str) else repr(name))
     try:  # a learner the device does not run is refused here with the reason
@@ -175,8 +178,6 @@ def _policy_blob(name) -> tuple[bytes, RigParams, str]:
 
 def _checked_blob(payload) -> tuple[bytes, object]:
     """An uploaded blob through the device's own checks (`controller_blob.parse`) and its runnable kinds."""
-    from pendkit.device.controller_blob import BlobError, parse
-    from pendkit.device.onboard import RUNNABLE_KINDS
 
     if not isinstance(payload, (bytes, bytearray)) or not payload:
         raise ConfigError("a blob job needs the blob's bytes (`pendkit export ... --out FILE.pkcb`)")
@@ -205,7 +206,5 @@ def _check_servo(parsed, params: RigParams, servo: str) -> None:
 
 
 def _control_step_s(blob: bytes) -> float:
-    from pendkit.device.controller_blob import parse
-
     parsed = parse(blob)
     return round(float(parsed.scalars["period_s"] if parsed.kind == "swing-up" else parsed.period_s), 6)

@@ -27,11 +27,13 @@ import sqlalchemy as sa
 
 from pendkit.deploy.on_rig import RigSession, controller_status, stop, upload_to_rig
 from pendkit.deploy.on_twin import DeployError
+from pendkit.deploy.swingup_design import design_swing_up
+from pendkit.device.controller_blob import pack
 from pendkit.link.rig_backend import is_servo_counts_range
 from pendkit.queue import job_results
 from pendkit.queue import store as tables
-from pendkit.queue.fair import fits
-from pendkit.queue.rig_episodes import device_episode
+from pendkit.queue.fair import Waiting, fits
+from pendkit.queue.rig_episodes import Sample, device_episode
 from pendkit.queue.rig_reset import JobCancelled, JobStopped, RigFault, RigWatch, RunnerStopping
 from pendkit.rig import RigParams
 
@@ -150,7 +152,6 @@ class QueueRunner:
             return False  # claimed a moment ago, not yet started
         states = {row["rig"]: row["state"] for row in self.store.rigs()}
         serving = [rig.servo_range for rig in self.rigs if states.get(rig.name) != "out"]
-        from pendkit.queue.fair import Waiting
 
         for job in self.store.jobs(states=("waiting",)):
             waiting = Waiting(job.id, job.team, 0, job.submitted_at, job.servo_range)
@@ -342,13 +343,9 @@ class QueueRunner:
 def _warm_up(twin: bool) -> None:
     """Draw a plot (and run the twin) once before any rig runs: matplotlib's first figure holds the
     interpreter for about 0.1 s (fonts), as a first MuJoCo model may, long enough to miss a rig's watchdog."""
-    from pendkit.queue.rig_episodes import Sample
 
     job_results.plot_png([[Sample(0.0, 0.0, 0, frozenset()), Sample(0.1, 0.1, 0, frozenset())]], "warm-up")
     if twin:
-        from pendkit.deploy.swingup_design import design_swing_up
-        from pendkit.device.controller_blob import pack
-
         blob = pack(design_swing_up(RigParams(), "energy"))
         job_results.twin_with_pushes(blob, RigParams().to_dict(), 1, 250, RigParams().control_step_ms / 1000)
 

@@ -30,6 +30,9 @@ from pendkit.queue import page, views
 from pendkit.queue.http_bodies import HttpError, json_object, multipart_fields
 from pendkit.queue.store import QueueStore
 
+# pendkit modules that load torch and MuJoCo are imported inside the functions that use them: importing this module
+# does not need them (start-up; torch is an optional extra).
+
 DEFAULT_PORT = 8790
 MAX_UPLOAD_BYTES = 1024 * 1024  # a device blob is a few kB; a run's weights well under this
 MAX_WAITING_PER_TEAM = 10  # a team's waiting jobs: more are refused until some have run

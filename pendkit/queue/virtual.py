@@ -4,6 +4,7 @@ process, at a speed, so that a class without hardware (and the tests) use the qu
 from __future__ import annotations
 
 from pendkit.link.broker import EmbeddedBroker, free_port
+from pendkit.link.driver import RigLink
 from pendkit.link.virtual_rig import VirtualRig, VirtualRigGroup
 from pendkit.rig import RigParams
 
@@ -33,8 +34,6 @@ class VirtualRigs:
         return self
 
     def links(self) -> list:
-        from pendkit.link.driver import RigLink
-
         return [RigLink(rig, self.url) for rig in self.rig_ids]
 
     def kill(self, rig: str) -> None:

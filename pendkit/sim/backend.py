@@ -73,6 +73,14 @@ class SimBackend:
         """Physics ticks since the last reset."""
         return self._device.tick if self._device is not None else self._tick
 
+    def __getstate__(self) -> dict:
+        """Pickled without the cached views (a copy's views must be of its own MjData)."""
+        return {k: v for k, v in self.__dict__.items() if k not in ("_qpos", "_qvel", "_qacc")}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._qpos, self._qvel, self._qacc = self.data.qpos, self.data.qvel, self.data.qacc
+
     @property
     def nominal_step_s(self) -> float:
         """Mean duration of one env step (the paper-delayed preset adds 0..max substeps)."""

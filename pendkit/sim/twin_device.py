@@ -47,6 +47,14 @@ class TwinDevice:
         self.encoder_fault: str | None = None
         self.reset(round(params.servo_centre_counts))
 
+    def __getstate__(self) -> dict:
+        """Pickled without the cached views (a copy's views must be of its own MjData)."""
+        return {k: v for k, v in self.__dict__.items() if k not in ("_qpos", "_act")}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._qpos, self._act = self.data.qpos, self.data.act
+
     def reset(self, servo_counts: int) -> None:
         self.scheduler.reset(servo_counts, 0)
         self.tick = 0

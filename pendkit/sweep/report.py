@@ -10,6 +10,7 @@ from pathlib import Path
 
 from pendkit.agents.policy_rule import RULE_TEXT
 from pendkit.errors import ConfigError
+from pendkit.rig import RigParams
 from pendkit.safe_write import check_no_links, replacing, write_text
 from pendkit.sweep.ray_runner import SPEC_COPY, trial_line
 from pendkit.sweep.trial import RESULT
@@ -232,8 +233,6 @@ def _delays_ms(rows: list[dict]) -> dict[str, float] | None:
     if kinds == {"delay_ms"}:
         return {r["setting_name"]: float(r["setting"]["value"]) for r in rows}
     if kinds == {"delay_steps"}:
-        from pendkit.rig import RigParams
-
         step_ms = RigParams().control_step_ms
         return {r["setting_name"]: float(r["setting"]["value"]) * step_ms for r in rows}
     return None

@@ -25,7 +25,12 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from pendkit.agents.learners import check_agent_settings, learner
+from pendkit.agents.spec_checks import SPEC_BOUNDS, is_whole
 from pendkit.errors import ConfigError
+from pendkit.rig import RigParams
+from pendkit.sim.fidelity import FIDELITY_PRESETS
+from pendkit.sim.randomize import parse_randomize
 
 SETTING_KINDS = ("fidelities", "delay_steps", "delay_ms", "rigs")
 KNOWN_KEYS = {"name", "learners", "seeds", "budget", "randomize", "agent", *SETTING_KINDS}
@@ -157,7 +162,6 @@ def load_spec(path: str | Path, seeds: list[int] | None = None) -> SweepSpec:
 
 def parse_spec(record: dict, folder: Path = Path(".")) -> SweepSpec:
     """The trials a spec's record names, in a stable order (setting, learner, seed), with clear errors."""
-    from pendkit.agents.learners import learner
 
     unknown = sorted(set(record) - KNOWN_KEYS)
     if unknown:
@@ -198,13 +202,10 @@ def parse_spec(record: dict, folder: Path = Path(".")) -> SweepSpec:
     if not isinstance(randomize, str):
         raise ConfigError(f"randomize: factors as text (e.g. servo,latency or robust), got {randomize!r}")
     if randomize:
-        from pendkit.sim.randomize import parse_randomize
-
         randomize = ",".join(parse_randomize(randomize))
     agent = record.get("agent", {}) or {}
     if not isinstance(agent, dict):
         raise ConfigError(f"agent: a mapping of agent settings, got {agent!r}")
-    from pendkit.agents.learners import check_agent_settings
 
     for learner_name in learners:
         check_agent_settings(learner_name, agent)
@@ -224,14 +225,10 @@ def _as_list(value, key: str, allow_empty: bool = False) -> list:
 
 def _setting_value(kind: str, value, folder: Path):
     if kind == "fidelities":
-        from pendkit.sim.fidelity import FIDELITY_PRESETS
-
         if not isinstance(value, str) or value not in FIDELITY_PRESETS:
             raise ConfigError(f"fidelities: unknown {value!r}; choose from {', '.join(FIDELITY_PRESETS)}")
         return value
     if kind == "delay_steps":
-        from pendkit.agents.spec_checks import SPEC_BOUNDS, is_whole
-
         high = SPEC_BOUNDS["delay_steps"][1]  # as a run's spec takes it
         if not is_whole(value) or not 0 <= value <= high:
             raise ConfigError(f"delay_steps: whole steps >= 0 and <= {high}, got {value!r}")
@@ -246,7 +243,6 @@ def _setting_value(kind: str, value, folder: Path):
     path = path if path.is_absolute() else folder / path
     if not path.is_file():
         raise ConfigError(f"rigs: no parameter file at {path}")
-    from pendkit.rig import RigParams
 
     try:
         RigParams.load(path)

@@ -21,8 +21,13 @@ import socket
 import time
 from pathlib import Path
 
+from pendkit.rig import RigParams
 from pendkit.safe_write import write_text
+from pendkit.sim.fidelity import observation_delay_fidelity
 from pendkit.sweep.spec import Trial
+
+# pendkit modules that load torch and MuJoCo are imported inside the functions that use them: importing this module
+# does not need them (start-up; torch is an optional extra).
 
 RESULT = "result.json"
 
@@ -30,8 +35,6 @@ RESULT = "result.json"
 def run_spec_and_params(trial: Trial):
     """(RunSpec, RigParams or None) of a trial's setting."""
     from pendkit.agents.runs import RunSpec
-    from pendkit.rig import RigParams
-    from pendkit.sim.fidelity import observation_delay_fidelity
 
     kind, value = trial.setting.kind, trial.setting.value
     common = {"seed": trial.seed, "randomize": trial.randomize, "agent": dict(trial.agent)}

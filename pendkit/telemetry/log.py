@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from pendkit.device.protocol import ProtocolError
+from pendkit.safe_write import open_new
 from pendkit.telemetry.parse import parse_observation
 
 
@@ -30,8 +31,6 @@ class EpisodeLog:
     """Append-only writer; use as a context manager or call `close()`."""
 
     def __init__(self, path: str | Path) -> None:
-        from pendkit.safe_write import open_new
-
         self.path = Path(path)
         self._file = open_new(self.path)  # never through a link planted there
         self._lock = threading.Lock()  # the link's network thread writes too

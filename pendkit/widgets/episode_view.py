@@ -7,18 +7,15 @@ import math
 
 import numpy as np
 
-from pendkit.episode import EpisodeTrace, Policy, run_episode
+from pendkit.episode import PALETTE, EpisodeTrace, Policy, run_episode
 from pendkit.sim.render import DrawnFrames
-from pendkit.widgets.common import live_frontend, trace_alt_text, trace_png
+from pendkit.widgets.common import figure_png, live_frontend, trace_alt_text, trace_png
 
 
 def live_traces_png(times_s, angles_deg, velocities_rad_s, actions) -> bytes:
     """Small traces of the episode so far: angle from upright, pendulum rate, action."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
-
-    from pendkit.episode import PALETTE
-    from pendkit.widgets.common import figure_png
 
     figure = Figure(figsize=(5, 3.6), layout="constrained")
     FigureCanvasAgg(figure)

@@ -9,6 +9,7 @@ from pendkit.control.model import FurutaModel, discretise
 from pendkit.grading.core import Failed, NotGradable, expect, is_sequence_of, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
+from pendkit.rig import RigParams
 
 matrices = task("04.upright_matrices", function="upright_matrices", title="A and B about upright", hidden_points=1)
 gain = task("04.lqr_gain", function="lqr_gain", title="A discrete LQR gain", hidden_points=1)
@@ -72,8 +73,6 @@ def match_the_linearisation(fn, rng):
 
 @matrices.test(points=1, hint="Use the model's fields, not numbers copied from the lab.")
 def follows_the_parameters(fn, rng):
-    from pendkit.rig import RigParams
-
     own_a, own_b = _pair(fn(FurutaModel.from_rig()), "upright_matrices(model)")
     if not (np.allclose(own_a, _reference(FurutaModel.from_rig())[0], rtol=1e-6, atol=1e-9)
             and np.allclose(own_b, _reference(FurutaModel.from_rig())[1], rtol=1e-6, atol=1e-9)):

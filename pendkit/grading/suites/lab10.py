@@ -5,9 +5,15 @@ from __future__ import annotations
 import math
 import struct
 
+from pendkit.device.controller_blob import pack
+from pendkit.device.onboard import OnboardController
 from pendkit.grading.core import Failed, expect, task
+from pendkit.grading.on_rigs import checked_blob, judge_blob
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
+
+# pendkit modules that load matplotlib and python-control are imported inside the functions that use them: importing
+# this module does not need them (start-up).
 
 prelab_task("10", ("round_trip_ms", "readings_per_decision", "heartbeat_ms"))
 model = task("10.pendulum_acceleration", function="pendulum_acceleration", title="The estimate's model")
@@ -74,8 +80,6 @@ def as_chunk_list(got, call: str) -> list[bytes]:
 
 
 def device_takes(chunk_list: list[bytes]) -> dict:
-    from pendkit.device.onboard import OnboardController
-
     device = OnboardController()
     for chunk in chunk_list:
         device.chunk(chunk)
@@ -84,7 +88,6 @@ def device_takes(chunk_list: list[bytes]) -> dict:
 
 def sample_blob() -> bytes:
     from pendkit.deploy.swingup_design import design_swing_up
-    from pendkit.device.controller_blob import pack
 
     return pack(design_swing_up(None, "trajopt"))
 
@@ -122,14 +125,11 @@ def resumes_after_a_lost_chunk(fn, rng):
 
 @deploy.test(points=1, hint="pack(design_swing_up(params, controller)): the bytes, for the kit's rig's servo.")
 def the_device_takes_it(fn, rng):
-    from pendkit.grading.on_rigs import checked_blob
-
     checked_blob(fn())
 
 
 @deploy.test(points=3, timeout_s=120, hint="Both of the kit's designs hold on the kit's rig: check what you changed.")
 def judged_by_the_rule(fn, rng):
     """On a rig through the class's queue when the grader has one (pendkit.grading.on_rigs), else on the twin."""
-    from pendkit.grading.on_rigs import checked_blob, judge_blob
 
     return judge_blob(checked_blob(fn()))
