@@ -79,3 +79,16 @@ def test_the_device_runtimes_model_the_same_wait(preset):
     target one acting tick back: the designs' wait, as long as an acting tick is half a PWM frame."""
     params = RigParams.preset(preset) if preset else RigParams()
     assert params.acting_period_ms / 1000 == pytest.approx(device_command_delay_s(params))
+
+
+def test_no_module_but_the_timing_module_works_out_a_wait():
+    """Half a PWM frame, an acting tick or a streaming period is worked out in `pendkit.timing` alone: a second
+    formula elsewhere is how the 10 ms and 15 ms designs came about."""
+    import re
+    from pathlib import Path
+
+    package = Path(__file__).resolve().parents[2] / "pendkit"
+    halving = re.compile(r"(pwm|acting|streaming)_period_ms\s*(/\s*2(000)?\b|\*\s*0?\.5\b)")
+    found = [f"{path.relative_to(package)}:{k}" for path in package.rglob("*.py") if path.name != "timing.py"
+             for k, line in enumerate(path.read_text().splitlines(), start=1) if halving.search(line)]
+    assert found == []
