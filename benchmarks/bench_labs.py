@@ -2,7 +2,7 @@
 and of grading one submission with `pendkit grade`'s runner.
 
     python benchmarks/bench_labs.py [--labs 05 09] [--runs solutions labs grade]
-    python benchmarks/bench_labs.py --interactive [--busy] [--labs 04 05 10]
+    python benchmarks/bench_labs.py --interactive [--busy] [--show] [--labs 04 05 10]
 
 `--interactive` runs each solution notebook with the budgets a class runs (PENDKIT_MODE=interactive) and
 prints one line a lab: `lab=NN interactive_compute_s=X stated_min=Y outcome=ok|short` and the cells that
@@ -119,7 +119,7 @@ class BusyCore:
         self.process.wait()
 
 
-def interactive(labs: list[str] | None, busy: bool = False) -> None:
+def interactive(labs: list[str] | None, busy: bool = False, show: bool = False) -> None:
     import contextlib
 
     with BusyCore() if busy else contextlib.nullcontext():
@@ -134,6 +134,8 @@ def interactive(labs: list[str] | None, busy: bool = False) -> None:
                   f"stated_min={stated.group(1) if stated else '-'} outcome={'ok' if reached else 'short'} "
                   f"cells_over_{BAR_SECONDS:.0f}s_without_bar={','.join(silent) or 'none'} "
                   f"slowest={','.join(slowest)}", flush=True)
+            if show:  # what the cells printed: the lines a lab's text quotes
+                print(printed, flush=True)
 
 
 def main() -> None:
@@ -141,11 +143,12 @@ def main() -> None:
     parser.add_argument("--labs", nargs="+", default=None, help="lab numbers (default: all)")
     parser.add_argument("--interactive", action="store_true", help="the class's budgets, one line a lab")
     parser.add_argument("--busy", action="store_true", help="with --interactive: a second process keeps a core busy")
+    parser.add_argument("--show", action="store_true", help="with --interactive: print what each lab's cells printed")
     parser.add_argument("--runs", nargs="+", choices=RUNS, default=list(RUNS),
                         help="which to time: the solutions, the student templates (labs/), grading a solution")
     args = parser.parse_args()
     if args.interactive:
-        interactive(args.labs, args.busy)
+        interactive(args.labs, args.busy, args.show)
         return
 
     def chosen(path: Path) -> bool:
