@@ -286,7 +286,9 @@ class SwingUpEnv(gym.Env):
                 import mujoco
 
                 self._gl_data.qpos[:] = self.backend.data.qpos
+                # kinematics alone leaves the cameras and lights at the origin: the scene needs both
                 mujoco.mj_kinematics(self._gl_renderer.model, self._gl_data)
+                mujoco.mj_camlight(self._gl_renderer.model, self._gl_data)
                 self._gl_renderer.update_scene(self._gl_data, camera="front")
                 return self._gl_renderer.render()
         if self._drawn_frames is None:

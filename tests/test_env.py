@@ -279,3 +279,18 @@ def test_rendering_without_gl_falls_back_to_drawing(monkeypatch):
     env.reset(seed=0)
     frame = env.render()
     assert frame.shape == (360, 480, 3)
+
+
+def test_the_rendered_twin_is_lit_and_hangs_down_at_rest():
+    """What lab 00's "look at the rig" cell shows: a readable picture with the dowel hanging vertically."""
+    env = pendkit.make(render_mode="rgb_array", start="rest")
+    env.reset(seed=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        frame = env.render().astype(int)
+    env.close()
+    assert frame.mean() > 80 and (frame.max(axis=2) < 30).mean() < 0.2
+    red, green, blue = frame[..., 0], frame[..., 1], frame[..., 2]
+    rows, columns = np.nonzero((red - blue > 50) & (red > green) & (green > blue))  # the pine dowel
+    assert len(rows) > 100
+    assert np.ptp(rows) > 4 * np.ptp(columns)

@@ -35,8 +35,10 @@ _TEMPLATE = """
   <option timestep="{timestep_s}" integrator="RK4" gravity="0 0 -{gravity}">
     <flag contact="disable" {energy_flag}/>
   </option>
-  <visual><global offwidth="640" offheight="480"/><quality shadowsize="1024"/></visual>
+  <visual><global offwidth="640" offheight="480"/><quality shadowsize="1024"/>
+    <headlight ambient=".35 .35 .35" diffuse=".45 .45 .45"/></visual>
   <asset>
+    <texture name="sky" type="skybox" builtin="gradient" rgb1=".93 .95 .98" rgb2=".70 .76 .84" width="64" height="64"/>
     <texture name="grid" type="2d" builtin="checker" rgb1=".92 .92 .92" rgb2=".85 .85 .85" width="256" height="256"/>
     <material name="grid" texture="grid" texrepeat="8 8"/>
     <material name="aluminium" rgba=".75 .77 .80 1"/>
