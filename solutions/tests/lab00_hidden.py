@@ -7,6 +7,7 @@ import numpy as np
 from pendkit.grading import expect, task
 from pendkit.grading.core import shown
 from pendkit.grading.prelab import prelab_answers
+from pendkit.grading.suites.lab00 import percent_note
 
 reward = task("00.reward", function="reward", title="The paper's reward")
 fraction = task("00.upright_fraction", function="upright_fraction", title="Fraction of time upright")
@@ -29,7 +30,8 @@ def reward_is_symmetric(fn, rng):
 @fraction.test(points=1, hidden=True, hint="Accept lists as well as arrays; the bound is strict.")
 def lists_and_the_boundary(fn, rng):
     got = fn([0.3, -0.3, 0.2999])
-    expect(abs(float(got) - 1 / 3) < 1e-9, f"upright_fraction([0.3, -0.3, 0.2999]) should be 1/3, got {shown(got)}")
+    expect(abs(float(got) - 1 / 3) < 1e-9,
+           f"upright_fraction([0.3, -0.3, 0.2999]) should be 1/3, got {shown(got)}{percent_note(1 / 3, got)}")
     expect(abs(float(fn(np.zeros(7))) - 1.0) < 1e-9, "all-upright traces should give 1.0")
 
 
@@ -52,4 +54,5 @@ MISTAKES = [
      "the sign must not matter"),
     ("00.upright_fraction", lambda angles: float(np.mean(np.asarray(angles) < 0.3)), "absolute value"),
     ("00.upright_fraction", lambda angles: int(np.sum(np.abs(np.asarray(angles)) < 0.3)), "count"),
+    ("00.upright_fraction", lambda angles: 100 * float(np.mean(np.abs(np.asarray(angles)) < 0.3)), "percentage"),
 ]

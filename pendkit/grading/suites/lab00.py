@@ -38,7 +38,15 @@ def fraction_of_steps(fn, rng):
         message += ": use the absolute value: -3.0 rad is far from upright"
     if is_real(got) and abs(got - 4) < 1e-9:
         message += ": that is a count; divide by the number of steps"
+    message += percent_note(expected, got)
     expect(is_real(got) and abs(float(got) - expected) < 1e-9, message)
+
+
+def percent_note(expected: float, got) -> str:
+    """Words for an answer 100 times too large: a percentage where the task asks for a fraction."""
+    if is_real(got) and expected and abs(got - 100 * expected) < 1e-6:
+        return ": that is a percentage; return a fraction between 0 and 1 (do not multiply by 100)"
+    return ""
 
 
 @fraction_task.test(points=1, hint="It must work for any length of trace.")
@@ -46,7 +54,8 @@ def random_traces(fn, rng):
     angles = rng.uniform(-math.pi, math.pi, 200)
     expected = float(np.mean(np.abs(angles) < 0.3))
     got = fn(angles)
-    expect(abs(float(got) - expected) < 1e-9, f"for 200 random angles expected {expected:.3f}, got {shown(got)}")
+    expect(abs(float(got) - expected) < 1e-9,
+           f"for 200 random angles expected {expected:.3f}, got {shown(got)}{percent_note(expected, got)}")
 
 
 prelab_task("00", ("steps_per_second", "episode_seconds",))
