@@ -6,6 +6,7 @@ from pendkit import encoder
 from pendkit.grading import Failed, expect, outcomes, task
 from pendkit.grading.core import shown
 from pendkit.grading.prelab import prelab_answers
+from pendkit.grading.suites.lab01 import parity_first, wrap_direction_note
 
 decode = task("01.decode_frame", function="decode_frame", title="Decode an EMS-22A SSI frame")
 to_angle = task("01.counts_to_angle", function="counts_to_angle", title="Counts to angle from the bottom")
@@ -14,6 +15,7 @@ wrap = task("01.wrap_delta", function="wrap_delta", title="Wrap-aware difference
 
 @decode.test(points=2, hidden=True, hint="Compare your function with the frame layout on every bit pattern.")
 def random_frames_match_the_reference(fn, rng):
+    parity_first(fn)
     frames = rng.integers(0, 1 << 16, 400).tolist()
     for frame, outcome in zip(frames, outcomes(fn, [(frame,) for frame in frames])):
         status, got = encoder.frame_status(frame), outcome.value
@@ -28,6 +30,7 @@ def random_frames_match_the_reference(fn, rng):
 
 @decode.test(points=1, hidden=True, hint="Every one of the 1024 positions must decode.")
 def every_position_round_trips(fn, rng):
+    parity_first(fn)
     calls = [(encoder.encode_ssi_frame(position),) for position in range(1024)]
     for position, outcome in enumerate(outcomes(fn, calls)):
         expect(outcome.error is None and outcome.value == position,
@@ -52,7 +55,9 @@ def every_short_step(fn, rng):
     calls = [((start + step) % 1024, start) for start, step in pairs]
     for (start, step), outcome in zip(pairs, outcomes(fn, calls)):
         got = outcome.error or outcome.value
-        expect(got == step, f"wrap_delta({(start + step) % 1024}, {start}) should be {step}, got {shown(got)}")
+        new = (start + step) % 1024
+        expect(got == step, f"wrap_delta({new}, {start}) should be {step}, got {shown(got)}"
+                            f"{wrap_direction_note(new, start, got)}")
 
 
 upright = task("01.angle_from_upright", function="angle_from_upright", title="Angle from upright")
@@ -80,6 +85,8 @@ def the_seam_exactly(fn, rng):
             message += ": right size, wrong sign: the difference is new - old"
         elif outcome.error is None and abs(want) == 512:
             message += ": exactly half a turn keeps its sign (only jumps beyond 512 wrap)"
+        elif outcome.error is None:
+            message += wrap_direction_note(new, old, got)
         expect(outcome.error is None and got == want, message)
 
 
@@ -116,6 +123,21 @@ def decode_ignoring_status(frame):
     if bin(frame).count("1") % 2:
         raise ValueError("parity")
     return frame >> 6
+
+
+def decode_with_odd_parity(frame):
+    if bin(frame).count("1") % 2 == 0:
+        raise ValueError("parity")
+    return frame >> 6
+
+
+def wrap_delta_correcting_the_wrong_way(new, old):
+    delta = new - old
+    if delta > 512:
+        return delta + 1024
+    if delta < -512:
+        return delta - 1024
+    return delta
 
 
 def decode_rejecting_one_magnet_bit(frame):
@@ -160,6 +182,7 @@ CORRECT = {
 MISTAKES = [
     ("01.decode_frame", decode_lsb_first, "bits reversed"),
     ("01.decode_frame", decode_ignoring_parity, "parity"),
+    ("01.decode_frame", decode_with_odd_parity, "parity check is inverted"),
     ("01.decode_frame", decode_ignoring_status, "OCF"),
     ("01.decode_frame", decode_rejecting_one_magnet_bit, "only one magnet bit"),
     ("01.decode_frame", decode_whole_frame, "whole frame"),
@@ -171,6 +194,7 @@ MISTAKES = [
     ("01.angle_from_upright", lambda angle: angle - math.pi, "wrap into [-pi, pi)"),
     ("01.angle_from_upright", lambda angle: angle, "still the angle from the bottom"),
     ("01.wrap_delta", lambda new, old: new - old, "long way round"),
+    ("01.wrap_delta", wrap_delta_correcting_the_wrong_way, "correction went the wrong way"),
     ("01.wrap_delta", lambda new, old: -wrap_delta(new, old), "wrong sign"),
     ("01.wrap_delta", lambda new, old: (new - old + 512) % 1024 - 512, "exactly half a turn"),
 ]

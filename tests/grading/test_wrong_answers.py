@@ -91,6 +91,8 @@ def test_check_prints_and_strict_mode_raises(all_tests_loaded, monkeypatch, caps
 @pytest.mark.parametrize("task_id, fn, misleading", [
     ("00.reward", lambda theta, omega: -theta**2 - 0.5 * omega**2, "Both terms are squared"),
     ("01.wrap_delta", lambda new, old: old - new, "keeps its sign"),
+    ("01.decode_frame", KEYS["01"].decode_with_odd_parity, "Position = bits 15..6"),
+    ("01.decode_frame", KEYS["01"].decode_with_odd_parity, "only one magnet bit"),
     ("02.velocity_rev_s", KEYS["02"].velocity_no_wrap, "Intervals need not be equal"),
     ("03.period_from_crossings", KEYS["03"].period_counting_both_directions, "without interpolation"),
     ("03.slew_rate", KEYS["03"].slew_interpolating_the_wrong_pair, "without interpolation"),
@@ -115,3 +117,12 @@ def test_feedback_shows_numpy_numbers_as_numbers(all_tests_loaded):
     assert "got 0.24" in messages and "np.float64" not in messages, messages
     _, _, messages = score("09.balance_error_deg", lambda angles, dt: 76.9508191732133)
     assert "got 76.9508" in messages and "76.9508191732133" not in messages, messages
+
+
+@pytest.mark.parametrize("task_id, fn, cause", [
+    ("00.upright_fraction", lambda angles: 100 * float(np.mean(np.abs(np.asarray(angles)) < 0.3)), "percentage"),
+    ("01.wrap_delta", KEYS["01"].wrap_delta_correcting_the_wrong_way, "correction went the wrong way"),
+])
+def test_every_test_a_mistake_fails_names_its_one_cause(all_tests_loaded, task_id, fn, cause):
+    failed = [r for r in run_task(task_id, fn, include_hidden=True) if not r.passed]
+    assert failed and all(cause in r.message for r in failed), [r.message for r in failed]

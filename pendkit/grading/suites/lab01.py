@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 from pendkit.encoder import encode_ssi_frame
-from pendkit.grading.core import Failed, expect, is_real, shown, task
+from pendkit.grading.core import Failed, NotGradable, expect, is_real, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
@@ -45,8 +45,34 @@ def _rejects(fn, frame: int) -> bool:
     return False
 
 
+def checks_odd_parity(fn) -> bool:
+    """True when `fn` rejects a valid frame but accepts it with its parity bit (bit 0) flipped: the parity
+    check inverted (odd instead of even)."""
+    frame = encode_ssi_frame(420)
+    for candidate, accepted in ((frame, False), (frame ^ 1, True)):
+        try:
+            fn(candidate)
+        except ValueError:
+            if accepted:
+                return False
+            continue
+        except Exception:  # noqa: BLE001 - any other failure is another test's to name
+            return False
+        if not accepted:
+            return False
+    return True
+
+
+def parity_first(fn) -> None:
+    """Tests of valid frames say nothing more than bad_parity_is_rejected when the parity check is inverted."""
+    if checks_odd_parity(fn):
+        raise NotGradable("your function rejects valid frames because its parity check is inverted (see "
+                          "bad_parity_is_rejected): this test needs valid frames to decode first")
+
+
 def _accepts_a_good_frame(fn, test: str) -> None:
     """A rejection test is only worth points if good frames still decode (rejecting everything is wrong)."""
+    parity_first(fn)
     frame = encode_ssi_frame(420)
     expect(not _rejects(fn, frame), f"decode_frame(0x{frame:04X}) rejected a valid frame: {test} only counts "
                                     "when valid frames still decode")
@@ -54,6 +80,7 @@ def _accepts_a_good_frame(fn, test: str) -> None:
 
 @decode.test(points=3, hint="Position = bits 15..6 of the 16-bit frame, most significant bit first.")
 def positions_of_clean_frames(fn, rng):
+    parity_first(fn)
     for position in (0, 1, 2, 511, 512, 700, 1023, *rng.integers(0, 1024, 5).tolist()):
         frame = encode_ssi_frame(int(position))
         got = fn(frame)
@@ -62,6 +89,11 @@ def positions_of_clean_frames(fn, rng):
 
 @decode.test(points=2, hint="Count the ones in all 16 bits: an odd count means a corrupted frame.")
 def bad_parity_is_rejected(fn, rng):
+    if checks_odd_parity(fn):
+        frame = encode_ssi_frame(420)
+        raise Failed(f"decode_frame(0x{frame:04X}) rejected a valid frame (an even number of ones) and accepted "
+                     f"0x{frame ^ 1:04X} (an odd number): the parity is even, so an odd count of ones is the "
+                     "corrupted frame; your check is inverted")
     _accepts_a_good_frame(fn, "bad_parity_is_rejected")
     for position in (0, 300, 1023):
         frame = encode_ssi_frame(position)
@@ -92,6 +124,7 @@ def bad_status_is_rejected(fn, rng):
 
 @decode.test(points=1, hint="MagINC or MagDEC alone only says the magnet is moving; the reading is valid.")
 def one_magnet_bit_alone_is_valid(fn, rng):
+    parity_first(fn)
     for flags in ({"magnet_closer": True}, {"magnet_away": True}):
         frame = encode_ssi_frame(123, **flags)
         try:
@@ -172,7 +205,17 @@ def differences_across_the_seam(fn, rng):
             message += ": that is old - new, and the long way round: subtract new - old, then wrap"
         elif is_real(got) and got == -expected:
             message += ": right size, wrong sign"
+        message += wrap_direction_note(new, old, got)
         expect(got == expected, message)
+
+
+def wrap_direction_note(new: int, old: int, got) -> str:
+    """Words for a seam correction applied the wrong way (adding 1024 where it should subtract)."""
+    delta = new - old
+    if abs(delta) > 512 and is_real(got) and got == delta + (1024 if delta > 0 else -1024):
+        return (": the correction went the wrong way: a difference above +512 is really that minus 1024, "
+                "one below -512 that plus 1024")
+    return ""
 
 
 @wrap.test(points=1, hint="The firmware wraps only jumps strictly larger than half a turn (512).")
