@@ -31,6 +31,10 @@ def notes(true_rev_s, raw, mean, smooth) -> list[str]:
     if mean is not None:
         mean, want = np.asarray(mean, float), _reference_mean(raw)
         line = f"your firmware_mean: {rms(mean, true_rev_s):.3f} rev/s rms from the truth"
+        if mean.shape == true_rev_s.shape:
+            full = slice(MEAN_WINDOW - 1, None)
+            line += (f" ({rms(mean[full], true_rev_s[full]):.3f} from its {MEAN_WINDOW}th value on, once the buffer "
+                     "is full: what the period sweep below scores)")
         wrong = np.flatnonzero(~np.isclose(mean, want)) if mean.shape == want.shape else np.arange(len(want))
         if len(wrong) and wrong.max() < MEAN_WINDOW - 1:
             line += (f"; its first {wrong.max() + 1} values differ from the firmware's, whose buffer starts full "

@@ -8,6 +8,7 @@ from pendkit import encoder
 from pendkit.grading import expect, task
 from pendkit.grading.core import shown
 from pendkit.grading.prelab import prelab_answers
+from pendkit.grading.suites.lab02 import mean_note
 
 velocity = task("02.velocity_rev_s", function="velocity_rev_s", title="Wrap-aware velocity in rev/s")
 mean = task("02.firmware_mean", function="firmware_mean", title="The firmware's mean of the last N")
@@ -31,7 +32,8 @@ def composes_to_the_firmware_estimate(fn, rng):
     reference, _ = encoder.firmware_velocity(positions, times, 4)
     raw = np.concatenate([[0.0], encoder.finite_difference_rev_s(positions, times)])
     got = np.asarray(fn(raw.tolist(), 4), dtype=float)
-    expect(np.allclose(got, reference, atol=1e-9), "firmware_mean of raw velocities differs from the firmware")
+    expect(got.shape == reference.shape and np.allclose(got, reference, atol=1e-9),
+           "firmware_mean of raw velocities differs from the firmware" + mean_note(raw, 4, got, reference))
 
 
 smooth = task("02.low_pass", function="low_pass", title="A first-order low-pass")

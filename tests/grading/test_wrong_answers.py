@@ -122,6 +122,8 @@ def test_feedback_shows_numpy_numbers_as_numbers(all_tests_loaded):
 @pytest.mark.parametrize("task_id, fn, cause", [
     ("00.upright_fraction", lambda angles: 100 * float(np.mean(np.abs(np.asarray(angles)) < 0.3)), "percentage"),
     ("01.wrap_delta", KEYS["01"].wrap_delta_correcting_the_wrong_way, "correction went the wrong way"),
+    ("02.firmware_mean", KEYS["02"].mean_without_zero_padding, "starts full of zeros"),
+    ("02.firmware_mean", KEYS["02"].mean_centred, "looks ahead"),
 ])
 def test_every_test_a_mistake_fails_names_its_one_cause(all_tests_loaded, task_id, fn, cause):
     failed = [r for r in run_task(task_id, fn, include_hidden=True) if not r.passed]
