@@ -7,6 +7,7 @@ import numpy as np
 from pendkit.grading import expect, task
 from pendkit.grading.core import shown
 from pendkit.grading.prelab import prelab_answers
+from pendkit.grading.suites.lab03 import slew_note
 from pendkit.rig import RigParams
 from pendkit.sim.lab_readings import free_swing_readings
 
@@ -58,7 +59,7 @@ def random_ramps(fn, rng):
                                      duration_s=1.0)
         got = fn(t, command, arm)
         expect(abs(got - speed) < 0.01 * speed, f"a {speed:.2f} rad/s ramp from {start:.2f} to {target:.2f} rad "
-               f"sampled every {1000 * dt:.0f} ms gave {shown(got)}")
+               f"sampled every {1000 * dt:.0f} ms gave {shown(got)}{slew_note(got, speed)}")
 
 
 @slew.test(points=1, hidden=True, hint="Check it on the twin's own servo.")
@@ -71,7 +72,7 @@ def the_twins_servo(fn, rng):
     expected = identify_servo_steps(t, command, arm).slew_rate_rad_s  # the kit's own 10-90 % slope
     got = fn(t, command, arm)
     expect(abs(got - expected) < 0.01 * expected, f"the twin's servo stepping 0.6 rad should give "
-           f"{expected:.3f} rad/s, got {shown(got)}")
+           f"{expected:.3f} rad/s, got {shown(got)}{slew_note(got, expected)}")
 
 
 prelab_answers("03", {"period_s": 1.185507, "log_decrement": 0.693147})

@@ -96,6 +96,7 @@ def test_check_prints_and_strict_mode_raises(all_tests_loaded, monkeypatch, caps
     ("02.velocity_rev_s", KEYS["02"].velocity_no_wrap, "Intervals need not be equal"),
     ("03.period_from_crossings", KEYS["03"].period_counting_both_directions, "without interpolation"),
     ("03.slew_rate", KEYS["03"].slew_interpolating_the_wrong_pair, "without interpolation"),
+    ("03.slew_rate", lambda t, c, a: KEYS["03"].slew_rate(t, c, a) / 0.8, "nterpolat"),
     ("04.upright_matrices", lambda model: KEYS["04"].upright_matrices_with(model, gravity_sign=-1.0),
      "Use the model's fields"),
 ])

@@ -6,6 +6,7 @@ import re
 import numpy as np
 
 from pendkit import encoder
+from pendkit.labs.free_swing import swing_peaks
 from pendkit.labs.velocity_view import ALPHA, notes
 from pendkit.sim.lab_readings import firmware_estimate_error_rev_s, free_swing_readings
 
@@ -32,3 +33,54 @@ def test_lab02_the_mean_starts_at_a_quarter_and_its_full_buffer_rms_is_the_sweep
     said = " ".join(notes(true, raw, mean, encoder.low_pass(raw, ALPHA)))
     overall, full = (float(x) for x in re.findall(r"firmware_mean: ([0-9.]+) .*?\(([0-9.]+) from", said)[0])
     assert overall > full and full == round(firmware_estimate_error_rev_s(25.0), 3)
+
+
+def _free_swing(steps):
+    import math
+    import tempfile
+
+    import pendkit
+    from pendkit.control.sysid import identify_free_swing
+    from pendkit.telemetry.log import readings_from_log
+
+    folder = tempfile.mkdtemp()
+    env = pendkit.make(fidelity="realistic", log_dir=folder)
+    env.reset(seed=0, options={"start": "rest", "pendulum_angle_rad": 0.5})
+    for _ in range(steps):
+        env.step(0)
+    env.close()
+    readings = readings_from_log(f"{folder}/episode-0001.jsonl")
+    times = readings.millis / 1000
+    angles = (encoder.counts_to_rad(readings.position_counts) + math.pi) % (2 * math.pi) - math.pi
+    up = np.nonzero((angles[:-1] < 0) & (angles[1:] >= 0))[0]
+    crossings = times[up] - angles[up] * (times[up + 1] - times[up]) / (angles[up + 1] - angles[up])
+    peaks = swing_peaks(times, angles)
+    delta = float(np.mean(np.log(peaks[:-1] / peaks[1:])))
+    zeta = delta / math.sqrt(4 * math.pi**2 + delta**2)
+    yours = 2 * math.pi / float(np.mean(np.diff(crossings))) / math.sqrt(1 - zeta**2)  # as the lab prints it
+    return yours, identify_free_swing(times, encoder.counts_to_rad(readings.position_counts))
+
+
+def test_lab03_yours_and_the_kits_w0_agree_within_its_error_either_way_round():
+    (short, fit), (long, same_fit) = _free_swing(200), _free_swing(300)  # ci's and the classroom's runs
+    assert fit.natural_frequency_rad_s == same_fit.natural_frequency_rad_s  # the kit's fit does not move
+    assert short < fit.natural_frequency_rad_s < long  # yours can land either side
+    for yours in (short, long):
+        assert abs(yours - fit.natural_frequency_rad_s) < 1.5 * fit.natural_frequency_se < 0.015
+
+
+def test_lab03_the_slope_is_a_quarter_below_the_rated_speed_and_a_whole_step_fit_is_not_saved():
+    import math
+
+    from pendkit.control.sysid import identify_servo_steps
+    from pendkit.rig import RigParams
+    from pendkit.sim.lab_readings import servo_step_readings
+    from pendkit.sim.servo_fit import match_servo_speed
+
+    bench = servo_step_readings(steps_rad=(0.6,), hold_s=0.6, params=RigParams().replace(servo_speed_s_per_60deg=0.26))
+    slope = identify_servo_steps(bench.times_s, bench.commanded_rad, bench.arm_rad).slew_rate_rad_s
+    rated = math.radians(60) / 0.26
+    assert round(slope, 1) == 2.9 and round(rated, 1) == 4.0 and 0.65 < slope / rated < 0.8
+    assert round(match_servo_speed(slope, steps_rad=(0.6,)).servo_speed_s_per_60deg, 2) == 0.26
+    whole_step = match_servo_speed(slope / 0.8, steps_rad=(0.6,)).servo_speed_s_per_60deg
+    assert whole_step < 0.9 * RigParams().servo_speed_s_per_60deg  # the cell's "not saved" branch
