@@ -84,3 +84,24 @@ def test_lab03_the_slope_is_a_quarter_below_the_rated_speed_and_a_whole_step_fit
     assert round(match_servo_speed(slope, steps_rad=(0.6,)).servo_speed_s_per_60deg, 2) == 0.26
     whole_step = match_servo_speed(slope / 0.8, steps_rad=(0.6,)).servo_speed_s_per_60deg
     assert whole_step < 0.9 * RigParams().servo_speed_s_per_60deg  # the cell's "not saved" branch
+
+
+def test_lab05_from_rest_the_slower_servos_third_swing_is_caught_and_the_datasheets_is_not():
+    import math
+
+    import pendkit
+    from pendkit.control.swingup import SwingUpController
+    from pendkit.episode import run_episode, time_to_upright_s
+
+    for speed, fidelity, upright_at in [(0.20, "ideal", 4.02), (0.20, "realistic", 2.94), (0.26, "ideal", 1.80),
+                                        (0.26, "realistic", 1.92)]:
+        params = pendkit.RigParams().replace(servo_speed_s_per_60deg=speed)
+        env = pendkit.make(action_mode="continuous", fidelity=fidelity, start="rest", filter_coefficient=0.0,
+                           params=params)
+        trace = run_episode(env, SwingUpController.for_env(env), seed=0, steps=250)
+        assert round(time_to_upright_s(trace.pendulum_from_upright_rad, env.unwrapped.dt), 2) == upright_at
+        if (speed, fidelity) == (0.20, "ideal"):  # the third swing's closest approach: about 16 deg short
+            away = np.degrees(np.abs(np.asarray(trace.pendulum_from_upright_rad)))
+            closest = [away[i] for i in range(1, len(away) - 1) if away[i - 1] > away[i] <= away[i + 1]]
+            assert round(closest[2]) == 16 and closest[3] > 40, closest[:4]
+    assert math.isclose(pendkit.RigParams().servo_speed_s_per_60deg, 0.20)
