@@ -3,7 +3,9 @@
 import numpy as np
 
 from pendkit.grading import expect, task
+from pendkit.grading.core import shown
 from pendkit.grading.prelab import prelab_answers
+from pendkit.grading.suites.lab06 import prediction_note
 
 jitter = task("06.period_error_p99_ms", function="period_error_p99_ms", title="Step-period jitter")
 fit = task("06.fit_latency", function="fit_latency", title="A latency distribution from samples")
@@ -30,7 +32,9 @@ def narrow_distribution_from_a_list(fn, rng):
 def random_states(fn, rng):
     for theta, rate, delay in rng.uniform([-0.2, -2, 0], [0.2, 2, 0.1], (20, 3)):
         expected = theta + rate * delay + 0.5 * 5.3**2 * theta * delay**2
-        expect(abs(fn(theta, rate, delay, 5.3) - expected) < 1e-9, "wrong for a random state")
+        got = fn(theta, rate, delay, 5.3)
+        expect(abs(got - expected) < 1e-9, f"predict_angle({theta:.3f}, {rate:.3f}, {delay:.3f}, 5.3) should be "
+               f"{expected:.5f}, got {shown(got)}{prediction_note(theta, rate, delay, 5.3, got)}")
 
 
 prelab_answers("06", {"round_trip_ms": 40.0, "growth_during_delay": 1.419068})
@@ -59,4 +63,5 @@ MISTAKES = [
     ("06.fit_latency", lambda samples: fit_latency(samples, subtract_floor=False), "subtract the floor"),
     ("06.predict_angle", lambda theta, rate, d, w0: theta + rate * d, "left out gravity"),
     ("06.predict_angle", lambda theta, rate, d, w0: theta + rate * d - 0.5 * w0**2 * theta * d**2, "not minus"),
+    ("06.predict_angle", lambda theta, rate, d, w0: theta - rate * d + 0.5 * w0**2 * theta * d**2, "velocity term"),
 ]

@@ -125,6 +125,9 @@ def test_feedback_shows_numpy_numbers_as_numbers(all_tests_loaded):
     ("01.wrap_delta", KEYS["01"].wrap_delta_correcting_the_wrong_way, "correction went the wrong way"),
     ("02.firmware_mean", KEYS["02"].mean_without_zero_padding, "starts full of zeros"),
     ("02.firmware_mean", KEYS["02"].mean_centred, "looks ahead"),
+    ("03.slew_rate", lambda t, c, a: KEYS["03"].slew_rate(t, c, a) / 0.8, "80 % of the step"),
+    ("06.predict_angle", lambda theta, rate, d, w0: theta + rate * d - 0.5 * w0**2 * theta * d**2, "not minus"),
+    ("06.predict_angle", lambda theta, rate, d, w0: theta + rate * d, "left out gravity"),
 ])
 def test_every_test_a_mistake_fails_names_its_one_cause(all_tests_loaded, task_id, fn, cause):
     failed = [r for r in run_task(task_id, fn, include_hidden=True) if not r.passed]

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from pendkit.grading.core import Failed, as_number, expect, is_sequence_of, shown, task
+from pendkit.grading.core import Failed, as_number, expect, is_real, is_sequence_of, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
@@ -57,12 +57,21 @@ def second_order_prediction(fn, rng):
         expected = theta + rate * delay + 0.5 * w0**2 * theta * delay**2
         got = as_number(fn(theta, rate, delay, w0), "predict_angle(...)")
         message = f"predict_angle({theta}, {rate}, {delay}, {w0}) should be {expected:.5f}, got {got:.5f}"
-        if abs(got - (theta + rate * delay)) < 1e-12 and theta:
-            message += ": you left out gravity, which pushes the pendulum away from upright during the delay"
-        elif abs(got - (theta + rate * delay - 0.5 * w0**2 * theta * delay**2)) < 1e-12 and theta:
-            message += ": upright, gravity pushes away from the top: + w0^2 theta, not minus"
-        expect(abs(got - expected) < 1e-9, message)
+        expect(abs(got - expected) < 1e-9, message + prediction_note(theta, rate, delay, w0, got))
     expect(math.isfinite(as_number(fn(0.0, 0.0, 0.0, 5.3), "predict_angle(0, 0, 0, 5.3)")), "zero delay must work")
+
+
+def prediction_note(theta: float, rate: float, delay: float, w0: float, got) -> str:
+    """Words for the gravity term's mistakes (left out, or its sign flipped), or nothing."""
+    if not is_real(got) or not theta:
+        return ""
+    if abs(got - (theta + rate * delay)) < 1e-12:
+        return ": you left out gravity, which pushes the pendulum away from upright during the delay"
+    if abs(got - (theta + rate * delay - 0.5 * w0**2 * theta * delay**2)) < 1e-12:
+        return ": upright, gravity pushes away from the top: + w0^2 theta, not minus"
+    if abs(got - (theta - rate * delay + 0.5 * w0**2 * theta * delay**2)) < 1e-12 and rate:
+        return ": the velocity term's sign is flipped: the angle moves on by + theta' d"
+    return ""
 
 
 prelab_task("06", ("round_trip_ms", "growth_during_delay",))
