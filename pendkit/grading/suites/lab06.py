@@ -62,12 +62,12 @@ def second_order_prediction(fn, rng):
 
 
 def prediction_note(theta: float, rate: float, delay: float, w0: float, got) -> str:
-    """Words for the gravity term's mistakes (left out, or its sign flipped), or nothing."""
-    if not is_real(got) or not theta:
+    """Words for the gravity term's mistakes (left out, or its sign flipped) and a flipped velocity term."""
+    if not is_real(got):
         return ""
-    if abs(got - (theta + rate * delay)) < 1e-12:
+    if theta and abs(got - (theta + rate * delay)) < 1e-12:
         return ": you left out gravity, which pushes the pendulum away from upright during the delay"
-    if abs(got - (theta + rate * delay - 0.5 * w0**2 * theta * delay**2)) < 1e-12:
+    if theta and abs(got - (theta + rate * delay - 0.5 * w0**2 * theta * delay**2)) < 1e-12:
         return ": upright, gravity pushes away from the top: + w0^2 theta, not minus"
     if abs(got - (theta - rate * delay + 0.5 * w0**2 * theta * delay**2)) < 1e-12 and rate:
         return ": the velocity term's sign is flipped: the angle moves on by + theta' d"
