@@ -61,7 +61,8 @@ def test_lab09_the_deployed_policies_come_up_on_their_twins_and_not_on_the_slowe
 
     def upright_at(env, name):
         run = run_guarded(env, load_policy(name, env), lambda *reading: None, steps=400, seed=0)
-        return time_to_upright_s(list(run.trace.pendulum_from_upright_rad), 0.06)
+        up = time_to_upright_s(list(run.trace.pendulum_from_upright_rad), 0.06)
+        return None if up is None or up > 400 * 0.06 - 2.0 else up  # the lab's measure: held the last 2 s at least
 
     rig = LocalRig(impairment="classroom-wifi", params=pendkit.RigParams.preset("hitec-d645mw-4v8"))
     try:
