@@ -7,6 +7,7 @@ from typing import Any
 
 from pendkit.grading.core import (
     TASKS,
+    Diagnosis,
     Failed,
     GradingError,
     Task,
@@ -76,5 +77,5 @@ def attempt(fn: Callable, *args, **kwargs) -> Any:
         return None
 
 
-__all__ = ["TASKS", "Failed", "GradingError", "Score", "Task", "TestResult", "attempt", "budget", "check", "expect",
-           "format_report", "load_hidden", "load_lab", "mode", "outcomes", "run_task", "strict", "task"]
+__all__ = ["TASKS", "Diagnosis", "Failed", "GradingError", "Score", "Task", "TestResult", "attempt", "budget", "check",
+           "expect", "format_report", "load_hidden", "load_lab", "mode", "outcomes", "run_task", "strict", "task"]

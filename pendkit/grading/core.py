@@ -34,8 +34,25 @@ DEFAULT_TIMEOUT_S = 10.0
 TIMEOUT_CAP_VARIABLE = "PENDKIT_CHECK_TIMEOUT_S"  # `pendkit grade --check-timeout` caps every test with it
 
 
+class Diagnosis(str):
+    """Feedback that names the mistake's cause (a suite's diagnosis helpers return one): a failure with it
+    carries no hint, since the test's hint may point at a different cause. Adding text to it, on either side,
+    keeps it a diagnosis: `message + note` names the cause when the note does."""
+
+    def __add__(self, other: str) -> Diagnosis:
+        return Diagnosis(str(self) + str(other))
+
+    def __radd__(self, other: str) -> Diagnosis:
+        return Diagnosis(str(other) + str(self))
+
+
 class Failed(AssertionError):
-    """A test's specific feedback for the student."""
+    """A test's specific feedback for the student. `hint=False` (or a `Diagnosis` message): the message names
+    the cause, so the test's hint is left off."""
+
+    def __init__(self, message: str = "", hint: bool | None = None) -> None:
+        super().__init__(message)
+        self.with_hint = not isinstance(message, Diagnosis) if hint is None else hint
 
 
 class NotGradable(Exception):
@@ -109,10 +126,10 @@ def is_sequence_of(value, length: int) -> bool:
     return isinstance(value, (tuple, list)) and len(value) == length
 
 
-def expect(condition: bool, message: str) -> None:
-    """Fail the current test with `message` unless `condition` holds."""
+def expect(condition: bool, message: str, hint: bool | None = None) -> None:
+    """Fail the current test with `message` unless `condition` holds (`hint`: as `Failed`'s)."""
     if not condition:
-        raise Failed(message)
+        raise Failed(message, hint)
 
 
 @dataclass
@@ -258,7 +275,7 @@ def run_test(test: TestCase, fn: Callable, time_limit: bool = True) -> TestResul
     except Pending as waiting:
         return TestResult(test.name, 0.0, test.points, False, str(waiting), test.hidden, pending=waiting.payload)
     except Failed as failure:
-        return _failed(test, str(failure) or "wrong result")
+        return _failed(test, str(failure) or "wrong result", with_hint=getattr(failure, "with_hint", True))
     except CheckTimeout as timeout:
         return _failed(test, f"{timeout}: is there an endless loop?")
     except NotImplementedError:

@@ -30,8 +30,9 @@ def reward_is_symmetric(fn, rng):
 @fraction.test(points=1, hidden=True, hint="Accept lists as well as arrays; the bound is strict.")
 def lists_and_the_boundary(fn, rng):
     got = fn([0.3, -0.3, 0.2999])
+    note = percent_note(1 / 3, got)
     expect(abs(float(got) - 1 / 3) < 1e-9,
-           f"upright_fraction([0.3, -0.3, 0.2999]) should be 1/3, got {shown(got)}{percent_note(1 / 3, got)}")
+           f"upright_fraction([0.3, -0.3, 0.2999]) should be 1/3, got {shown(got)}{note}", hint=not note)
     expect(abs(float(fn(np.zeros(7))) - 1.0) < 1e-9, "all-upright traces should give 1.0")
 
 

@@ -6,7 +6,7 @@ from pendkit import encoder
 from pendkit.grading import Failed, expect, outcomes, task
 from pendkit.grading.core import shown
 from pendkit.grading.prelab import prelab_answers
-from pendkit.grading.suites.lab01 import parity_first, wrap_direction_note
+from pendkit.grading.suites.lab01 import diagnose_position, parity_first, wrap_direction_note
 
 decode = task("01.decode_frame", function="decode_frame", title="Decode an EMS-22A SSI frame")
 to_angle = task("01.counts_to_angle", function="counts_to_angle", title="Counts to angle from the bottom")
@@ -25,7 +25,7 @@ def random_frames_match_the_reference(fn, rng):
         if outcome.error is not None:
             raise Failed(f"decode_frame(0x{frame:04X}) raised {type(outcome.error).__name__} instead of ValueError")
         expect(status == "ok", f"decode_frame(0x{frame:04X}) accepted a frame with {status}")
-        expect(got == frame >> 6, f"decode_frame(0x{frame:04X}) should be {frame >> 6}, got {shown(got)}")
+        expect(got == frame >> 6, diagnose_position(frame, frame >> 6, got))
 
 
 @decode.test(points=1, hidden=True, hint="Every one of the 1024 positions must decode.")
@@ -33,8 +33,9 @@ def every_position_round_trips(fn, rng):
     parity_first(fn)
     calls = [(encoder.encode_ssi_frame(position),) for position in range(1024)]
     for position, outcome in enumerate(outcomes(fn, calls)):
-        expect(outcome.error is None and outcome.value == position,
-               f"position {position} decoded as {outcome.error or outcome.value!r}")
+        if outcome.error is None and outcome.value != position:
+            raise Failed(diagnose_position(calls[position][0], position, outcome.value))
+        expect(outcome.error is None, f"position {position} decoded as {outcome.error!r}")
 
 
 @to_angle.test(points=1, hidden=True, hint="Results must stay in [0, 2 pi) for every reading and offset.")
@@ -186,7 +187,8 @@ MISTAKES = [
     ("01.decode_frame", decode_ignoring_status, "OCF"),
     ("01.decode_frame", decode_rejecting_one_magnet_bit, "only one magnet bit"),
     ("01.decode_frame", decode_whole_frame, "whole frame"),
-    ("01.decode_frame", decode_off_by_one_shift, "frame >> 6"),
+    ("01.decode_frame", decode_off_by_one_shift, "frame >> 6",
+     {"random_frames_match_the_reference", "every_position_round_trips", "one_magnet_bit_alone_is_valid"}),
     ("01.counts_to_angle", counts_in_degrees, "degrees"),
     ("01.counts_to_angle", counts_adding_offset, "added the offset"),
     ("01.counts_to_angle", counts_over_1023, "not 1023"),

@@ -8,7 +8,7 @@ from pendkit import encoder
 from pendkit.grading import expect, task
 from pendkit.grading.core import shown
 from pendkit.grading.prelab import prelab_answers
-from pendkit.grading.suites.lab02 import mean_note
+from pendkit.grading.suites.lab02 import mean_note, velocity_note
 
 velocity = task("02.velocity_rev_s", function="velocity_rev_s", title="Wrap-aware velocity in rev/s")
 mean = task("02.firmware_mean", function="firmware_mean", title="The firmware's mean of the last N")
@@ -21,8 +21,10 @@ def matches_the_firmware_on_a_twin_log(fn, rng):
     readings = free_swing_readings(period_ms=25.0, duration_s=2.0, offset_counts=int(rng.integers(0, 1024)))
     expected = encoder.finite_difference_rev_s(readings.raw_counts, readings.times_ms)
     got = np.asarray(fn(readings.raw_counts.tolist(), readings.times_ms.tolist()), dtype=float)
-    expect(got.shape == expected.shape and np.allclose(got, expected, atol=1e-9),
-           "velocities of a 2 s spin on the twin differ from the firmware's")
+    expect(got.shape == expected.shape, f"velocities of a 2 s spin on the twin: expected {expected.shape[0]} values, "
+                                        f"got shape {got.shape}")
+    expect(np.allclose(got, expected, atol=1e-9), "velocities of a 2 s spin on the twin differ from the firmware's"
+           + velocity_note(got, expected, readings.raw_counts, readings.times_ms))
 
 
 @mean.test(points=1, hidden=True, hint="Feed your mean the raw velocities: it must equal the firmware's report.")
@@ -104,7 +106,7 @@ CORRECT = {
 
 MISTAKES = [
     ("02.velocity_rev_s", velocity_no_wrap, "wrap-aware"),
-    ("02.velocity_rev_s", velocity_rad_s, "rad/s"),
+    ("02.velocity_rev_s", velocity_rad_s, "rad/s", {"matches_the_firmware_on_a_twin_log", "steady_rotation"}),
     ("02.velocity_rev_s", velocity_seconds, "milliseconds"),
     ("02.velocity_rev_s", velocity_1023, "not 1023"),
     ("02.firmware_mean", mean_without_zero_padding, "full of zeros"),

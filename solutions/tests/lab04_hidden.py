@@ -6,6 +6,7 @@ import numpy as np
 from pendkit.control.model import FurutaModel, discretise
 from pendkit.grading import expect, task
 from pendkit.grading.prelab import prelab_answers
+from pendkit.grading.suites.lab04 import matrices_note
 from pendkit.rig import RigParams
 
 gain = task("04.lqr_gain", function="lqr_gain", title="A discrete LQR gain")
@@ -47,7 +48,7 @@ def random_rigs(fn, rng):
         expect(np.allclose(a, np.asarray(reference.A), rtol=1e-6, atol=1e-9)
                and np.allclose(b.reshape(4, 1), np.asarray(reference.B), rtol=1e-6, atol=1e-9),
                f"upright_matrices is wrong for a rig with a {1000 * params.tip_mass_kg:.1f} g tip and a "
-               f"{1000 * params.dowel_length_m:.0f} mm dowel")
+               f"{1000 * params.dowel_length_m:.0f} mm dowel" + matrices_note(model, a, b))
 
 
 prelab_answers("04", {"growth_per_step": 1.3498588075760032, "steps_to_tenfold": 7.675283643313486})
@@ -80,7 +81,8 @@ CORRECT = {
 }
 
 MISTAKES = [
-    ("04.upright_matrices", lambda model: upright_matrices_with(model, gravity_sign=-1.0), "wrong sign"),
+    ("04.upright_matrices", lambda model: upright_matrices_with(model, gravity_sign=-1.0), "gravity column has the "
+     "wrong sign", {"match_the_linearisation", "random_rigs"}),
     ("04.upright_matrices", lambda model: upright_matrices_with(model, coupling=False), "coupling"),
     ("04.lqr_gain", lambda a, b, q, r: np.asarray(control.lqr(a, b, np.diag(q), [[r]])[0]), "continuous-time"),
     ("04.lqr_gain", lambda a, b, q, r: -np.asarray(control.dlqr(a, b, np.diag(q), [[r]])[0]), "wrong sign"),

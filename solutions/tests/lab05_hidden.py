@@ -5,6 +5,7 @@ import math
 from pendkit.grading import expect, outcomes, task
 from pendkit.grading.core import shown
 from pendkit.grading.prelab import prelab_answers
+from pendkit.grading.suites.lab05 import pumping_note
 
 energy = task("05.pendulum_energy", function="pendulum_energy", title="Normalised pendulum energy")
 direction = task("05.pumping_direction", function="pumping_direction", title="Which way to accelerate the arm")
@@ -22,9 +23,12 @@ def wound_up_angles(fn, rng):
 def all_quadrants(fn, rng):
     calls = [(float(alpha), omega) for alpha in rng.uniform(-math.pi, math.pi, 40) for omega in (-2.0, 2.0)]
     calls += [(0.0, 0.0), (1.0, 0.0)]  # at rest no push adds energy: the lab says +1
-    for (alpha, omega), outcome in zip(calls, outcomes(fn, calls)):
+    results = outcomes(fn, calls)
+    note = pumping_note(calls, [outcome.value for outcome in results])
+    for (alpha, omega), outcome in zip(calls, results):
         expected = -1 if omega * math.cos(alpha) > 0 else 1
-        expect(outcome.error is None and outcome.value == expected, f"pumping_direction({alpha:.3f}, {omega}) is wrong")
+        expect(outcome.error is None and outcome.value == expected,
+               f"pumping_direction({alpha:.3f}, {omega}) is wrong" + note)
 
 
 switch = task("05.next_mode", function="next_mode", title="Hand-over between swing-up and LQR")
@@ -120,7 +124,8 @@ MISTAKES = [
     ("05.pendulum_energy", lambda alpha, w, w0: 0.5 * (w / w0) ** 2 + math.cos(alpha), "sign is flipped"),
     ("05.pendulum_energy", lambda alpha, w, w0: (w / w0) ** 2 - math.cos(alpha), "factor 1/2"),
     ("05.pendulum_energy", lambda alpha, w, w0: 0.5 * w**2 - math.cos(alpha), "natural frequency"),
-    ("05.pumping_direction", lambda alpha, w: 1 if w * math.cos(alpha) > 0 else -1, "against"),
+    ("05.pumping_direction", lambda alpha, w: 1 if w * math.cos(alpha) > 0 else -1, "brakes the swing",
+     {"all_quadrants"}),
     ("05.pumping_direction", lambda alpha, w: -1 if w > 0 else 1, "above horizontal"),
     ("05.next_mode", lambda mode, theta, w: next_mode(mode, theta, w, fall=0.8), "hysteresis"),
     ("05.next_mode", lambda mode, theta, w: next_mode(mode, theta, w, check_velocity=False), "fly through"),

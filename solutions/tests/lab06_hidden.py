@@ -3,9 +3,9 @@
 import numpy as np
 
 from pendkit.grading import expect, task
-from pendkit.grading.core import shown
+from pendkit.grading.core import as_number, shown
 from pendkit.grading.prelab import prelab_answers
-from pendkit.grading.suites.lab06 import prediction_note
+from pendkit.grading.suites.lab06 import jitter_note, prediction_note
 
 jitter = task("06.period_error_p99_ms", function="period_error_p99_ms", title="Step-period jitter")
 fit = task("06.fit_latency", function="fit_latency", title="A latency distribution from samples")
@@ -17,7 +17,9 @@ def other_periods(fn, rng):
     periods = 0.035 + rng.normal(0, 0.001, 300)
     times = np.concatenate([[5.0], 5.0 + np.cumsum(periods)])
     expected = float(np.percentile(np.abs(periods - 0.035) * 1000, 99))
-    expect(abs(fn(times, 0.035) - expected) < 1e-6, "wrong for a 35 ms period with random jitter")
+    got = as_number(fn(times, 0.035), "period_error_p99_ms(times, 0.035)")
+    expect(abs(got - expected) < 1e-6, f"wrong for a 35 ms period with random jitter: expected {expected:.3f} ms, "
+                                       f"got {got:.3f}" + jitter_note(np.diff(times), 0.035, got))
 
 
 @fit.test(points=1, hidden=True, hint="Works on lists too, and on a narrow distribution.")
@@ -58,7 +60,8 @@ CORRECT = {
 }
 
 MISTAKES = [
-    ("06.period_error_p99_ms", lambda t, n: float(np.percentile(np.abs(np.diff(t) - n), 99)), "seconds"),
+    ("06.period_error_p99_ms", lambda t, n: float(np.percentile(np.abs(np.diff(t) - n), 99)), "in seconds",
+     {"percentile_of_absolute_error", "other_periods"}),
     ("06.period_error_p99_ms", lambda t, n: float(np.percentile((np.diff(t) - n) * 1000, 99)), "absolute error"),
     ("06.fit_latency", lambda samples: fit_latency(samples, subtract_floor=False), "subtract the floor"),
     ("06.predict_angle", lambda theta, rate, d, w0: theta + rate * d, "left out gravity"),

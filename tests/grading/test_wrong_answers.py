@@ -31,7 +31,8 @@ def load_every_lab() -> dict[str, object]:
 
 KEYS = load_every_lab()
 CORRECT = {task_id: fn for key in KEYS.values() for task_id, fn in key.CORRECT.items()}
-MISTAKES = [mistake for key in KEYS.values() for mistake in key.MISTAKES]
+# a mistake is (task, answer, words its feedback must contain[, the tests each of which must fail naming them])
+MISTAKES = [(*mistake, set())[:4] for key in KEYS.values() for mistake in key.MISTAKES]
 
 
 def test_every_lab_has_an_answer_key_for_every_task(all_tests_loaded):
@@ -48,11 +49,14 @@ def test_correct_answers_get_full_marks(all_tests_loaded, task_id):
     assert got == total > 0, messages
 
 
-@pytest.mark.parametrize("task_id, fn, words", MISTAKES, ids=[f"{m[0]}-{m[2]}" for m in MISTAKES])
-def test_mistakes_lose_points_with_a_pointed_message(all_tests_loaded, task_id, fn, words):
-    got, total, messages = score(task_id, fn)
-    assert got < total
-    assert words in messages, messages
+@pytest.mark.parametrize("task_id, fn, words, each", MISTAKES, ids=[f"{m[0]}-{m[2]}" for m in MISTAKES])
+def test_mistakes_lose_points_with_a_pointed_message(all_tests_loaded, task_id, fn, words, each):
+    results = run_task(task_id, fn, include_hidden=True)
+    assert sum(r.points for r in results) < sum(r.max_points for r in results)
+    assert words in " ".join(r.message for r in results if not r.passed), [r.message for r in results]
+    for result in results:
+        if result.name in each:  # a test named here fails with the same diagnosis (public or hidden)
+            assert not result.passed and words in result.message, (result.name, result.message)
 
 
 def test_a_stub_scores_zero_and_says_not_implemented(all_tests_loaded):
@@ -99,11 +103,38 @@ def test_check_prints_and_strict_mode_raises(all_tests_loaded, monkeypatch, caps
     ("03.slew_rate", lambda t, c, a: KEYS["03"].slew_rate(t, c, a) / 0.8, "nterpolat"),
     ("04.upright_matrices", lambda model: KEYS["04"].upright_matrices_with(model, gravity_sign=-1.0),
      "Use the model's fields"),
+    # a message that names the cause carries no hint about another one
+    ("00.upright_fraction", lambda angles: 100 * float(np.mean(np.abs(np.asarray(angles)) < 0.3)), "Hint"),
+    ("01.decode_frame", KEYS["01"].decode_off_by_one_shift, "MagINC or MagDEC alone"),
+    ("04.upright_matrices", lambda model: KEYS["04"].upright_matrices_with(model, gravity_sign=-1.0),
+     "come from M^-1"),
+    ("03.slew_rate", lambda t, c, a: -KEYS["03"].slew_rate(t, c, a) if c[-1] < c[0] else KEYS["03"].slew_rate(t, c, a),
+     "can go either way"),
 ])
 def test_one_mistake_is_not_blamed_on_something_else(all_tests_loaded, task_id, fn, misleading):
     """A single bug fails the test about it; the other tests either pass or say they depend on it."""
     _, _, messages = score(task_id, fn)
     assert misleading not in messages, messages
+
+
+def test_a_diagnosis_drops_the_hint_and_other_failures_keep_it():
+    from pendkit.grading.core import Diagnosis, Failed, TestCase, expect, run_test
+
+    def failing(raise_it):
+        return TestCase("t", 1.0, lambda fn, rng: raise_it(), hint="Look elsewhere.")
+
+    def plain():
+        expect(False, "wrong")
+
+    def named():
+        expect(False, "wrong" + Diagnosis(": the sign is flipped"))
+
+    def flagged():
+        raise Failed("wrong: in seconds", hint=False)
+
+    assert run_test(failing(plain), None).message == "wrong. Hint: Look elsewhere."
+    assert run_test(failing(named), None).message == "wrong: the sign is flipped"
+    assert run_test(failing(flagged), None).message == "wrong: in seconds"
 
 
 def test_a_damping_ratio_near_the_answer_shows_how_far_off_it_is(all_tests_loaded):

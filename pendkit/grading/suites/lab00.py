@@ -34,12 +34,12 @@ def fraction_of_steps(fn, rng):
     expected = 4 / 8
     got = fn(angles)
     message = f"upright_fraction({angles.tolist()}) should be {expected}, got {shown(got)}"
+    note = percent_note(expected, got)
     if is_real(got) and abs(got - float(np.mean(angles < 0.3))) < 1e-9:
-        message += ": use the absolute value: -3.0 rad is far from upright"
+        note = ": use the absolute value: -3.0 rad is far from upright"
     if is_real(got) and abs(got - 4) < 1e-9:
-        message += ": that is a count; divide by the number of steps"
-    message += percent_note(expected, got)
-    expect(is_real(got) and abs(float(got) - expected) < 1e-9, message)
+        note = ": that is a count; divide by the number of steps"
+    expect(is_real(got) and abs(float(got) - expected) < 1e-9, message + note, hint=not note)
 
 
 def percent_note(expected: float, got) -> str:
@@ -54,8 +54,9 @@ def random_traces(fn, rng):
     angles = rng.uniform(-math.pi, math.pi, 200)
     expected = float(np.mean(np.abs(angles) < 0.3))
     got = fn(angles)
-    expect(abs(float(got) - expected) < 1e-9,
-           f"for 200 random angles expected {expected:.3f}, got {shown(got)}{percent_note(expected, got)}")
+    note = percent_note(expected, got)
+    expect(abs(float(got) - expected) < 1e-9, f"for 200 random angles expected {expected:.3f}, got {shown(got)}{note}",
+           hint=not note)
 
 
 prelab_task("00", ("steps_per_second", "episode_seconds",))

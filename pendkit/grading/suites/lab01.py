@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 from pendkit.encoder import encode_ssi_frame
-from pendkit.grading.core import Failed, NotGradable, expect, is_real, shown, task
+from pendkit.grading.core import Diagnosis, Failed, NotGradable, expect, is_real, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
@@ -20,15 +20,15 @@ def _reversed_10_bits(value: int) -> int:
     return int(f"{value:010b}"[::-1], 2)
 
 
-def _diagnose_position(frame: int, position: int, got) -> str:
+def diagnose_position(frame: int, position: int, got) -> str:
     message = f"decode_frame(0x{frame:04X}) should return {position}, got {shown(got)}"
     if got == _reversed_10_bits(position):
-        return message + ": that is the position with its bits reversed; the first bit clocked out (bit 15) " \
-                         "is the most significant"
+        return Diagnosis(message + ": that is the position with its bits reversed; the first bit clocked out "
+                                   "(bit 15) is the most significant")
     if got == frame:
-        return message + ": that is the whole frame; keep only the 10 position bits (15..6)"
+        return Diagnosis(message + ": that is the whole frame; keep only the 10 position bits (15..6)")
     if got in (frame >> 5, frame >> 7, (frame >> 6) + 1, frame & 0x3FF):
-        return message + ": the position is bits 15..6, i.e. frame >> 6"
+        return Diagnosis(message + ": the position is bits 15..6, i.e. frame >> 6")
     return message
 
 
@@ -84,7 +84,7 @@ def positions_of_clean_frames(fn, rng):
     for position in (0, 1, 2, 511, 512, 700, 1023, *rng.integers(0, 1024, 5).tolist()):
         frame = encode_ssi_frame(int(position))
         got = fn(frame)
-        expect(got == position, _diagnose_position(frame, position, got))
+        expect(got == position, diagnose_position(frame, position, got))
 
 
 @decode.test(points=2, hint="Count the ones in all 16 bits: an odd count means a corrupted frame.")
@@ -132,7 +132,7 @@ def one_magnet_bit_alone_is_valid(fn, rng):
         except ValueError as error:
             raise Failed(f"decode_frame(0x{frame:04X}) was rejected ({error}) but only one magnet bit is set") \
                 from error
-        expect(got == 123, _diagnose_position(frame, 123, got))
+        expect(got == 123, diagnose_position(frame, 123, got))
 
 
 def _angle_message(call: str, expected: float, got) -> str:

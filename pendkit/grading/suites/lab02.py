@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from pendkit import encoder
-from pendkit.grading.core import Failed, expect, is_sequence_of, shown, task
+from pendkit.grading.core import Diagnosis, Failed, expect, is_sequence_of, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
@@ -27,16 +27,17 @@ def _as_array(got, name: str, length: int) -> np.ndarray:
     return array
 
 
-def _velocity_hint(got: np.ndarray, expected: np.ndarray, positions, times) -> str:
+def velocity_note(got: np.ndarray, expected: np.ndarray, positions, times) -> str:
+    """What a velocity that differs from `expected` got wrong, when it is a known mistake."""
     if np.allclose(got, expected * 2 * math.pi, atol=1e-6):
-        return ": these are rad/s; the firmware reports revolutions per second (divide by 2 pi)"
+        return Diagnosis(": these are rad/s; the firmware reports revolutions per second (divide by 2 pi)")
     if np.allclose(got, expected / 1000, atol=1e-9) or np.allclose(got, expected * 1000, atol=1e-6):
-        return ": off by a factor of 1000; times are in milliseconds"
+        return Diagnosis(": off by a factor of 1000; times are in milliseconds")
     plain = np.diff(np.asarray(positions, dtype=float)) * 1000 / (1024 * np.diff(np.asarray(times, float)))
     if np.allclose(got, plain, atol=1e-6):
-        return ": huge jumps at the 1023 -> 0 seam; use a wrap-aware difference (lab 01)"
+        return Diagnosis(": huge jumps at the 1023 -> 0 seam; use a wrap-aware difference (lab 01)")
     if np.allclose(got, expected * 1024 / 1023, atol=1e-6):
-        return ": a turn has 1024 positions, not 1023"
+        return Diagnosis(": a turn has 1024 positions, not 1023")
     return ""
 
 
@@ -47,7 +48,7 @@ def steady_rotation(fn, rng):
     got = _as_array(fn(positions, times), "velocity_rev_s", 3)
     expect(np.allclose(got, expected, atol=1e-9), f"velocity_rev_s({positions}, {times}) should be about "
            f"{expected[0]:.4f} rev/s each, got {np.round(got, 4).tolist()}"
-           + _velocity_hint(got, expected, positions, times))
+           + velocity_note(got, expected, positions, times))
 
 
 @velocity.test(points=3, hint="Use the wrap-aware difference from lab 01 for every pair of readings.")
@@ -58,7 +59,7 @@ def across_the_seam_both_ways(fn, rng):
         got = _as_array(fn(positions, times), "velocity_rev_s", 3)
         expect(np.allclose(got, expected, atol=1e-9), f"velocity_rev_s({positions}, ...) should be "
                f"{np.round(expected, 4).tolist()}, got {np.round(got, 4).tolist()}"
-               + _velocity_hint(got, expected, positions, times))
+               + velocity_note(got, expected, positions, times))
 
 
 @velocity.test(points=1, hint="Intervals need not be equal: use each pair's own time difference.")
@@ -69,7 +70,7 @@ def uneven_intervals(fn, rng):
     got = _as_array(fn(positions.tolist(), times.tolist()), "velocity_rev_s", 7)
     expect(np.allclose(got, expected, atol=1e-9), f"with uneven intervals {np.diff(times).tolist()} ms the "
            f"velocities should be {np.round(expected, 3).tolist()}, got {np.round(got, 3).tolist()}"
-           + _velocity_hint(got, expected, positions.tolist(), times.tolist()))
+           + velocity_note(got, expected, positions.tolist(), times.tolist()))
 
 
 @mean.test(points=2, hint="Each output is the mean of the last `window` inputs, counting zeros before the start.")

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from pendkit.grading.core import NotGradable, as_number, expect, is_real, task
+from pendkit.grading.core import Diagnosis, NotGradable, as_number, expect, is_real, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
@@ -100,9 +100,9 @@ def slew_note(got, expected: float) -> str:
     if not is_real(got):
         return ""
     if abs(got + expected) < 1e-3 * expected:
-        return ": a speed is positive whichever way the arm moves (use the size of the step)"
+        return Diagnosis(": a speed is positive whichever way the arm moves (use the size of the step)")
     if abs(got - expected / 0.8) < 2e-3 * expected:
-        return ": between 10 % and 90 % the arm covers 80 % of the step, not all of it"
+        return Diagnosis(": between 10 % and 90 % the arm covers 80 % of the step, not all of it")
     return ""
 
 
@@ -140,7 +140,7 @@ def coarse_samples(fn, rng):
     if slew_note(got, 3.3):  # the same mistake as on a fine log: named as there, without this test's hint
         raise NotGradable(message + slew_note(got, 3.3))
     if any(abs(got - plain) < 1e-6 for plain in _slew_without_interpolation(t, command, arm)):
-        message += ": that is each crossing taken at a sample, without interpolation"
+        message += Diagnosis(": that is each crossing taken at a sample, without interpolation")
     else:
         message += ": with samples this coarse, check how each crossing is located between the two samples " \
                    "around it (the level minus the earlier sample's progress, over the pair's difference)"

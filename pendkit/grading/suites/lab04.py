@@ -6,7 +6,7 @@ import control
 import numpy as np
 
 from pendkit.control.model import FurutaModel, discretise
-from pendkit.grading.core import Failed, NotGradable, expect, is_sequence_of, task
+from pendkit.grading.core import Diagnosis, Failed, NotGradable, expect, is_sequence_of, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 from pendkit.rig import RigParams
@@ -56,19 +56,26 @@ def match_the_linearisation(fn, rng):
     model = FurutaModel.from_rig()
     a, b = _pair(fn(model), "upright_matrices(model)")
     ref_a, ref_b = _reference(model)
-    message = "A or B differ from the linearisation about upright"
+    expect(np.allclose(a, ref_a, rtol=1e-6, atol=1e-9) and np.allclose(b, ref_b, rtol=1e-6, atol=1e-9),
+           "A or B differ from the linearisation about upright" + matrices_note(model, a, b))
+
+
+def matrices_note(model: FurutaModel, a: np.ndarray, b: np.ndarray) -> str:
+    """Which common slip makes `upright_matrices`' (a, b) for `model` differ from the linearisation, if any."""
+    ref_a, _ = _reference(model)
+    b = np.asarray(b, dtype=float).reshape(4, 1)
     if np.allclose(a[2:, 1], -ref_a[2:, 1], rtol=1e-3) and not np.allclose(a[2:, 1], ref_a[2:, 1], rtol=1e-3):
-        message += ": the gravity column has the wrong sign (upright is unstable: gravity pushes away from it)"
-    elif abs(a[2, 1]) < 1e-9 and abs(ref_a[2, 1]) > 1e-3:
-        message += ": the arm row has no gravity term; you left out the coupling through the mass matrix"
-    elif _same((a, b), _variant(model, coupling_sign=1.0)):
-        message += (": the coupling's sign: about upright cos(alpha) = -1, so the mass matrix's off-diagonal is "
-                    "-m r l")
-    elif _same((a, b), _variant(model, arm_damping=False)):
-        message += ": the arm's damping is the servo's kv plus the back-EMF damping (arm_damping_n_m_s_per_rad)"
-    elif not np.allclose(a[:2], ref_a[:2]):
-        message += ": the top two rows say that the angles' rates are the rate states"
-    expect(np.allclose(a, ref_a, rtol=1e-6, atol=1e-9) and np.allclose(b, ref_b, rtol=1e-6, atol=1e-9), message)
+        return Diagnosis(": the gravity column has the wrong sign (upright is unstable: gravity pushes away from it)")
+    if abs(a[2, 1]) < 1e-9 and abs(ref_a[2, 1]) > 1e-3:
+        return Diagnosis(": the arm row has no gravity term; you left out the coupling through the mass matrix")
+    if _same((a, b), _variant(model, coupling_sign=1.0)):
+        return Diagnosis(": the coupling's sign: about upright cos(alpha) = -1, so the mass matrix's off-diagonal "
+                         "is -m r l")
+    if _same((a, b), _variant(model, arm_damping=False)):
+        return Diagnosis(": the arm's damping is the servo's kv plus the back-EMF damping (arm_damping_n_m_s_per_rad)")
+    if not np.allclose(a[:2], ref_a[:2]):
+        return Diagnosis(": the top two rows say that the angles' rates are the rate states")
+    return ""
 
 
 @matrices.test(points=1, hint="Use the model's fields, not numbers copied from the lab.")

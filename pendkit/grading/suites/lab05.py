@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from pendkit.grading.core import as_number, expect, is_sequence_of, shown, task
+from pendkit.grading.core import Diagnosis, as_number, expect, is_sequence_of, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
@@ -44,10 +44,22 @@ def against_velocity_times_cosine(fn, rng):
         message = f"pumping_direction({alpha}, {omega}) should be {expected:+d}, got {shown(got)}"
         if got == -expected:
             if abs(alpha) > math.pi / 2:
-                message += ": above horizontal cos(alpha) < 0 and the pumping direction reverses"
+                message += Diagnosis(": above horizontal cos(alpha) < 0 and the pumping direction reverses")
             else:
-                message += ": that takes energy out; accelerate *against* alpha' cos(alpha)"
+                message += Diagnosis(": that takes energy out; accelerate *against* alpha' cos(alpha)")
         expect(got == expected, message)
+
+
+def pumping_note(calls: list[tuple[float, float]], answers: list) -> str:
+    """What a pumping rule that gave `answers` to `calls` (alpha, omega) got wrong, when every answer shows it."""
+    moving = [(alpha, omega, got) for (alpha, omega), got in zip(calls, answers) if omega * math.cos(alpha) != 0]
+    if moving and all(got == (1 if omega * math.cos(alpha) > 0 else -1) for alpha, omega, got in moving):
+        return Diagnosis(": the sign is flipped in every quadrant: that brakes the swing, taking energy out; "
+                         "accelerate *against* alpha' cos(alpha)")
+    if moving and all(got == (-1 if omega > 0 else 1) for alpha, omega, got in moving):
+        return Diagnosis(": right below horizontal, wrong above it: there cos(alpha) < 0 and the pumping "
+                         "direction reverses")
+    return ""
 
 
 @switch.test(points=2, hint="Catch inside both thresholds; give up only beyond the (wider) fall angle.")
