@@ -19,15 +19,26 @@ def _reference_mean(raw: np.ndarray) -> np.ndarray:
     return np.convolve(padded, np.ones(MEAN_WINDOW) / MEAN_WINDOW, mode="valid")
 
 
-def notes(true_rev_s, raw, mean, smooth) -> list[str]:
+def notes(true_rev_s, raw, mean, smooth, readings=None) -> list[str]:
     """One line per estimate the student has written: its RMS error against the truth, and where it parts
-    from the estimate it should be, with the likely cause."""
+    from the estimate it should be, with the likely cause. `readings` (the twin's log: raw_counts, times_ms)
+    lets the single differences be held to the firmware's own."""
     true_rev_s = np.asarray(true_rev_s, float)
     lines = []
     if raw is None:
         return lines
     raw = np.asarray(raw, float)
-    lines.append(f"single differences: {rms(raw, true_rev_s):.3f} rev/s rms from the truth")
+    line = f"single differences: {rms(raw, true_rev_s):.3f} rev/s rms from the truth"
+    if readings is not None:
+        from pendkit.grading.suites.lab02 import velocity_note
+
+        want = encoder.finite_difference_rev_s(readings.raw_counts, readings.times_ms)
+        if raw.shape != want.shape:
+            line += f"; there should be {len(want)} of them, one per pair of readings"
+        elif not np.allclose(raw, want, atol=1e-9):
+            line += "; they differ from the firmware's" + (velocity_note(raw, want, readings.raw_counts,
+                                                                        readings.times_ms) or "")
+    lines.append(line)
     if mean is not None:
         mean, want = np.asarray(mean, float), _reference_mean(raw)
         line = f"your firmware_mean: {rms(mean, true_rev_s):.3f} rev/s rms from the truth"

@@ -48,8 +48,15 @@ def test_lab02_notes_name_a_swapped_alpha_and_an_unpadded_mean():
     said = " ".join(notes(readings.true_velocity_rev_s[1:], raw, seen_so_far, encoder.low_pass(raw, 1 - ALPHA)))
     assert "starts full of zeros" in said and "alpha and 1 - alpha are swapped" in said
     right = np.convolve(np.concatenate([np.zeros(3), raw]), np.ones(4) / 4, mode="valid")
-    said = " ".join(notes(readings.true_velocity_rev_s[1:], raw, right, encoder.low_pass(raw, ALPHA)))
+    said = " ".join(notes(readings.true_velocity_rev_s[1:], raw, right, encoder.low_pass(raw, ALPHA), readings))
     assert ";" not in said, said
+
+
+def test_lab02_notes_name_single_differences_in_rad_s():
+    readings = free_swing_readings(period_ms=25.0, duration_s=4.0)
+    raw = 2 * np.pi * encoder.finite_difference_rev_s(readings.raw_counts, readings.times_ms)
+    said = notes(readings.true_velocity_rev_s[1:], raw, None, None, readings)[0]
+    assert said.startswith("single differences") and "these are rad/s" in said, said
 
 
 @pytest.fixture(scope="module")
