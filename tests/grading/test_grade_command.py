@@ -194,9 +194,9 @@ def test_hidden_tests_are_found_from_the_kits_install_wherever_grade_runs(tmp_pa
 
 
 def test_an_install_without_hidden_tests_refuses_to_grade_or_build_silently(tmp_path, monkeypatch):
-    import pendkit.grading.core as core
+    import pendkit.cli.labs as labs_command
 
-    monkeypatch.setattr(core, "kit_hidden_tests", lambda: None)  # a wheel: no solutions/ beside the package
+    monkeypatch.setattr(labs_command, "kit_hidden_tests", lambda: None)  # a wheel: no solutions/ beside the package
     monkeypatch.chdir(tmp_path)
     (tmp_path / "class").mkdir()
     for command in (["grade", "class", "--lab", "00"], ["grade", "--gradescope-autograder", "a.zip", "--lab", "00"]):
