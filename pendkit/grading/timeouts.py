@@ -26,17 +26,31 @@ def call_with_timeout(func: Callable[[], Any], timeout_s: float) -> Any:
     return _with_thread(func, timeout_s)
 
 
-def _with_alarm(func: Callable[[], Any], timeout_s: float) -> Any:
-    def on_alarm(signum, frame):
-        raise CheckTimeout(f"took longer than {timeout_s:g} s")
+WAIT_FACTOR = 6.0  # a check may also wait (a rig, a file) up to this many times its computing limit
 
-    previous = signal.signal(signal.SIGALRM, on_alarm)
-    signal.setitimer(signal.ITIMER_REAL, timeout_s)
+
+def _with_alarm(func: Callable[[], Any], timeout_s: float) -> Any:
+    """The limit counts the process's CPU time, so a laptop busy with other work does not fail a right answer
+    (an import or a slow machine costs wall time, not this process's computing); a wall-clock cap of
+    `WAIT_FACTOR` times as long stops code that waits forever without computing."""
+    wait_s = max(timeout_s * WAIT_FACTOR, timeout_s + 5.0)
+
+    def on_cpu(signum, frame):
+        raise CheckTimeout(f"took longer than {timeout_s:g} s of computing")
+
+    def on_wall(signum, frame):
+        raise CheckTimeout(f"took longer than {wait_s:g} s waiting")
+
+    previous = signal.signal(signal.SIGPROF, on_cpu), signal.signal(signal.SIGALRM, on_wall)
+    signal.setitimer(signal.ITIMER_PROF, timeout_s)
+    signal.setitimer(signal.ITIMER_REAL, wait_s)
     try:
         return func()
     finally:
+        signal.setitimer(signal.ITIMER_PROF, 0)
         signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
+        signal.signal(signal.SIGPROF, previous[0])
+        signal.signal(signal.SIGALRM, previous[1])
 
 
 def _with_thread(func: Callable[[], Any], timeout_s: float) -> Any:
