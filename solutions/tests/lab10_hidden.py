@@ -5,7 +5,7 @@ import struct
 
 from pendkit.grading import expect, task
 from pendkit.grading.prelab import prelab_answers
-from pendkit.grading.suites.lab10 import a_number, as_chunk_list, device_takes, reference
+from pendkit.grading.suites.lab10 import a_number, as_chunk_list, device_takes, header_mistake, reference
 
 model = task("10.pendulum_acceleration", function="pendulum_acceleration", title="The estimate's model")
 chunks = task("10.upload_chunks", function="upload_chunks", title="Upload chunks")
@@ -37,7 +37,9 @@ def any_blob_any_size(fn, rng):
     expect(not too_big, f"chunks of at most {size} bytes of blob (+12 of header), got lengths {too_big[:3]}")
     offsets = [struct.unpack("<I", c[4:8])[0] for c in got if len(c) >= 8]
     expect(offsets == list(range(0, len(blob), size)), f"offsets {offsets[:5]}... for {size}-byte chunks")
-    expect(device_takes(got)["accepted"] == 1, f"a {len(blob)}-byte blob in {size}-byte chunks was not accepted")
+    named = header_mistake(got, blob)
+    expect(device_takes(got)["accepted"] == 1, f"a {len(blob)}-byte blob in {size}-byte chunks was not accepted"
+           + (f": {named}" if named else ""), hint=not named)
 
 
 # --- The answer key (tests/grading/test_wrong_answers.py grades each through the tests above): a correct
@@ -79,7 +81,7 @@ MISTAKES = [
      + 2 * w0**2 * math.sin(a), "pulls the pendulum down, towards 0"),
     ("10.upload_chunks", lambda blob, start=0, size=1024: upload_chunks(blob, start, size, ">"), "big-endian"),
     ("10.upload_chunks", lambda blob, start=0, size=1024: upload_chunks(blob, start, size, whole_size=False),
-     "whole blob's size"),
+     "whole blob's size", {"the_device_takes_them", "resumes_after_a_lost_chunk", "any_blob_any_size"}),
     ("10.upload_chunks", lambda blob, start=0, size=1024: upload_chunks(blob, 0, size), "offsets"),
     ("10.deploy", lambda: deployed_blob(packed=False), "should return the blob's bytes"),
     ("10.deploy", lambda: deployed_blob(cut_bytes=7), "refused by the device's checks"),

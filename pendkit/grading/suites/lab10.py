@@ -99,11 +99,20 @@ def the_device_takes_them(fn, rng):
     status = device_takes(got)
     message = f"a {len(blob)}-byte blob in your {len(got)} chunks: the device accepted {status['accepted']}, " \
               f"ignored {status['ignored_chunks']} chunks, refused {status['refused']}"
-    if got and got[0][:4] == b"PKUP" and got[0][4:12] == struct.pack(">II", 0, len(blob)):
-        message += ": the numbers are big-endian; the rig reads them little-endian ('<II')"
-    elif got and got[0][:4] == b"PKUP" and len(got[0]) >= 12 and struct.unpack("<II", got[0][4:12])[1] != len(blob):
-        message += ": the header's second number is the whole blob's size, not the chunk's"
-    expect(status["accepted"] == 1 and len(got) == 2, message)
+    named = header_mistake(got, blob)
+    expect(status["accepted"] == 1 and len(got) == 2, message + (f": {named}" if named else ""), hint=not named)
+
+
+def header_mistake(chunk_list: list[bytes], blob: bytes) -> str | None:
+    """What is wrong with the first chunk's header, where that is the mistake (None otherwise)."""
+    first = chunk_list[0] if chunk_list else b""
+    if first[:4] != b"PKUP" or len(first) < 12:
+        return None
+    if first[4:12] == struct.pack(">II", 0, len(blob)):
+        return "the numbers are big-endian; the rig reads them little-endian ('<II')"
+    if struct.unpack("<II", first[4:12])[1] != len(blob):
+        return "the header's second number is the whole blob's size, not the chunk's"
+    return None
 
 
 @chunks.test(points=1, hint="Start at `start` and step by `chunk_bytes`: the offsets count from the blob's first byte.")
@@ -113,6 +122,9 @@ def resumes_after_a_lost_chunk(fn, rng):
     if len(first) < 2:
         expected = math.ceil(len(blob) / 256)
         raise Failed(f"a {len(blob)}-byte blob in 256-byte chunks is {expected} chunks, got {len(first)}")
+    named = header_mistake(first, blob)
+    if named:  # the first test names it; the offsets may be right
+        raise Failed(f"the device cannot put the chunks together: {named}", hint=False)
     rest = as_chunk_list(fn(blob, 256, 256), "upload_chunks(blob, 256, 256)")
     offsets = [struct.unpack("<I", c[4:8])[0] for c in rest if len(c) >= 8]
     expected = list(range(256, len(blob), 256))
