@@ -110,6 +110,8 @@ CORRECT = {
 MISTAKES = [
     ("08.delayed_view", lambda obs, k: np.roll(obs, k, axis=0), "np.roll"),
     ("08.delayed_view", lambda obs, k: np.asarray(obs), "nothing is delayed"),
+    ("08.delayed_view", lambda obs, k: np.asarray(obs)[np.clip(np.arange(len(obs)) - k + 1, 0, len(obs) - 1)],
+     "one step short"),
     ("08.gru_step", lambda x, h, a, b, c, d: gru_step(x, h, a, b, c, d, swap_update=True), "swapped"),
     ("08.augmented_state", lambda o, r, n: augmented_state(o, r, n, oldest_first=True), "wrong order"),
     ("08.augmented_state", lambda o, r, n: augmented_state(o, r, n, one_hot=False), "one-hot codes"),

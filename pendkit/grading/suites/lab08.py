@@ -33,6 +33,10 @@ def shifted_and_padded(fn, rng):
         message += ": np.roll wraps the last rows round to the start; the agent cannot see the future"
     elif np.allclose(got, observations):
         message += ": nothing is delayed"
+    else:
+        for steps, said in ((1, "one step short"), (3, "one step too many")):
+            if np.allclose(got, observations[np.maximum(0, np.arange(6) - steps)]):
+                message += f": that is a delay of {steps}, {said} (row t is observation t - delay)"
     expect(np.allclose(got, expected), message)
     same = _array(fn(observations.copy(), 0), "delayed_view(observations, 0)", (6, 2))
     expect(np.allclose(same, observations), "a delay of 0 should return the observations unchanged")
