@@ -118,6 +118,11 @@ MISTAKES = [
     ("07.policy_verdict", lambda held, starts: {"held": sum(map(bool, held)), "episodes": len(held),
                                                 "solved": len(held) == 10 and sum(map(bool, held)) >= 9},
      "5 random starts too"),
+    ("07.policy_verdict", lambda held, starts: {"held": sum(map(bool, held)), "episodes": len(held), "solved": all(
+        ok for ok, start in zip(held, starts) if start == "random")}, "random starts alone"),
+    ("07.policy_verdict", lambda held, starts: {"held": sum(map(bool, held)), "episodes": len(held), "solved": len(
+        held) == 10 and sum(map(bool, held)) >= 9 and all(ok for ok, s in zip(held, starts) if s == "random")},
+     "random starts alone"),
     ("07.td_target", lambda r, done, online, target, gamma, double: 2 * np.asarray(r, dtype=float)
      - td_target(r, done, online, target, gamma, double), "the sign is wrong"),
 ]

@@ -125,8 +125,23 @@ def counts_and_the_threshold(fn, rng):
         got = _verdict(fn, held, RULE_STARTS, f"policy_verdict({k} of 10 held)")
         expect(got["held"] == k and got["episodes"] == 10,
                f"{k} of 10 held: held should be {k} and episodes 10, got {got['held']} and {got['episodes']}")
-        expect(bool(got["solved"]) == (k >= 9), f"{k} of 10 held should {'' if k >= 9 else 'not '}be solved"
-               + (": at least 9, so 9 passes (>= 9, not > 9)" if k == 9 else ""))
+        if bool(got["solved"]) != (k >= 9):
+            why = _random_starts_alone(fn) or (": at least 9, so 9 passes (>= 9, not > 9)" if k == 9 else "")
+            raise Failed(f"{k} of 10 held should {'' if k >= 9 else 'not '}be solved{why}", hint=not why)
+
+
+def _random_starts_alone(fn) -> str:
+    """The cause when a verdict follows the random starts alone (the trap the lab is about), else ""."""
+    try:
+        only_random = _verdict(fn, [False, True] * 5, RULE_STARTS, "")["solved"]  # 5 of 10: every random start
+        miss_on_random = _verdict(fn, [True] * 9 + [False], RULE_STARTS, "")["solved"]  # 9 of 10
+        miss_on_rest = _verdict(fn, [False] + [True] * 9, RULE_STARTS, "")["solved"]  # 9 of 10
+    except Exception:  # noqa: BLE001 (the student's code: its own failure is reported by the test itself)
+        return ""
+    if only_random or (miss_on_rest and not miss_on_random):
+        return (": the verdict follows the random starts alone; the rule counts all 10 episodes, the 5 hanging "
+                "still as much as the 5 random starts")
+    return ""
 
 
 @verdict.test(points=1, hint="One lucky episode is not a policy, and fewer than the rule's 10 episodes (5 of "
