@@ -248,7 +248,9 @@ def curve_against_myopic(returns, myopic, window: int = 10) -> str | None:
     window = min(window, len(returns), len(myopic))
     yours, none = float(np.mean(returns[-window:])), float(np.mean(myopic[-window:]))
     if yours < none - 0.1 * abs(none):
-        return (f"your curve ends below the one with no future at all ({yours:.0f} against {none:.0f} over the last "
-                f"{window} episodes): your target teaches the agent to avoid the top. Look for the future's sign "
+        last = len(returns)
+        return (f"your curve ends below the one with no future at all ({yours:.0f} against {none:.0f} over episodes "
+                f"{last - window + 1}-{last}, the last the two share): your target teaches the agent to avoid the "
+                "top. Look for the future's sign "
                 "(reward plus gamma times it), done flags the wrong way round, or a max over the wrong axis.")
     return None
