@@ -18,7 +18,7 @@ from pendkit.control.model import FurutaModel
 from pendkit.control.swingup import SwingUpConfig
 from pendkit.control.tracking import TRACKING_WEIGHTS, time_varying_lqr
 from pendkit.control.trajopt import StepModel, SwingUpLimits, fastest_bang_bang, initial_state
-from pendkit.deploy.controllers import controller_named  # the controllers' modules build on this one
+from pendkit.deploy.controllers import controller_named
 from pendkit.device.swingup_blob import SwingUpBlob
 from pendkit.errors import ConfigError
 from pendkit.rig import RigParams
@@ -73,7 +73,6 @@ def design_swing_up(params: RigParams | None = None, controller: str = "energy",
     """The device's swing-up for a rig by the controller's name (`pendkit.deploy.controllers`: "energy",
     pump and catch with LQR; "trajopt", the fastest plan from rest first, ...). `observer_gains` (angle,
     rate) replaces the pendulum filter's designed gains (lab 10)."""
-
     return controller_named(controller).design(params or RigParams(), config=config, weights=weights,
                                                limits=limits, observer_gains=observer_gains)
 
@@ -103,14 +102,11 @@ def swing_up_blob(params: RigParams, config: SwingUpConfig | None = None, weight
     return SwingUpBlob(scalars, np.asarray(gain, dtype=float).reshape(-1), np.zeros(5))
 
 
-def with_plan_from_rest(blob: SwingUpBlob, params: RigParams, weights: LqrWeights | None = None,
-                        limits: SwingUpLimits | None = None) -> SwingUpBlob:
+def with_plan_from_rest(blob: SwingUpBlob, params: RigParams, limits: SwingUpLimits | None = None) -> SwingUpBlob:
     """`blob` with the fastest plan from rest and its time-varying gains; where no plan reaches upright within
     40 steps, the blob has none and pumps energy from the start (as the laptop's TrajectoryController)."""
-    period_s = params.control_step_ms / 1000.0
-    model = LqrBalancer(params, weights, period_s=period_s, delay_s=device_command_delay_s(params),
-                        internal_filter=True).model
-    step_model = StepModel(model, period_s, device_command_delay_s(params))
+    step_model = StepModel(FurutaModel.from_rig(params), params.control_step_ms / 1000.0,
+                           device_command_delay_s(params))
     plan = fastest_bang_bang(step_model, initial_state(), limits or SwingUpLimits(), 40, 5)
     if plan is None:
         return blob

@@ -9,7 +9,7 @@ from pendkit.deploy.swingup_design import swing_up_blob, with_plan_from_rest
 
 
 def _design(params, config=None, weights=None, limits=None, observer_gains=None):
-    return with_plan_from_rest(swing_up_blob(params, config, weights, observer_gains), params, weights, limits)
+    return with_plan_from_rest(swing_up_blob(params, config, weights, observer_gains), params, limits)
 
 
 def _note(blob) -> str | None:
