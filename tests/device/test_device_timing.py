@@ -24,7 +24,7 @@ def _device(params: RigParams) -> TwinDevice:
 
 def _servo_delays_ms(params: RigParams, arrivals_ms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Send a new target at each arrival time; (from arrival, from the acting tick that took it) to the PWM
-    frame that gave it to the servo, in ms."""
+    frame that gave it to the servo, in ms of the twin's own clock (simulated: no wall time is measured)."""
     device, rng = _device(params), np.random.default_rng(1)
     ticks = []  # (acting tick's ms, counts it set): the device catches its ticks up lazily, at its next event
     acting_tick = device.mcu.acting_tick
