@@ -23,6 +23,7 @@ then the servo's PWM phase, not a latency, and the latency is measured from the 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -30,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pendkit.adapt.cost_pool import CostPool, guarded_cost
 from pendkit.adapt.excitation import EXCITATION_STREAM, Excitation, Recording, free_from
 from pendkit.adapt.replay import angle_error_rad2, replay_cost
 from pendkit.backend_contract import ServoCommand
@@ -53,6 +55,7 @@ SERVO_BOUNDS: dict[str, tuple[float, float]] = {
 }
 FITTED = tuple(SERVO_BOUNDS)
 PRIOR_LATENCY_MS = 10.0
+Cost = Callable[[RigParams, float, list["Recording"]], float]
 # 1200 evaluations leave differential evolution short of the minimum on a clean link (3600 reach a cost 20-100x
 # lower there), but on a rig's WiFi the minimum itself moves with the network's jitter and losses: 3600 doubled
 # the wall time and solved no more rigs (docs/results/transfer.md), so the search stays at 1200.
@@ -71,6 +74,7 @@ class Identification:
     pwm_phase_ms: float | None = None  # matched on the device's clock (None: on the host's steps)
     # the rig's network as the recordings showed it (pendkit.adapt.network_fit); None: a fixed latency, no loss
     network: NetworkImpairment | None = None
+    searches: int = 1  # differential evolution's runs from different seeds, the closest kept
 
     def values(self) -> dict[str, float]:
         return rig_values(self.params, self.latency_ms)
@@ -192,17 +196,6 @@ def simulate_all(params: RigParams, latency_ms: float, recordings: Sequence[Reco
         twin.close()
 
 
-def guarded_cost(cost: Callable[[RigParams, float, list[Recording]], float], params: RigParams, last: float,
-                 recordings: list[Recording]) -> float:
-    """`cost`, or 4.0 (as bad as can be) for a candidate the twin cannot take (an impossible servo) or a value
-    that is not finite: what every search over candidate rigs compares."""
-    try:
-        value = float(cost(params, last, recordings))
-    except Exception:
-        return 4.0
-    return value if math.isfinite(value) else 4.0
-
-
 def matching_cost(params: RigParams, latency_ms: float, recordings: list[Recording]) -> float:
     return float(np.mean([angle_error_rad2(angles, r.pendulum_rad)
                           for r, angles in zip(recordings, simulate_all(params, latency_ms, recordings))]))
@@ -213,63 +206,80 @@ def on_device_clock(recordings: list[Recording]) -> bool:
 
 
 def identify(recordings: list[Recording], prior: RigParams | None = None, max_evaluations: int = 1200,
-             seed: int = 0, cost: Callable[[RigParams, float, list[Recording]], float] = matching_cost,
-             progress: Callable[[int, float], None] | None = None) -> Identification:
+             seed: int = 0, cost: Cost = matching_cost,
+             progress: Callable[[int, float], None] | None = None, workers: int | None = None) -> Identification:
     """Fit the twin to `recordings`: the pendulum from its free swings, then the servo and latency by
     differential evolution on `cost` (default the kit's `matching_cost`; lab 09 passes the student's).
-    With the kit's cost and recordings on the device's clock, the servo and its PWM phase by `replay_cost`."""
-    from scipy.optimize import differential_evolution, minimize
-
-    prior = prior or RigParams()
-    started = time.perf_counter()
-    replayed = cost is matching_cost and on_device_clock(recordings)
-    cost = replay_cost if replayed else cost
-    last = (0.0, prior.pwm_period_ms) if replayed else SERVO_BOUNDS["latency_ms"]
-    last_prior = pwm_wait_ms(prior) if replayed else PRIOR_LATENCY_MS
-    pendulum = fit_pendulum(recordings, prior)
-    count, best = 0, math.inf
-
-    def objective(x: np.ndarray) -> float:
-        nonlocal count, best
-        count += 1
-        value = guarded_cost(cost, *candidate(pendulum, x), recordings)
-        best = min(best, value)
-        if progress is not None:
-            progress(count, best)
-        return value
-
-    dims, evolving = len(SERVO_BOUNDS), 3 * max_evaluations // 4  # a quarter left to polish
-    members = max(5, min(10 * dims, evolving // 2))  # a small budget still gets a generation past the first
-    box = np.array(search_box(last))
-    start = np.random.default_rng(seed).uniform(box[:, 0], box[:, 1], size=(members, dims))
-    start[0] = [0.0] * (dims - 1) + [last_prior]  # the prior is one of the first candidates
-    generations = max(1, evolving // members - 1)
-    result = differential_evolution(objective, box, maxiter=generations, init=start,
-                                    seed=seed, polish=False, tol=1e-6, mutation=(0.5, 1.0), recombination=0.7)
-    polished = minimize(objective, result.x, method="Nelder-Mead", bounds=box,
-                        options={"maxfev": max_evaluations // 4, "xatol": 1e-3, "fatol": 1e-6})
-    best_x, best_cost = (polished.x, polished.fun) if polished.fun < result.fun else (result.x, result.fun)
-    params, fitted_last = candidate(pendulum, best_x)
-    seconds = time.perf_counter() - started
-    if not replayed:
-        prior_cost = float(cost(prior, PRIOR_LATENCY_MS, recordings))
-        return Identification(params, fitted_last, float(best_cost), prior_cost, count, seconds)
-    prior_cost = float(cost(prior, fitted_last, recordings))
-    return Identification(params, measured_latency_ms(recordings, prior), float(best_cost), prior_cost, count,
-                          seconds, pwm_phase_ms=fitted_last)
+    With the kit's cost and recordings on the device's clock, the servo and its PWM phase by `replay_cost`.
+    `workers`: processes replaying candidates (default one per core; a cost of the caller's own runs here)."""
+    return identify_best(recordings, prior, max_evaluations, (seed,), cost, progress, workers)
 
 
 def identify_best(recordings: list[Recording], prior: RigParams | None = None, max_evaluations: int = 1200,
-                  seeds: Sequence[int] = (0,)) -> Identification:
+                  seeds: Sequence[int] = (0,), cost: Cost = matching_cost,
+                  progress: Callable[[int, float], None] | None = None, workers: int | None = None,
+                  deadline: float = math.inf) -> Identification:
     """`identify` once per seed, the fit with the lowest matching cost kept (its evaluations and seconds are
     those of all the runs): differential evolution sometimes settles in a worse fit of the same recordings,
-    and the device's design on that twin then misses the rig (docs/results/transfer.md)."""
+    and the device's design on that twin then misses the rig (docs/results/transfer.md). A search after the
+    first starts only when another as long as the last ends before `deadline` (a `time.time()`)."""
     if not seeds:
         raise ConfigError("identify_best needs at least one seed")
-    runs = [identify(recordings, prior, max_evaluations, seed=seed) for seed in seeds]
-    best = min(runs, key=lambda run: run.cost)
-    return dataclasses.replace(best, evaluations=sum(r.evaluations for r in runs),
-                               seconds=sum(r.seconds for r in runs))
+    prior = prior or RigParams()
+    started = time.perf_counter()
+    kits = cost is matching_cost
+    replayed = kits and on_device_clock(recordings)
+    cost = replay_cost if replayed else cost
+    last = (0.0, prior.pwm_period_ms) if replayed else SERVO_BOUNDS["latency_ms"]
+    last_prior = pwm_wait_ms(prior) if replayed else PRIOR_LATENCY_MS
+    at = functools.partial(candidate, fit_pendulum(recordings, prior))
+    count, best = 0, math.inf
+
+    with CostPool(cost, at, recordings, workers if kits else 1) as pool:
+        def costs(xs: np.ndarray) -> np.ndarray:
+            nonlocal count, best
+            values = pool.costs(xs)
+            for value in values:
+                count += 1
+                best = min(best, value)
+                if progress is not None:
+                    progress(count, best)
+            return np.asarray(values)
+
+        runs = []
+        for seed in seeds:
+            began = time.time()
+            runs.append(_search(costs, np.array(search_box(last)), last_prior, max_evaluations, seed))
+            if time.time() + (time.time() - began) > deadline:
+                break
+    best_x, best_cost = min(runs, key=lambda run: run[1])
+    params, fitted_last = at(best_x)
+    seconds = time.perf_counter() - started
+    if not replayed:
+        prior_cost = float(cost(prior, PRIOR_LATENCY_MS, recordings))
+        return Identification(params, fitted_last, float(best_cost), prior_cost, count, seconds, searches=len(runs))
+    prior_cost = float(cost(prior, fitted_last, recordings))
+    return Identification(params, measured_latency_ms(recordings, prior), float(best_cost), prior_cost, count,
+                          seconds, pwm_phase_ms=fitted_last, searches=len(runs))
+
+
+def _search(costs: Callable[[np.ndarray], np.ndarray], box: np.ndarray, last_prior: float, max_evaluations: int,
+            seed: int) -> tuple[np.ndarray, float]:
+    """Differential evolution over `box` (each generation's candidates costed together), then a Nelder-Mead
+    polish on a quarter of the budget: (the closest point, its cost)."""
+    from scipy.optimize import differential_evolution, minimize
+
+    dims, evolving = len(box), 3 * max_evaluations // 4  # a quarter left to polish
+    members = max(5, min(10 * dims, evolving // 2))  # a small budget still gets a generation past the first
+    start = np.random.default_rng(seed).uniform(box[:, 0], box[:, 1], size=(members, dims))
+    start[0] = [0.0] * (dims - 1) + [last_prior]  # the prior is one of the first candidates
+    generations = max(1, evolving // members - 1)
+    result = differential_evolution(lambda xs: costs(xs.T), box, maxiter=generations, init=start, seed=seed,
+                                    polish=False, tol=1e-6, mutation=(0.5, 1.0), recombination=0.7,
+                                    vectorized=True, updating="deferred")
+    polished = minimize(lambda x: float(costs(x[None, :])[0]), result.x, method="Nelder-Mead", bounds=box,
+                        options={"maxfev": max_evaluations // 4, "xatol": 1e-3, "fatol": 1e-6})
+    return (polished.x, float(polished.fun)) if polished.fun < result.fun else (result.x, float(result.fun))
 
 
 # stage 3: the servo alone, refined about the closest fit over every recording (the loop episodes' small steps

@@ -264,16 +264,21 @@ def check_recordings(recordings: Sequence[Recording], params: RigParams, device_
             check(recording, params, trial)
 
 
-def record_checked(rig, excitations: Sequence[Excitation], seed: int = 0) -> tuple[list[Recording], RigParams,
-                                                                                   dict[str, bytes]]:
+def record_checked(rig, excitations: Sequence[Excitation], seed: int = 0,
+                   on_episode: Callable[[], None] | None = None) -> tuple[list[Recording], RigParams,
+                                                                          dict[str, bytes]]:
     """(a) `excitations` recorded on `rig` (a `pendkit.adapt.session.Rig`) with the device's stream, its logs kept
     in a temporary folder, and every recording checked against what the rig reports of itself (`rig.prior()`)
     before anything is written: a refused one leaves nothing behind. Returns (the recordings, the prior, each
-    log's contents by file name, for the caller to keep)."""
+    log's contents by file name, for the caller to keep). `on_episode()` after each recording (a progress bar)."""
     with tempfile.TemporaryDirectory(prefix="pendkit-excitation-") as folder:
         env = rig.make_env(stream=EXCITATION_STREAM, log_dir=folder, **Excitation.env_kwargs())
         try:
-            recordings = [record(env, excitation, seed=seed + k) for k, excitation in enumerate(excitations)]
+            recordings = []
+            for k, excitation in enumerate(excitations):
+                recordings.append(record(env, excitation, seed=seed + k))
+                if on_episode is not None:
+                    on_episode()
         finally:
             env.close()
         logs = {path.name: path.read_bytes() for path in sorted(Path(folder).iterdir()) if path.is_file()}

@@ -53,6 +53,14 @@ def trials_markdown(report: dict) -> str:
             f"evaluated: {tried}. To run it: `pendkit deploy --blob {report['device_blob']} --rig ID`.\n\n")
 
 
+def wall_clock_markdown(report: dict) -> str:
+    budget = report["config"].get("budget_s")
+    cut = report.get("budget_cut") or []
+    return (f"Wall clock: every route ready after {report['wall_s_adaptation']:.0f} s"
+            + (f" (budget {budget:.0f} s{'; it cut ' + '; '.join(cut) if cut else ''})" if budget else "")
+            + (f", {report['wall_s_total']:.0f} s with the evaluation." if "wall_s_total" in report else "."))
+
+
 def refinement_markdown(report: dict) -> str:
     refined = report.get("servo_refined")
     if not refined:
@@ -97,8 +105,7 @@ def report_markdown(report: dict) -> str:
             + (f"**Deployed from an identification not trusted** (`--deploy-untrusted`): {untrusted}\n\n"
                if untrusted else "") +
             f"Rig time: {report['rig_s_adaptation']:.0f} s to adapt ({report['rig_s_excitation']:.0f} s of "
-            f"excitation), {report['rig_s_total']:.0f} s with the evaluation; wall clock to adapt: "
-            f"{report['wall_s_adaptation']:.0f} s.\n\n"
+            f"excitation), {report['rig_s_total']:.0f} s with the evaluation. {wall_clock_markdown(report)}\n\n"
             f"| parameter | prior | identified | the recordings allow (the twin's training) |\n|---|---|---|---|\n"
             f"{rows}\n\n{refinement_markdown(report)}"
             f"Matching cost (mean squared angle error, rad^2): prior {report['matching_cost']['prior']:.4f}, "

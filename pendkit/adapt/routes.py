@@ -102,7 +102,7 @@ def _as_report(outcome: Evaluation) -> dict:
     return {"solved": outcome.solved, "upright_s": outcome.upright_s, "summary": outcome.summary()}
 
 
-def _twin_env(spec: RunSpec, identification: Identification, observer, spread: dict | None, seed: int):
+def twin_env(spec: RunSpec, identification: Identification, observer, spread: dict | None, seed: int):
     """The identified twin as `spec`'s learner acts on it; with `spread`, a rig drawn from it every episode."""
 
     kwargs = AgentRun(spec, None, None, observer).env_kwargs()
@@ -121,7 +121,7 @@ def train_on_twin(identification: Identification, config, weights_path: Path,
     spec, state = starting_weights(config.policy)
     spec = dataclasses.replace(spec, randomize="", seed=config.seed)
     observer = policy_observer(spec, identification)
-    env = _twin_env(spec, identification, observer, spread, config.seed)
+    env = twin_env(spec, identification, observer, spread, config.seed)
     _, agent, inputs = build_run(spec, env)
     if state is not None:
         agent.load_state_dict(state)
@@ -130,7 +130,7 @@ def train_on_twin(identification: Identification, config, weights_path: Path,
     else:  # afresh: until the kit's rule holds on the identified twin, as any training from nothing stops
         from pendkit.agents.policy_rule import train_until_solved
 
-        probe = _twin_env(spec, identification, observer, None, config.seed)
+        probe = twin_env(spec, identification, observer, None, config.seed)
         returns, _ = train_until_solved(env, agent, inputs, config.twin_episodes, probe=probe, seed=config.seed,
                                         progress=False)
     save_weights(weights_path, agent, spec, {"identified_rig": identification.values(), "twin_episodes": len(returns)})
@@ -140,66 +140,9 @@ def train_on_twin(identification: Identification, config, weights_path: Path,
     return AgentRun(spec, agent, inputs, observer)
 
 
-JUDGE_TWIN_SEED_OFFSET = 1_000  # the twin's judge draws other rigs than its training
-
-
-def choose_on_twin(identification: Identification, config, weights_path: Path, say: Callable[[str], None],
-                   spread: dict | None = None) -> tuple[AgentRun, list[dict], AgentRun | None]:
-    """(c) with candidates: `config.policy` and each of `config.candidates` (shipped policies), as shipped and
-    after `config.twin_episodes` on the identified twin, judged there by the kit's rule (its 10 starts, on
-    rigs drawn from `spread` when given); the one that holds most (then the highest mean return; as shipped
-    before trained, the first named before the others on a tie) goes on to the rig. Each is also judged as the
-    rig's device would run it (`held_on_device`), and the one that holds most there is the device's. Returns
-    the laptop's, every candidate's verdicts, and the device's (None when the device runs none of them)."""
-    import copy
-
-    from pendkit.agents.policy_rule import REPORT_SEED, judge_policy
-    from pendkit.agents.train import train_sync
-
-    starts = {name: starting_weights(name) for name in (config.policy, *config.candidates)}
-    for name, (_, state) in starts.items():
-        if state is None:
-            raise ConfigError(f"candidate {name!r} is not a shipped policy with weights here: candidates are judged "
-                              "as shipped and after the twin's training (pendkit policies list)")
-    judged = []
-    for name, (spec, state) in starts.items():
-        spec = dataclasses.replace(spec, randomize="", seed=config.seed)
-        observer = policy_observer(spec, identification)
-        env = _twin_env(spec, identification, observer, spread, config.seed)
-        judge = _twin_env(spec, identification, observer, spread, config.seed + JUDGE_TWIN_SEED_OFFSET)
-        _, agent, inputs = build_run(spec, env)
-        agent.load_state_dict(state)
-        for stage, episodes in (("as shipped", 0), ("trained", config.twin_episodes)):
-            if stage == "trained" and not episodes:
-                continue
-            if episodes:
-                train_sync(env, agent, episodes, inputs, seed=config.seed, progress=False)
-            verdict = judge_policy(judge, agent, inputs, seed=REPORT_SEED)
-            device = held_on_device(identification, spec, agent, inputs, observer, REPORT_SEED)
-            judged.append({"policy": name, "stage": stage, "held": verdict.held, "episodes": len(verdict.starts),
-                           "mean_return": verdict.evaluation.mean_return, "held_on_device": device, "spec": spec,
-                           "observer": observer, "state": copy.deepcopy(agent.state_dict())})
-            on_device = "" if device is None else f"; run by its device, {device} of 10 held"
-            say(f"(c) {name} {stage} on the identified twin: {verdict.summary()}{on_device}")
-        env.close()
-        judge.close()
-    best = max(judged, key=lambda row: (row["held"], row["mean_return"]))  # max keeps the first of equals
-    run = _run_of(best, identification, config)
-    save_weights(weights_path, run.agent, best["spec"], {"identified_rig": identification.values(),
-                                                         "chosen_on_twin": f"{best['policy']} {best['stage']}"})
-    say(f"(c) chosen on the twin: {best['policy']} {best['stage']}")
-    runnable = [row for row in judged if row["held_on_device"] is not None]
-    device_best = max(runnable, key=lambda row: (row["held_on_device"], row["held"], row["mean_return"]), default=None)
-    device_run = run if device_best is best else (None if device_best is None else
-                                                 _run_of(device_best, identification, config))
-    if device_best is not None:
-        say(f"(c) chosen for the rig's device: {device_best['policy']} {device_best['stage']}")
-    keys = ("policy", "stage", "held", "episodes", "mean_return", "held_on_device")
-    return run, [{key: row[key] for key in keys} for row in judged], device_run
-
-
-def _run_of(row: dict, identification: Identification, config) -> AgentRun:
-    env = _twin_env(row["spec"], identification, row["observer"], None, config.seed)
+def run_of_row(row: dict, identification: Identification, config) -> AgentRun:
+    """The `AgentRun` of a candidate's verdict row (its spec, observer and weights)."""
+    env = twin_env(row["spec"], identification, row["observer"], None, config.seed)
     _, agent, inputs = build_run(row["spec"], env)
     agent.load_state_dict(row["state"])
     env.close()

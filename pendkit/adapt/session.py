@@ -21,12 +21,13 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from pendkit.adapt.excitation import rest_offset_counts, schedule
+from pendkit.adapt.candidates import choose_on_twin
+from pendkit.adapt.excitation import rest_offset_counts
+from pendkit.adapt.excite_identify import excite_and_identify, identification_deadline
 from pendkit.adapt.identification_trust import distrust, untrusted_markdown
-from pendkit.adapt.identify import PRIOR_LATENCY_MS, Identification, identify_best, refine_servo, rig_values
+from pendkit.adapt.identify import PRIOR_LATENCY_MS, Identification, rig_values
 from pendkit.adapt.network_fit import described, measured_network
 from pendkit.adapt.plots import plot_identification
-from pendkit.adapt.recording_checks import record_checked
 from pendkit.adapt.report_text import (  # noqa: F401 (the names tests and tools read here)
     ROUTES,
     SWING_UPS,
@@ -37,7 +38,6 @@ from pendkit.adapt.report_text import (  # noqa: F401 (the names tests and tools
     trials_markdown,
 )
 from pendkit.adapt.routes import (
-    choose_on_twin,
     classical_on_device,
     classical_on_rig,
     fine_tune_on_rig,
@@ -82,7 +82,13 @@ class AdaptConfig:
     episodes on the rig afterwards."""
 
     episodes: int = 10
+    # the excitation: at least `min_excitation_episodes`, then one more at a time while the recordings leave the
+    # servo uncertain, up to `excitation_episodes` (pendkit.adapt.excite_identify)
     excitation_episodes: int = 6
+    min_excitation_episodes: int = 3
+    # the wall time from the start until every route is ready (identification, designs, the learned route's
+    # training); the rig's evaluation episodes come after it. None: unbounded
+    budget_s: float | None = 300.0
     # fine-tuning on the rig in the whole episodes the budget leaves after the excitation (about 40 s of it);
     # off, the excitation alone: 8 episodes of it lost rigs that 4 held, and 4 vary from run to run (the
     # non-blocking trainer keeps real time), docs/results/robust.md
@@ -120,6 +126,10 @@ class AdaptConfig:
         if not 1 <= self.excitation_episodes <= self.episodes:
             raise ConfigError(f"need 1 <= excitation_episodes <= episodes, got {self.excitation_episodes}, "
                               f"{self.episodes}")
+        if self.min_excitation_episodes < 1:
+            raise ConfigError(f"min_excitation_episodes must be >= 1, got {self.min_excitation_episodes}")
+        if self.budget_s is not None and not (math.isfinite(self.budget_s) and self.budget_s > 0):
+            raise ConfigError(f"budget_s must be > 0 seconds (or None), got {self.budget_s}")
         if self.loop_episodes < 0:
             raise ConfigError(f"loop_episodes must be >= 0, got {self.loop_episodes}")
         if self.twin_episodes < 0 or self.evaluation_episodes < 0:
@@ -142,27 +152,27 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     out = Path(out_dir)
     for name in OUTPUTS:  # a link planted where an output goes is refused before any rig time is spent
         check_no_links(out / name)
-    started = time.perf_counter()
+    started, laptop_started = time.perf_counter(), time.time()
     report: dict = {"rig": rig.name, "config": dataclasses.asdict(config)}
 
     # checked before anything is written: a refused recording (RecordingError) leaves no output behind
-    recordings, prior, logs = record_checked(rig, schedule(config.excitation_episodes, config.loop_episodes),
-                                             config.seed)
+    tolerance = config.twin_tolerance if config.twin_episodes else None
+    found = excite_and_identify(rig, config, identification_deadline(time.time(), config.budget_s, IDENTIFY_SHARE),
+                                say, tolerance)
+    recordings, jumps, prior, identification = found.recordings, found.jumps, found.prior, found.identification
     out.mkdir(parents=True, exist_ok=True)
-    for name, contents in logs.items():
+    for name, contents in found.logs.items():
         write_bytes(out / EXCITATION_LOGS / name, contents, base=out)
     write_text(out / "excitation.json", json.dumps([r.as_dict() for r in recordings]))
     report["rig_s_excitation"] = rig.seconds()
-    say(f"(a) {len(recordings)} excitation episodes: {report['rig_s_excitation']:.0f} s of rig time")
-
-    jumps = recordings[:config.excitation_episodes]
-    identification = identify_best(jumps, prior, config.identification_evaluations,
-                                   seeds=[config.seed + k for k in range(config.identification_restarts)])
-    if len(recordings) > len(jumps):  # the loop episodes: the servo refined about that fit over all of them
-        before = identification
-        identification = refine_servo(identification, recordings, prior, config.refinement_evaluations)
+    report["excitation_episodes"] = len(jumps)
+    report["excitation_spread"] = found.widest
+    say(f"(a) {len(recordings)} excitation episodes: {report['rig_s_excitation']:.0f} s of rig time (the recordings "
+        f"pin the servo's speed within x/÷{found.widest['servo_speed_s_per_60deg']:.2f}, its loop's damping within "
+        f"x/÷{found.widest['servo_damping_ratio']:.2f})")
+    if found.unrefined is not None:
         report["servo_refined"] = {"loop_episodes": len(recordings) - len(jumps),
-                                   "before": rig_values(before.params, before.latency_ms)}
+                                   "before": rig_values(found.unrefined.params, found.unrefined.latency_ms)}
     doubt = distrust(identification, recordings if "servo_refined" in report else jumps)
     if doubt is not None and not config.deploy_untrusted:
         not_deployed(identification, prior, recordings, report, out, doubt)
@@ -176,7 +186,9 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     report["identified"] = identification.values()
     report["prior"] = rig_values(prior, PRIOR_LATENCY_MS)
     report["matching_cost"] = {"prior": identification.prior_cost, "identified": identification.cost}
-    say(f"(b) identified in {identification.seconds:.0f} s (the closest of {config.identification_restarts} fits): "
+    report["identification_searches"] = identification.searches
+    report["laptop_s_identification"] = identification.seconds
+    say(f"(b) identified in {identification.seconds:.0f} s (the closest of {identification.searches} fits): "
         f"servo {identification.params.servo_speed_s_per_60deg:.3f} "
         f"s/60 deg, pendulum {identification.params.pendulum_natural_frequency_rad_s:.2f} rad/s, latency "
         f"{identification.latency_ms:.0f} ms (matching cost {identification.prior_cost:.3f} -> "
@@ -187,17 +199,25 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     chosen = device_trials(rig, identification.params, config, budget_s - rig.seconds(), step_s, report, say)
     if chosen is not None:
         save_device_design(chosen, out, report)
-    spread = None
-    if config.twin_tolerance is not None and config.twin_episodes:
+        say(f"(e) ready after {time.perf_counter() - started:.0f} s: the classical route on the rig's device, "
+            f"`pendkit deploy --blob {out / DEVICE_BLOB} --rig ID` (the learned route follows)")
+    spread = found.spread
+    if spread is not None and "servo_refined" in report:
         spread = fit_spread(identification, recordings, config.twin_tolerance)
+    if spread is not None:
         report["uncertain"] = spread_table(identification, spread)
         say("(c) what the recordings allow: " + ", ".join(f"{name} {low:.3g}..{high:.3g}"
                                                           for name, (low, high) in spread.items()))
+    deadline = math.inf if config.budget_s is None else laptop_started + config.budget_s
     if config.candidates:
         agent_run, report["candidates_on_twin"], device_run = choose_on_twin(identification, config, out / "policy.pt",
-                                                                             say, spread)
+                                                                             say, spread, deadline)
     else:
         agent_run = device_run = train_on_twin(identification, config, out / "policy.pt", say, spread)
+    report["laptop_s"] = time.time() - laptop_started
+    report["budget_cut"] = budget_cuts(config, report)
+    if report["budget_cut"]:
+        say(f"(c) the laptop's budget ({config.budget_s:.0f} s) cut: {'; '.join(report['budget_cut'])}")
     left_episodes = max(0, int((budget_s - rig.seconds()) // (EPISODE_STEPS * step_s)))
     fine_tune_episodes = left_episodes if config.fine_tune else 0
     fine_tune_on_rig(rig, agent_run, fine_tune_episodes, config, out / "policy.pt", say)
@@ -214,6 +234,7 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     report["classical_on_device"] = classical_on_device(rig, identification, config.evaluation_episodes, tried,
                                                         made=None if tried is not None else chosen)
     report["rig_s_total"] = rig.seconds()
+    report["wall_s_total"] = time.perf_counter() - started
     report["recommended"] = recommended_route(report)
     say(f"(d) on the rig: policy {report['policy_on_rig']['summary']} from the laptop, "
         f"{report['policy_on_device']['summary']} on the rig's device; from the laptop, "
@@ -225,6 +246,24 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     write_text(out / "report.json", json.dumps(report, indent=1, default=float))
     write_text(out / "report.md", report_markdown(report))
     return report
+
+
+IDENTIFY_SHARE = 0.2  # of the budget, for the identification's searches (the first always runs whole)
+
+
+def budget_cuts(config: AdaptConfig, report: dict) -> list[str]:
+    """What the laptop's budget left out, in words (empty when nothing)."""
+    cuts = []
+    if report.get("identification_searches", config.identification_restarts) < config.identification_restarts:
+        cuts.append(f"{report['identification_searches']} of {config.identification_restarts} identification searches")
+    for row in report.get("candidates_on_twin", []):
+        if row["stage"] == "trained" and row["twin_episodes"] < config.twin_episodes:
+            cuts.append(f"{row['policy']} trained {row['twin_episodes']} of {config.twin_episodes} twin episodes")
+    if config.twin_episodes:
+        trained = {row["policy"] for row in report.get("candidates_on_twin", []) if row["stage"] == "trained"}
+        cuts += [f"{name} not trained on the twin" for name in dict.fromkeys((config.policy, *config.candidates))
+                 if name not in trained and report.get("candidates_on_twin")]
+    return cuts
 
 
 def not_deployed(identification: Identification, prior: RigParams, recordings, report: dict, out: Path,

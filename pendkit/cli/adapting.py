@@ -28,8 +28,8 @@ from pendkit.rig import RigParams
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), required=True)
 @click.option("--episodes", type=click.IntRange(1, 100), default=10, show_default=True,
               help="The rig's time adaptation may use, in episodes of 500 steps (30 s each: 10 is 5 minutes): "
-                   "excitation (6 short ones, about 40 s), device trials if asked for, fine-tuning (--fine-tune) "
-                   "in the whole episodes left.")
+                   "excitation (3 to 6 short ones, 20 to 40 s, as many as the recordings need), device trials if "
+                   "asked for, fine-tuning (--fine-tune) in the whole episodes left.")
 @click.option("--fine-tune/--no-fine-tune", default=False, show_default=True,
               help="Fine-tune the policy on the rig in what the budget leaves; without: the excitation alone "
                    "(fine-tuning lost rigs the twin's choice held, docs/results/robust.md).")
@@ -64,11 +64,15 @@ from pendkit.rig import RigParams
 @click.option("--deploy-untrusted", is_flag=True, default=False,
               help="Deploy even from an identification whose matching cost is hardly better than a pendulum that "
                    "never moved (without: its report and figure, nothing deployable, exit 1).")
+@click.option("--budget-s", type=click.FloatRange(0), default=300.0, show_default=True,
+              help="Wall seconds from the start until every route is ready (identification, designs, the "
+                   "learned route's training), the rig's evaluation episodes after it; a smaller budget trains "
+                   "less, and the end of the run says what it cut. 0: no limit.")
 @click.option("--seed", type=int, default=0, show_default=True)
 @broker_login_options
 def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, fine_tune, twin_episodes, twin_tolerance,
           evaluation_episodes, policy_name, candidates, measured_network, device_trials, loop_episodes, restarts,
-          deploy_untrusted, seed, username, password, tls_ca) -> None:
+          deploy_untrusted, budget_s, seed, username, password, tls_ca) -> None:
     """Fit the kit to one rig in a few of its episodes: excite it, identify its twin from the encoder, design
     the device's swing-up for it, train on that twin, fine-tune on the rig; report every route."""
     torch_or_exit()
@@ -83,7 +87,8 @@ def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, f
                              evaluation_episodes=evaluation_episodes, policy=policy_name,
                              candidates=chosen_candidates(candidates), measured_network=measured_network,
                              device_trials=device_trials, identification_restarts=restarts, seed=seed,
-                             deploy_untrusted=deploy_untrusted,
+                             deploy_untrusted=deploy_untrusted, budget_s=budget_s or None,
+                             min_excitation_episodes=min(3, episodes),
                              **({} if loop_episodes is None else {"loop_episodes": loop_episodes}))
         if backend == "sim":
             if params_path is None:
@@ -96,7 +101,8 @@ def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, f
         raise click.ClickException(str(error)) from None
     except RecordingError as error:  # refused before anything was written
         raise click.ClickException(f"{error} (nothing written to {out_dir})") from None
-    click.echo(f"rig time {report['rig_s_adaptation']:.0f} s to adapt, wall clock {report['wall_s_adaptation']:.0f} s; "
+    click.echo(f"rig time {report['rig_s_adaptation']:.0f} s to adapt, every route ready after "
+               f"{report['wall_s_adaptation']:.0f} s, {report['wall_s_total']:.0f} s with the evaluation on the rig; "
                f"report in {out_dir / 'report.md'}")
     click.echo(f"policy: {report['policy_on_rig']['summary']}")
 
