@@ -23,6 +23,9 @@ def yours_against_the_kit(period_s, zeta, fit) -> list[str]:
         return ["write period_from_crossings and damping_ratio above: they drive the first line here"]
     lines = []
     period_s, zeta = float(period_s), float(zeta)
+    if math.isfinite(zeta) and -1 < zeta < 0:
+        return [f"yours:        zeta = {zeta:.4f} is negative, a swing that grows: the decrement's ratio is upside "
+                "down (ln(A_k / A_(k+1)), each peak over the next)"]
     if not (math.isfinite(period_s) and period_s > 0 and math.isfinite(zeta) and 0 <= zeta < 1):
         return [f"yours:        period {period_s:.4g} s and zeta {zeta:.4g} make no swing (a period above 0, "
                 "a damping ratio in [0, 1))"]

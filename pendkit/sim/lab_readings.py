@@ -71,16 +71,18 @@ class ServoStepReadings:
 
 
 def servo_step_readings(steps_rad=(0.6, -0.6, 0.2), hold_s: float = 0.6,
-                        params: RigParams | None = None) -> ServoStepReadings:
-    """Step the servo's target through `steps_rad` (holding each for `hold_s`) with the pendulum hanging,
-    and record the commanded and the true arm angle every physics step (5 ms)."""
+                        params: RigParams | None = None, start_rad: float = 0.0) -> ServoStepReadings:
+    """Step the servo's target through `steps_rad` (holding each for `hold_s`) with the pendulum hanging and
+    the arm first at rest at `start_rad`, and record the commanded and the true arm angle every physics
+    step (5 ms)."""
     params = params or RigParams()
     model = fresh_model(params)
     data = mujoco.MjData(model)
+    data.qpos[0] = data.act[0] = start_rad
     mujoco.mj_forward(model, data)
     per_step = round(hold_s * 1000 / params.physics_step_ms)
     times, commands, arms = [], [], []
-    for target in (0.0, *steps_rad):
+    for target in (start_rad, *steps_rad):
         data.act[0] = target
         for _ in range(per_step):
             times.append(data.time)

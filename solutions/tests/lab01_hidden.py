@@ -74,18 +74,23 @@ def random_angles_and_the_seam(fn, rng):
                f"angle_from_upright({angle:.4f}) should be {expected:.4f} in [-pi, pi), got {outcome.error or got!r}")
 
 
-@wrap.test(points=1, hidden=True, hint="Both sides of the seam, each way round: the firmware wraps only jumps "
-                                      "larger than half a turn.")
+@wrap.test(points=1, hidden=True, hint="Both sides of the seam, each way round: a jump one count beyond half a "
+                                      "turn wraps, one count short of it does not.")
 def the_seam_exactly(fn, rng):
-    calls = [(512, 0), (0, 512), (513, 0), (0, 513), (1023, 511), (511, 1023), (1023, 510), (510, 1023)]
-    wanted = [512, -512, -511, 511, 512, -512, -511, 511]
-    for (new, old), want, outcome in zip(calls, wanted, outcomes(fn, calls)):
+    # exactly half a turn (512) is half_a_turn_keeps_its_sign's to score: here its neighbours, 511 and 513
+    calls = [(513, 0), (0, 513), (1023, 510), (510, 1023), (1023, 512), (512, 1023), (511, 0), (0, 511)]
+    wanted = [-511, 511, -511, 511, 511, -511, 511, -511]
+    results = outcomes(fn, [*calls, (10, 5)])
+    flipped = results[-1].error is None and results[-1].value == -5  # old - new: every sign flips
+    for (new, old), want, outcome in zip(calls, wanted, results):
         got = outcome.error or outcome.value
         message = f"wrap_delta({new}, {old}) should be {want}, got {shown(got)}"
-        if outcome.error is None and got == -want:
+        if outcome.error is None and got == -want and flipped:
             message += ": right size, wrong sign: the difference is new - old"
-        elif outcome.error is None and abs(want) == 512:
-            message += ": exactly half a turn keeps its sign (only jumps beyond 512 wrap)"
+        elif outcome.error is None and got == -want:
+            message += ": 511 counts is less than half a turn and keeps its sign (only jumps beyond 512 wrap)"
+        elif outcome.error is None and got == new - old:
+            message += ": 513 counts one way is 511 the other: a jump beyond half a turn wraps"
         elif outcome.error is None:
             message += wrap_direction_note(new, old, got)
         expect(outcome.error is None and got == want, message)
@@ -107,6 +112,15 @@ def decode_frame(frame):
 
 def wrap_delta(new, old):
     return int(encoder.wrap_delta_counts(new, old))
+
+
+def wrap_delta_wrapping_half_a_turn(new, old):
+    delta = new - old
+    if delta >= 512:
+        return delta - 1024
+    if delta <= -512:
+        return delta + 1024
+    return delta
 
 
 def decode_lsb_first(frame):
@@ -199,4 +213,6 @@ MISTAKES = [
     ("01.wrap_delta", wrap_delta_correcting_the_wrong_way, "correction went the wrong way"),
     ("01.wrap_delta", lambda new, old: -wrap_delta(new, old), "wrong sign"),
     ("01.wrap_delta", lambda new, old: (new - old + 512) % 1024 - 512, "exactly half a turn"),
+    ("01.wrap_delta", wrap_delta_wrapping_half_a_turn, "exactly half a turn", {"half_a_turn_keeps_its_sign"}),
+    ("01.wrap_delta", lambda new, old: -wrap_delta(new, old), "new - old", {"the_seam_exactly"}),
 ]

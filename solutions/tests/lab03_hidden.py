@@ -5,9 +5,9 @@ import math
 import numpy as np
 
 from pendkit.grading import expect, task
-from pendkit.grading.core import shown
+from pendkit.grading.core import is_real, shown
 from pendkit.grading.prelab import prelab_answers
-from pendkit.grading.suites.lab03 import slew_note
+from pendkit.grading.suites.lab03 import damping_note, slew_note, start_note
 from pendkit.rig import RigParams
 from pendkit.sim.lab_readings import free_swing_readings
 
@@ -40,7 +40,9 @@ def noisy_peaks(fn, rng):
     delta = 2 * math.pi * zeta / math.sqrt(1 - zeta**2)
     peaks = 0.6 * np.exp(-delta * np.arange(8)) * (1 + 0.002 * rng.standard_normal(8))
     got = fn(peaks)
-    expect(abs(got - zeta) < 0.003, f"slightly noisy peaks with zeta = 0.07 gave {shown(got)}")
+    measured = log_decrement(peaks) / math.sqrt(4 * math.pi**2 + log_decrement(peaks) ** 2)  # these peaks' own
+    note = damping_note(got, measured) if is_real(got) else ""
+    expect(abs(got - zeta) < 0.003, f"slightly noisy peaks with zeta = 0.07 gave {shown(got)}" + note)
 
 
 slew = task("03.slew_rate", function="slew_rate", title="Servo slew rate from a step log")
@@ -58,8 +60,9 @@ def random_ramps(fn, rng):
         t, command, arm = servo_ramp(speed, lag, start, target, dt_s=dt, step_at_s=rng.uniform(0.05, 0.2),
                                      duration_s=1.0)
         got = fn(t, command, arm)
+        note = slew_note(got, speed) or start_note(fn, t, command, arm, speed)
         expect(abs(got - speed) < 0.01 * speed, f"a {speed:.2f} rad/s ramp from {start:.2f} to {target:.2f} rad "
-               f"sampled every {1000 * dt:.0f} ms gave {shown(got)}{slew_note(got, speed)}")
+               f"sampled every {1000 * dt:.0f} ms gave {shown(got)}" + note)
 
 
 @slew.test(points=1, hidden=True, hint="Check it on the twin's own servo.")
@@ -82,10 +85,10 @@ prelab_answers("03", {"period_s": 1.185507, "log_decrement": 0.693147})
 # answer per task, which gets full marks, and plausible mistakes, each with words its feedback must contain.
 
 
-def slew_rate(t, command, arm, interpolate=True):
+def slew_rate(t, command, arm, interpolate=True, from_zero=False):
     t, command, arm = (np.asarray(v, dtype=float) for v in (t, command, arm))
     k = int(np.argmax(command != command[0]))
-    start = arm[k - 1]
+    start = 0.0 if from_zero else arm[k - 1]
     progress = (arm[k:] - start) / (command[k] - start)
     times = t[k:]
 
@@ -153,8 +156,11 @@ MISTAKES = [
     ("03.damping_ratio", lambda p: log_decrement(p), "decrement itself"),
     ("03.damping_ratio", lambda p: log_decrement(p) / (2 * math.pi), "light damping"),
     ("03.damping_ratio", lambda p: damping_with_log10(p), "log10"),
+    ("03.damping_ratio", lambda p: -CORRECT["03.damping_ratio"](p), "upside down",
+     {"from_peak_amplitudes", "noisy_peaks"}),
     ("03.slew_rate", lambda t, c, a: -slew_rate(t, c, a) if c[-1] < c[0] else slew_rate(t, c, a), "positive"),
     ("03.slew_rate", lambda t, c, a: slew_rate(t, c, a) / 0.8, "80 %"),
     ("03.slew_rate", lambda t, c, a: slew_rate(t, c, a, interpolate=False), "interpolation"),
     ("03.slew_rate", slew_interpolating_the_wrong_pair, "two samples around it"),
+    ("03.slew_rate", lambda t, c, a: slew_rate(t, c, a, from_zero=True), "not from 0", {"a_ramp_after_a_lag"}),
 ]

@@ -3,9 +3,9 @@
 import math
 
 from pendkit.grading import expect, outcomes, task
-from pendkit.grading.core import shown
+from pendkit.grading.core import Diagnosis, shown
 from pendkit.grading.prelab import prelab_answers
-from pendkit.grading.suites.lab05 import pumping_note
+from pendkit.grading.suites.lab05 import cost_note, pumping_note, rate_note
 
 energy = task("05.pendulum_energy", function="pendulum_energy", title="Normalised pendulum energy")
 direction = task("05.pumping_direction", function="pumping_direction", title="Which way to accelerate the arm")
@@ -23,12 +23,17 @@ def wound_up_angles(fn, rng):
 def all_quadrants(fn, rng):
     calls = [(float(alpha), omega) for alpha in rng.uniform(-math.pi, math.pi, 40) for omega in (-2.0, 2.0)]
     calls += [(0.0, 0.0), (1.0, 0.0)]  # at rest no push adds energy: the lab says +1
+    calls += [(math.pi / 2, 3.0), (-math.pi / 2, 3.0), (math.pi / 2, -3.0)]  # exactly horizontal: +1 too
     results = outcomes(fn, calls)
     note = pumping_note(calls, [outcome.value for outcome in results])
     for (alpha, omega), outcome in zip(calls, results):
-        expected = -1 if omega * math.cos(alpha) > 0 else 1
-        expect(outcome.error is None and outcome.value == expected,
-               f"pumping_direction({alpha:.3f}, {omega}) is wrong" + note)
+        expected = -1 if omega * math.cos(alpha) > 1e-9 else 1
+        got = outcome.error or outcome.value
+        message = f"pumping_direction({alpha:.4f}, {omega}) should be {expected:+d}, got {shown(got)}"
+        if not note and abs(math.cos(alpha)) < 1e-9 and outcome.value == -1:
+            message += Diagnosis(f": exactly horizontal no push adds energy, but math.cos({alpha:.4f}) is "
+                                 f"{math.cos(alpha):.0e}, not 0; treat |alpha' cos(alpha)| below 1e-9 as 0")
+        expect(outcome.error is None and outcome.value == expected, message + note)
 
 
 switch = task("05.next_mode", function="next_mode", title="Hand-over between swing-up and LQR")
@@ -74,15 +79,19 @@ def random_states(fn, rng):
         upright = float(rng.choice([math.pi, -math.pi]))
         expected = (0.1 * state[0] ** 2 + 10 * (state[1] - upright) ** 2 + 0.1 * state[2] ** 2 + state[3] ** 2)
         got = float(fn(state, upright))
-        expect(abs(got - expected) < 1e-9 * max(1.0, expected), f"terminal_cost({state}, {upright:.4f}) is wrong")
+        expect(abs(got - expected) < 1e-9 * max(1.0, expected), f"terminal_cost({state}, {upright:.4f}) is wrong"
+               + cost_note(got, state, upright))
 
 
 @limits.test(points=1, hidden=True, hint="Any arm limit and over-spin limit.")
 def other_limits(fn, rng):
     for arm, overspin in rng.uniform([0.2, 0.5], [1.5, 5.0], (5, 2)):
         target, rate = (float(x) for x in fn(float(arm), float(overspin)))
-        expect(abs(target - arm) < 1e-9 and abs(rate - 2 * math.pi * overspin) < 1e-9,
-               f"path_limits({arm:.3f}, {overspin:.3f}) is wrong")
+        call = f"path_limits({arm:.3f}, {overspin:.3f})"
+        expect(abs(target - arm) < 1e-9, f"{call}: the target limit should be the arm limit {arm:.3f} rad, got "
+                                         f"{shown(target)}")
+        expect(abs(rate - 2 * math.pi * overspin) < 1e-9, f"{call}: {overspin:.3f} rev/s is "
+               f"{2 * math.pi * overspin:.3f} rad/s, got {shown(rate)}" + rate_note(rate, overspin))
 
 
 prelab_answers("05", {"energy_bottom_fast": 1.0, "energy_tilted_at_rest": -0.5, "energy_horizontal_moving": 0.5})
@@ -113,7 +122,7 @@ def next_mode(mode, theta, w, catch=0.8, fall=1.1, check_velocity=True):
 
 CORRECT = {
     "05.pendulum_energy": lambda alpha, w, w0: 0.5 * (w / w0) ** 2 - math.cos(alpha),
-    "05.pumping_direction": lambda alpha, w: -1 if w * math.cos(alpha) > 0 else 1,
+    "05.pumping_direction": lambda alpha, w: -1 if w * math.cos(alpha) > 1e-9 else 1,
     "05.next_mode": lambda mode, theta, w: next_mode(mode, theta, w),
     "05.path_limits": lambda arm, rev_s: (arm, 2 * math.pi * rev_s),
     "05.catch_set": lambda up, a, w, arm, arm_w: catch_set(up, a, w, arm, arm_w),
@@ -129,8 +138,9 @@ MISTAKES = [
     ("05.pumping_direction", lambda alpha, w: -1 if w > 0 else 1, "above horizontal"),
     ("05.next_mode", lambda mode, theta, w: next_mode(mode, theta, w, fall=0.8), "hysteresis"),
     ("05.next_mode", lambda mode, theta, w: next_mode(mode, theta, w, check_velocity=False), "fly through"),
-    ("05.path_limits", lambda arm, rev_s: (arm, rev_s), "revolutions to radians"),
+    ("05.path_limits", lambda arm, rev_s: (arm, rev_s), "left in rev/s", {"targets_and_rates", "other_limits"}),
+    ("05.pumping_direction", lambda alpha, w: -1 if w * math.cos(alpha) > 0 else 1, "not 0", {"all_quadrants"}),
     ("05.catch_set", lambda up, a, w, arm, arm_w: catch_set(up, a, w, arm, arm_w, centre=0.0), "around hanging"),
     ("05.catch_set", lambda up, a, w, arm, arm_w: catch_set(up, a, w, arm, arm_w, one_sided=True), "both sides"),
-    ("05.terminal_cost", lambda x, up: terminal_cost(x, 0.0), "not from 0"),
+    ("05.terminal_cost", lambda x, up: terminal_cost(x, 0.0), "not from 0", {"distance_from_upright", "random_states"}),
 ]

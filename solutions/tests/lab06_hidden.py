@@ -5,7 +5,7 @@ import numpy as np
 from pendkit.grading import expect, task
 from pendkit.grading.core import as_number, shown
 from pendkit.grading.prelab import prelab_answers
-from pendkit.grading.suites.lab06 import jitter_note, prediction_note
+from pendkit.grading.suites.lab06 import jitter_note, median_note, prediction_note, spread_note
 
 jitter = task("06.period_error_p99_ms", function="period_error_p99_ms", title="Step-period jitter")
 fit = task("06.fit_latency", function="fit_latency", title="A latency distribution from samples")
@@ -27,7 +27,8 @@ def narrow_distribution_from_a_list(fn, rng):
     samples = list(0.5 + 3.0 * np.exp(0.2 * rng.standard_normal(2000))) + [0.5]
     floor, median, spread = (float(x) for x in fn(samples))
     expect(abs(floor - 0.5) < 1e-9 and abs(median - 3.0) < 0.1 and abs(spread - 0.2) < 0.02,
-           f"expected about (0.5, 3.0, 0.2), got ({floor:.3f}, {median:.3f}, {spread:.3f})")
+           f"expected about (0.5, 3.0, 0.2), got ({floor:.3f}, {median:.3f}, {spread:.3f})"
+           + (median_note(samples, median) or spread_note(samples, spread)))
 
 
 @predict.test(points=1, hidden=True, hint="The formula holds for any signs.")
@@ -46,11 +47,12 @@ prelab_answers("06", {"round_trip_ms": 40.0, "growth_during_delay": 1.419068})
 # answer per task, which gets full marks, and plausible mistakes, each with words its feedback must contain.
 
 
-def fit_latency(samples, subtract_floor=True):
+def fit_latency(samples, subtract_floor=True, spread_above_floor=True):
     samples = np.asarray(samples, float)
     floor = samples.min()
     above = samples - floor if subtract_floor else samples
-    return floor, float(np.median(above)), float(np.std(np.log(above[above > 0])))
+    logged = samples - floor if spread_above_floor else samples
+    return floor, float(np.median(above)), float(np.std(np.log(logged[logged > 0])))
 
 
 CORRECT = {
@@ -64,6 +66,8 @@ MISTAKES = [
      {"percentile_of_absolute_error", "other_periods"}),
     ("06.period_error_p99_ms", lambda t, n: float(np.percentile((np.diff(t) - n) * 1000, 99)), "absolute error"),
     ("06.fit_latency", lambda samples: fit_latency(samples, subtract_floor=False), "subtract the floor"),
+    ("06.fit_latency", lambda samples: fit_latency(samples, spread_above_floor=False), "spread of log(sample)",
+     {"recovers_a_shifted_lognormal"}),
     ("06.predict_angle", lambda theta, rate, d, w0: theta + rate * d, "left out gravity"),
     ("06.predict_angle", lambda theta, rate, d, w0: theta + rate * d - 0.5 * w0**2 * theta * d**2, "not minus"),
     ("06.predict_angle", lambda theta, rate, d, w0: theta - rate * d + 0.5 * w0**2 * theta * d**2, "velocity term"),

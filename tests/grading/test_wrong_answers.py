@@ -95,6 +95,7 @@ def test_check_prints_and_strict_mode_raises(all_tests_loaded, monkeypatch, caps
 @pytest.mark.parametrize("task_id, fn, misleading", [
     ("00.reward", lambda theta, omega: -theta**2 - 0.5 * omega**2, "Both terms are squared"),
     ("01.wrap_delta", lambda new, old: old - new, "keeps its sign"),
+    ("01.wrap_delta", KEYS["01"].wrap_delta_wrapping_half_a_turn, "wrong sign"),
     ("01.decode_frame", KEYS["01"].decode_with_odd_parity, "Position = bits 15..6"),
     ("01.decode_frame", KEYS["01"].decode_with_odd_parity, "only one magnet bit"),
     ("02.velocity_rev_s", KEYS["02"].velocity_no_wrap, "Intervals need not be equal"),
@@ -104,6 +105,15 @@ def test_check_prints_and_strict_mode_raises(all_tests_loaded, monkeypatch, caps
     ("04.upright_matrices", lambda model: KEYS["04"].upright_matrices_with(model, gravity_sign=-1.0),
      "Use the model's fields"),
     # a message that names the cause carries no hint about another one
+    ("00.upright_fraction", lambda angles: float(np.mean(np.abs(np.asarray(angles)) <= 0.3)), "Accept lists"),
+    ("00.upright_fraction", lambda angles: float(np.mean(np.asarray(angles) < 0.3)), "the bound is strict"),
+    ("00.upright_fraction", lambda angles: float(np.mean(np.asarray(angles) < 0.3)), "Hint"),
+    ("03.damping_ratio", lambda p: -CORRECT["03.damping_ratio"](p), "Average the decrement"),
+    ("03.slew_rate", lambda t, c, a: KEYS["03"].slew_rate(t, c, a, from_zero=True), "Hint"),
+    ("05.path_limits", lambda arm, rev_s: (arm, rev_s), "Hint"),
+    ("05.terminal_cost", lambda x, up: KEYS["05"].terminal_cost(x, 0.0), "Hint"),
+    ("06.fit_latency", lambda samples: KEYS["06"].fit_latency(samples, subtract_floor=False), "Hint"),
+    ("06.fit_latency", lambda samples: KEYS["06"].fit_latency(samples, spread_above_floor=False), "Hint"),
     ("00.upright_fraction", lambda angles: 100 * float(np.mean(np.abs(np.asarray(angles)) < 0.3)), "Hint"),
     ("01.decode_frame", KEYS["01"].decode_off_by_one_shift, "MagINC or MagDEC alone"),
     ("04.upright_matrices", lambda model: KEYS["04"].upright_matrices_with(model, gravity_sign=-1.0),

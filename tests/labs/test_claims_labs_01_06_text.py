@@ -77,7 +77,8 @@ def test_lab03_the_slope_is_a_quarter_below_the_rated_speed_and_a_whole_step_fit
     from pendkit.sim.lab_readings import servo_step_readings
     from pendkit.sim.servo_fit import match_servo_speed
 
-    bench = servo_step_readings(steps_rad=(0.6,), hold_s=0.6, params=RigParams().replace(servo_speed_s_per_60deg=0.26))
+    bench = servo_step_readings(steps_rad=(0.9,), hold_s=0.6, params=RigParams().replace(servo_speed_s_per_60deg=0.26),
+                                start_rad=0.3)  # the lab's bench: a 0.6 rad step from 0.3 rad
     slope = identify_servo_steps(bench.times_s, bench.commanded_rad, bench.arm_rad).slew_rate_rad_s
     rated = math.radians(60) / 0.26
     assert round(slope, 1) == 2.9 and round(rated, 1) == 4.0 and 0.65 < slope / rated < 0.8

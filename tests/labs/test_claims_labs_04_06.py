@@ -135,3 +135,16 @@ def test_lab06_poor_wifi_as_q3_states_it():
     p99 = latency.floor_ms + latency.median_ms * math.exp(latency.spread * 2.3263)
     assert latency.floor_ms + latency.median_ms == 19.0 and round(p99, -1) == 100
     assert impairment.observation_loss_pct == impairment.command_loss_pct == 3.0
+
+
+def test_lab06_the_lines_under_the_fit_name_each_mistake():
+    from pendkit.labs.latency_fit import fit_lines
+
+    samples = 3.0 + 6.0 * np.exp(0.8 * np.random.default_rng(0).standard_normal(120))
+    floor, above = samples.min(), samples - samples.min()
+    right = (floor, float(np.median(above)), float(np.std(np.log(above[above > 0]))))
+    assert "your fit matches the samples" in "\n".join(fit_lines(right, samples))
+    median_of_samples = "\n".join(fit_lines((floor, float(np.median(samples)), right[2]), samples))
+    assert "the samples' own, not that of (sample - floor)" in median_of_samples and "spread" not in median_of_samples
+    spread_of_samples = "\n".join(fit_lines((*right[:2], float(np.std(np.log(samples)))), samples))
+    assert "not of log(sample - floor)" in spread_of_samples and "median (" not in spread_of_samples

@@ -46,3 +46,17 @@ def test_lab05_the_students_problem_plans_a_swing_up_faster_than_pumping_and_a_w
     fallback = "energy pumping (no plan: the tracker's fallback)"
     assert "tracked plan" not in wrong.split("fell back")[-1], wrong  # the fallback is not called a plan
     assert upright_at_s(wrong, fallback) > upright_at_s(right, "tracked plan") + 1.0, (right, wrong)
+
+
+COST_FROM_ZERO = '''
+def terminal_cost(state, upright_rad):
+    arm, pendulum, arm_rate, pendulum_rate = state[:4]
+    return 0.1 * arm**2 + 10 * pendulum**2 + 0.1 * arm_rate**2 + pendulum_rate**2  # from 0, not upright
+'''
+
+
+def test_lab05_on_the_default_rig_the_approach_keeps_the_search_and_a_cost_from_zero_is_named():
+    right = printed_by_lab("05_swingup.ipynb", "your_planner(step_model, made)")
+    wrong = printed_by_lab("05_swingup.ipynb", "your_planner(step_model, made)", {"terminal_cost": COST_FROM_ZERO})
+    assert "it kept the search's motion" in right and "must cost 0" not in right, right  # the text's claim
+    assert "must cost 0" in wrong and "from upright_rad" in wrong, wrong

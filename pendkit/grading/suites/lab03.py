@@ -69,13 +69,22 @@ def from_peak_amplitudes(fn, rng):
         got = as_number(fn(peaks), "damping_ratio(peaks)")
         message = (f"peaks decaying by a factor {math.exp(delta):.4f} per cycle mean a damping ratio of {zeta}; "
                    f"got {got:.6g} ({got / zeta - 1:+.2%})")
-        if abs(got - delta) < 1e-6:
-            message += ": that is the logarithmic decrement itself; convert it to a damping ratio"
-        elif abs(got - delta / (2 * math.pi)) < 1e-9:
-            message += ": delta / 2 pi is only right for light damping; use delta / sqrt(4 pi^2 + delta^2)"
-        elif abs(got - zeta * math.log(10)) < 1e-3 or abs(got - zeta / math.log(10)) < 1e-3:
-            message += ": use the natural logarithm (np.log), not log10"
-        expect(abs(got - zeta) < 1e-6, message)
+        expect(abs(got - zeta) < 1e-6, message + damping_note(got, zeta))
+
+
+def damping_note(got: float, zeta: float) -> str:
+    """Words for a damping ratio that a known mistake gives for true ratio `zeta`, or nothing."""
+    delta = 2 * math.pi * zeta / math.sqrt(1 - zeta**2)
+    if abs(got + zeta) < 1e-6:
+        return Diagnosis(": a negative damping ratio: the ratio is upside down; delta = ln(A_k / A_(k+1)), each "
+                         "peak over the next (smaller) one")
+    if abs(got - delta) < 1e-6:
+        return Diagnosis(": that is the logarithmic decrement itself; convert it to a damping ratio")
+    if abs(got - delta / (2 * math.pi)) < 1e-9:
+        return Diagnosis(": delta / 2 pi is only right for light damping; use delta / sqrt(4 pi^2 + delta^2)")
+    if abs(got - zeta * math.log(10)) < 1e-3 or abs(got - zeta / math.log(10)) < 1e-3:
+        return Diagnosis(": use the natural logarithm (np.log), not log10")
+    return ""
 
 
 slew = task("03.slew_rate", function="slew_rate", title="Servo slew rate from a step log", hidden_points=2)
@@ -106,12 +115,29 @@ def slew_note(got, expected: float) -> str:
     return ""
 
 
+def start_note(fn, t, command, arm, expected: float) -> str:
+    """Words for a slew measured from 0 rad rather than from the arm's start: right on the same log moved to
+    start at 0, wrong on this one (which starts elsewhere); or nothing."""
+    start = float(arm[int(np.argmax(command != command[0])) - 1])
+    try:
+        from_zero = float(fn(t, command - start, arm - start))
+    except Exception:  # noqa: BLE001 - any other failure is the test's own to report
+        return ""
+    if not start or not abs(from_zero - expected) < 0.01 * expected:
+        return ""
+    return Diagnosis(f": right for the same step moved to start at 0 rad, wrong for this one from {start:g} rad: "
+                     "measure the 10 % and 90 % from the arm's start (its angle just before the command "
+                     "changes), not from 0")
+
+
 @slew.test(points=2, hint="Time the arm (not the command) at 10 % and 90 % of the way; it covers 80 % of the "
                           "step in between.")
 def a_ramp_after_a_lag(fn, rng):
-    t, command, arm = servo_ramp(3.0, 0.02, 0.0, 0.6, dt_s=0.005)
+    t, command, arm = servo_ramp(3.0, 0.02, 0.2, 0.8, dt_s=0.005)
     got = as_number(fn(t, command, arm), "slew_rate(t, command, arm)")
-    expect(abs(got - 3.0) < 0.01, _slew_message("for a 3 rad/s ramp, slew_rate", got, 3.0))
+    note = slew_note(got, 3.0) or start_note(fn, t, command, arm, 3.0)
+    expect(abs(got - 3.0) < 0.01, f"for a 3 rad/s ramp from 0.2 to 0.8 rad, slew_rate should be 3.000 rad/s, got "
+                                  f"{got:.4f}" + note)
 
 
 @slew.test(points=1, hint="The step can go either way: use its size.")

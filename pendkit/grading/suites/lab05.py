@@ -83,10 +83,17 @@ def targets_and_rates(fn, rng):
     expect(is_sequence_of(got, 2), f"path_limits(1.4, 2.0) should return a pair, got {shown(got)}")
     target, rate = (as_number(x, "path_limits(1.4, 2.0)") for x in got)
     expect(abs(target - 1.4) < 1e-9, f"the target limit should be the arm limit 1.4 rad, got {target}")
-    message = f"2 rev/s is {4 * math.pi:.3f} rad/s, got {rate}"
-    if abs(rate - 2.0) < 1e-9:
-        message += ": convert revolutions to radians (one turn is 2 pi)"
-    expect(abs(rate - 4 * math.pi) < 1e-9, message)
+    expect(abs(rate - 4 * math.pi) < 1e-9, f"2 rev/s is {4 * math.pi:.3f} rad/s, got {rate}" + rate_note(rate, 2.0))
+
+
+def rate_note(rate: float, overspin_rev_s: float) -> str:
+    """Words for a pendulum rate limit left in the wrong unit, or nothing."""
+    if abs(rate - overspin_rev_s) < 1e-9:
+        return Diagnosis(": the over-spin limit is left in rev/s; the plan's rates are in rad/s, so convert "
+                         "revolutions to radians (one turn is 2 pi)")
+    if abs(rate - 360 * overspin_rev_s) < 1e-6:
+        return Diagnosis(": that is in degrees per second; the plan's rates are in rad/s (one turn is 2 pi)")
+    return ""
 
 
 def bounds_pair(got, call: str):
@@ -119,10 +126,17 @@ def distance_from_upright(fn, rng):
         expected = 0.1 * arm**2 + 10 * (pendulum - upright) ** 2 + 0.1 * arm_rate**2 + pendulum_rate**2
         call = f"terminal_cost({state}, {upright:.4f})"
         got = as_number(fn(list(state), upright), call)
-        message = f"{call} should be {expected:.4f}, got {got:.4f}"
-        if abs(got - (expected - 10 * (pendulum - upright) ** 2 + 10 * pendulum**2)) < 1e-9:
-            message += ": measure the pendulum's error from upright_rad, not from 0"
-        expect(abs(got - expected) < 1e-9, message)
+        expect(abs(got - expected) < 1e-9, f"{call} should be {expected:.4f}, got {got:.4f}"
+               + cost_note(got, state, upright))
+
+
+def cost_note(got: float, state, upright: float) -> str:
+    """Words for a terminal cost that measures the pendulum from 0 rather than from upright, or nothing."""
+    arm, pendulum, arm_rate, pendulum_rate = state[:4]
+    from_zero = 0.1 * arm**2 + 10 * pendulum**2 + 0.1 * arm_rate**2 + pendulum_rate**2
+    if abs(got - from_zero) < 1e-9 * max(1.0, from_zero):
+        return Diagnosis(": measure the pendulum's error from upright_rad, not from 0")
+    return ""
 
 
 prelab_task("05", ("energy_bottom_fast", "energy_tilted_at_rest", "energy_horizontal_moving"))

@@ -1,0 +1,37 @@
+"""Lab 06: the student's latency fit against the samples it came from, in words."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def fit_lines(fitted, samples_ms) -> list[str]:
+    """Lines comparing the model `fitted` = (floor, median above it, spread) with the samples it came from:
+    its median latency against theirs, then `fit_problems` (or that there are none)."""
+    floor, median = float(fitted[0]), float(fitted[1])
+    lines = [f"your model's median one-way latency, floor + median: {floor + median:.1f} ms (the samples': "
+             f"{np.median(np.asarray(samples_ms, dtype=float)):.1f} ms)"]
+    problems = fit_problems(fitted, samples_ms)
+    return lines + (problems or ["  your fit matches the samples: its median, and its spread of log(sample - floor)"])
+
+
+def fit_problems(fitted, samples_ms) -> list[str]:
+    """A line for each part of `fitted` that is off from the samples, naming the mistake when a known one
+    shows; none for a right fit."""
+    samples = np.asarray(samples_ms, dtype=float)
+    median, spread = float(fitted[1]), float(fitted[2])
+    above = samples - samples.min()
+    right_median, right_spread = float(np.median(above)), float(np.std(np.log(above[above > 0])))
+    lines = []
+    if abs(median - float(np.median(samples))) < 1e-6 and samples.min() > 0:
+        lines.append(f"  your median ({median:.2f} ms) is the samples' own, not that of (sample - floor): the floor "
+                     f"counts twice, and the lognormal, its tail too, is {median / right_median:.1f} times too long")
+    elif abs(median - right_median) > 0.05 * right_median:
+        lines.append(f"  your median above the floor is {median:.2f} ms; the samples' is {right_median:.2f} ms")
+    positive = samples[samples > 0]
+    if abs(spread - float(np.std(np.log(positive)))) < 1e-6 and abs(spread - right_spread) > 1e-6:
+        lines.append(f"  your spread ({spread:.2f}) is that of log(sample), not of log(sample - floor): the samples' "
+                     f"is {right_spread:.2f}, so your model's tail is too short")
+    elif abs(spread - right_spread) > 0.05 * right_spread:
+        lines.append(f"  your spread is {spread:.2f}; the samples' (of log(sample - floor)) is {right_spread:.2f}")
+    return lines
