@@ -74,7 +74,7 @@ def _lab(ctx, param, value: str | None) -> str | None:
 
 
 @click.command()
-@click.argument("submissions", type=click.Path(exists=True, file_okay=False, path_type=Path), required=False)
+@click.argument("submissions", type=click.Path(exists=True, path_type=Path), required=False)
 @click.option("--lab", default=None, callback=_lab, help="Grade only this lab (NN); default: from each notebook.")
 @click.option("--gradescope-autograder", "autograder_zip", type=click.Path(dir_okay=False, path_type=Path),
               default=None, help="Instead of grading: write Gradescope's autograder zip for --lab NN.")
@@ -133,6 +133,9 @@ def grade(ctx: click.Context, submissions: Path | None, lab: str | None, autogra
         return
     if submissions is None:
         raise click.BadParameter("give the folder of submitted notebooks", param_hint="SUBMISSIONS")
+    if submissions.is_file():
+        raise click.BadParameter(f"{submissions} is one notebook: pass the folder that holds it (its notebooks "
+                                 "are all graded) or a folder with only this one in it", param_hint="SUBMISSIONS")
     if hidden is None:
         click.echo(public_note, err=True)
     if no_sandbox:

@@ -205,3 +205,11 @@ def test_an_install_without_hidden_tests_refuses_to_grade_or_build_silently(tmp_
     assert not (tmp_path / "a.zip").exists()
     built = CliRunner().invoke(main, ["grade", "--gradescope-autograder", "a.zip", "--lab", "00", "--public-only"])
     assert built.exit_code == 0 and "the public tests only" in built.output
+
+
+def test_one_notebook_instead_of_a_folder_is_refused_saying_to_pass_the_folder(tmp_path):
+    notebook = tmp_path / "00_tour.ipynb"
+    shutil.copy(Path(__file__).resolve().parents[2] / "labs" / "00_tour.ipynb", notebook)
+    result = CliRunner().invoke(main, ["grade", str(notebook), "--out", str(tmp_path / "grades")])
+    assert result.exit_code != 0 and "is one notebook: pass the folder that holds it" in result.output, result.output
+    assert not (tmp_path / "grades").exists()
