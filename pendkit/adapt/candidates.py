@@ -49,10 +49,13 @@ def judge_candidate(name: str, identification: Identification, config, spread: d
     agent.load_state_dict(state)
     rows = []
 
-    def verdict(stage: str, trained: int) -> float:
+    def verdict(stage: str, trained: int, beat: dict | None = None) -> float:
+        """Judge the agent as it is now; with `beat` (the as-shipped row), each check stops once it can no longer
+        even tie that row's (a trained policy that cannot is never chosen over its shipped self)."""
         started = time.time()
-        judged = judge_policy(judge, agent, inputs, seed=REPORT_SEED)
-        device = held_on_device(identification, spec, agent, inputs, observer, REPORT_SEED)
+        judged = judge_policy(judge, agent, inputs, seed=REPORT_SEED, need=beat["held"] if beat else None)
+        device = held_on_device(identification, spec, agent, inputs, observer, REPORT_SEED,
+                                need=(beat["held_on_device"] or 0) if beat else 0)
         rows.append({"policy": name, "stage": stage, "held": judged.held, "episodes": len(judged.starts),
                      "mean_return": judged.evaluation.mean_return, "held_on_device": device, "spec": spec,
                      "observer": observer, "state": copy.deepcopy(agent.state_dict()), "twin_episodes": trained,
@@ -75,7 +78,7 @@ def judge_candidate(name: str, identification: Identification, config, spread: d
                 returns = train_sync(env, agent, config.twin_episodes, inputs, seed=config.seed, progress=False,
                                      on_episode=in_time)
                 if len(returns) >= MIN_TRAIN_EPISODES or len(returns) == config.twin_episodes:
-                    verdict("trained", len(returns))
+                    verdict("trained", len(returns), beat=rows[0])
     finally:
         env.close()
         judge.close()

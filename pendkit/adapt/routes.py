@@ -149,10 +149,11 @@ def run_of_row(row: dict, identification: Identification, config) -> AgentRun:
     return AgentRun(row["spec"], agent, inputs, row["observer"])
 
 
-def held_on_device(identification: Identification, spec: RunSpec, agent, inputs, observer, seed: int) -> int | None:
+def held_on_device(identification: Identification, spec: RunSpec, agent, inputs, observer, seed: int,
+                   need: int = 0) -> int | None:
     """Of the kit's rule's 10 starts, how many hold with the policy run by the identified rig's own device (its
     blob as `policy_on_device` makes it; no network between the readings and the targets, what the device's
-    route meets); None for a learner the device does not run."""
+    route meets); None for a learner the device does not run. Stops as soon as fewer than `need` can hold."""
     from pendkit.agents.policy_rule import RULE_STARTS
 
     if spec.learner not in DEVICE_LEARNERS:
@@ -160,8 +161,12 @@ def held_on_device(identification: Identification, spec: RunSpec, agent, inputs,
     device = identified_twin(dataclasses.replace(identification, network=NetworkImpairment()),
                              action_mode="continuous")
     upload_to_twin(device, device_blob(AgentRun(spec, agent, inputs, observer), identification))
-    held = sum(holds_upright(onboard_episode(device, seed=seed + k, start=start, steps=EPISODE_STEPS),
-                             SOLVED_TAIL_STEPS) for k, start in enumerate(RULE_STARTS))
+    held = 0
+    for k, start in enumerate(RULE_STARTS):
+        held += holds_upright(onboard_episode(device, seed=seed + k, start=start, steps=EPISODE_STEPS),
+                              SOLVED_TAIL_STEPS)
+        if held + len(RULE_STARTS) - k - 1 < need:
+            break
     device.close()
     return held
 

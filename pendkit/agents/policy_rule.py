@@ -87,10 +87,11 @@ def rule_starts(on_twin: bool = True) -> tuple[str | None, ...]:
 
 
 def judge_policy(env, agent: Agent, inputs: StepInputs, seed: int = REPORT_SEED, stop_when_decided: bool = False,
-                 screen: bool = False, on_twin: bool = True) -> PolicyVerdict:
+                 screen: bool = False, on_twin: bool = True, need: int | None = None) -> PolicyVerdict:
     """Run the rule's greedy episodes (episode k from seed `seed + k`). `stop_when_decided`: stop as soon as
     the verdict cannot change (two misses). `screen`: stop after the first episode if it does not hold (a
-    training check's cheap probe)."""
+    training check's cheap probe). `need`: stop as soon as fewer than `need` episodes can still hold (a
+    candidate that can no longer beat another)."""
     starts = rule_starts(on_twin)
     outcome, run = Evaluation([], [], [], []), []
     for k, start in enumerate(starts):
@@ -100,6 +101,8 @@ def judge_policy(env, agent: Agent, inputs: StepInputs, seed: int = REPORT_SEED,
         run.append(start)
         misses = len(run) - sum(outcome.solved)
         if (screen and k == 0 and not held) or (stop_when_decided and misses > len(starts) - RULE_MIN_HELD):
+            break
+        if need is not None and len(starts) - misses < need:
             break
     return PolicyVerdict(outcome, tuple(run), seed)
 

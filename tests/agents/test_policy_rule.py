@@ -65,6 +65,8 @@ def test_one_lucky_episode_is_not_a_policy():
     assert full.evaluation.solved[0] and not full.solved and full.held_by_start() == {"rest": "5/5", "random": "0/5"}
     early = judge_policy(env, lucky, inputs, stop_when_decided=True)
     assert len(early.starts) == 4 and not early.solved  # two misses decide it
+    cannot_tie = judge_policy(env, lucky, inputs, need=8)  # another candidate held 8: stop when 8 is out of reach
+    assert len(cannot_tie.starts) == 6 and cannot_tie.held == 3  # rest, random, ..., the third random miss
 
 
 def test_training_counts_episodes_when_the_whole_rule_first_passes_not_the_screen():
