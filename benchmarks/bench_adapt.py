@@ -75,7 +75,17 @@ def adapt_line(name: str, hidden, report: dict) -> str:
             f"identified_err={max(abs(speed), abs(omega)):.3f} route={kind} solved={solved} "
             f"excitation_episodes={report['excitation_episodes']} identify_s={report['laptop_s_identification']:.0f} "
             f"speed_error={speed:+.1%} omega_error={omega:+.1%} recommended=\"{route or '-'}\" "
-            f"cut=\"{'; '.join(report.get('budget_cut') or []) or '-'}\"")
+            f"routes={every_route(report)} cut=\"{'; '.join(report.get('budget_cut') or []) or '-'}\"")
+
+
+def every_route(report: dict) -> str:
+    """Each route's greedy episodes solved on the rig: policy laptop/device, then each controller laptop/device."""
+    def solved(result: dict) -> str:
+        return f"{sum(result['solved'])}/{len(result['solved'])}" if "solved" in result else "-"
+
+    policy = f"policy:{solved(report['policy_on_rig'])}/{solved(report['policy_on_device'])}"
+    return ",".join([policy] + [f"{name}:{solved(report['classical_on_rig'][name])}/"
+                                f"{solved(report['classical_on_device'][name])}" for name in report["classical_on_rig"]])
 
 
 def main() -> None:

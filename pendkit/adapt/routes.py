@@ -5,6 +5,8 @@ swing-up + LQR designed on the twin). Both are judged on the rig by the kit's "s
 from __future__ import annotations
 
 import dataclasses
+import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -113,10 +115,13 @@ def twin_env(spec: RunSpec, identification: Identification, observer, spread: di
 
 
 def train_on_twin(identification: Identification, config, weights_path: Path,
-                  say: Callable[[str], None], spread: dict | None = None) -> AgentRun:
-    """(c): the starting policy trained further on the identified twin (laptop time); with `spread`
-    ({field: (low, high)}: `pendkit.adapt.uncertainty.fit_spread`) on a rig drawn from it every episode."""
+                  say: Callable[[str], None], spread: dict | None = None, deadline: float = math.inf) -> AgentRun:
+    """(c): the starting policy trained further on the identified twin (laptop time, its last episode starting
+    before `deadline`, a `time.time()`); with `spread` ({field: (low, high)}:
+    `pendkit.adapt.uncertainty.fit_spread`) on a rig drawn from it every episode."""
     from pendkit.agents.train import train_sync
+
+    in_time = lambda *_: time.time() < deadline  # noqa: E731
 
     spec, state = starting_weights(config.policy)
     spec = dataclasses.replace(spec, randomize="", seed=config.seed)
@@ -125,14 +130,14 @@ def train_on_twin(identification: Identification, config, weights_path: Path,
     _, agent, inputs = build_run(spec, env)
     if state is not None:
         agent.load_state_dict(state)
-        returns = train_sync(env, agent, config.twin_episodes, inputs, seed=config.seed, progress=False) \
-            if config.twin_episodes else []
+        returns = train_sync(env, agent, config.twin_episodes, inputs, seed=config.seed, progress=False,
+                             on_episode=in_time) if config.twin_episodes else []
     else:  # afresh: until the kit's rule holds on the identified twin, as any training from nothing stops
         from pendkit.agents.policy_rule import train_until_solved
 
         probe = twin_env(spec, identification, observer, None, config.seed)
         returns, _ = train_until_solved(env, agent, inputs, config.twin_episodes, probe=probe, seed=config.seed,
-                                        progress=False)
+                                        progress=False, max_wall_s=max(0.0, deadline - time.time()))
     save_weights(weights_path, agent, spec, {"identified_rig": identification.values(), "twin_episodes": len(returns)})
     drawn = " (a rig drawn from what the recordings allow each episode)" if spread else ""
     say(f"(c) {config.policy if state is not None else spec.learner + ' (afresh)'} trained "

@@ -213,7 +213,7 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
         agent_run, report["candidates_on_twin"], device_run = choose_on_twin(identification, config, out / "policy.pt",
                                                                              say, spread, deadline)
     else:
-        agent_run = device_run = train_on_twin(identification, config, out / "policy.pt", say, spread)
+        agent_run = device_run = train_on_twin(identification, config, out / "policy.pt", say, spread, deadline)
     report["laptop_s"] = time.time() - laptop_started
     report["budget_cut"] = budget_cuts(config, report)
     if report["budget_cut"]:

@@ -59,7 +59,8 @@ from pendkit.rig import RigParams
               help="Short excitation episodes of small quick steps that show the servo's loop (4 s of rig time each); "
                    "the servo is then refined over them (default: AdaptConfig's).")
 @click.option("--identification-restarts", "restarts", type=click.IntRange(1, 10), default=3, show_default=True,
-              help="Identify this many times from the same recordings (laptop time only, about a minute each) "
+              help="Identify up to this many times from the same recordings (laptop time only, a search starting "
+                   "only when it can end within a fifth of --budget-s) "
                    "and keep the twin that matches them best.")
 @click.option("--deploy-untrusted", is_flag=True, default=False,
               help="Deploy even from an identification whose matching cost is hardly better than a pendulum that "
