@@ -3,12 +3,15 @@
 The rig's time is the class's scarcest: the excitation starts with `min_excitation_episodes` and records one
 more (up to `excitation_episodes`) only while the recordings leave the servo's speed or its loop's damping
 uncertain (the interval over which the twin still matches them: `pendkit.adapt.uncertainty.fit_spread`,
-wider than `EXCITATION_SPREAD`), each time identifying again from every recording so far.
+wider than `EXCITATION_SPREAD`) and the last episode still narrowed it, each time identifying again from
+every recording so far (one search, started beside the fit before it, on half the evaluations).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -23,6 +26,7 @@ from pendkit.rig import RigParams
 # the device's plans follow the servo's speed, and its loop's damping decides the catch
 PINNED = ("servo_speed_s_per_60deg", "servo_damping_ratio")
 EXCITATION_SPREAD = 1.12
+NARROWING = 0.2  # an episode that took less than this share off the widest interval's excess was not worth it
 
 
 @dataclass
@@ -55,11 +59,18 @@ def excite_and_identify(rig, config, deadline: float, say: Callable[[str], None]
     first = min(config.min_excitation_episodes, config.excitation_episodes)
     with work_bar("(a) excitation", first, "episode") as bar:
         jumps, prior, logs = record_checked(rig, plan[:first], config.seed, on_episode=bar.advance)
+    identification, excess = None, math.inf
     while True:
-        identification = _identify(jumps, prior, config, deadline)
+        identification = _identify(jumps, prior, config, deadline, identification)
         spread = fit_spread(identification, jumps, tolerance or 1.0)
         widest = widest_ratio(identification, spread)
-        if len(jumps) >= len(plan) or max(widest.values()) <= EXCITATION_SPREAD:
+        excess, narrowed = max(widest.values()) - 1, excess - (max(widest.values()) - 1)
+        if len(jumps) >= len(plan) or excess <= EXCITATION_SPREAD - 1:
+            break
+        if narrowed < NARROWING * (excess + narrowed) or time.time() > deadline:
+            say(f"(a) the recordings leave {_described(widest)}, and "
+                + ("the last episode hardly narrowed it: no more" if time.time() <= deadline
+                   else "identification's time is up: no more"))
             break
         say(f"(a) the recordings leave {_described(widest)}: one more excitation episode")
         more, _, more_logs = record_checked(rig, plan[len(jumps):len(jumps) + 1], config.seed + len(jumps))
@@ -76,14 +87,22 @@ def excite_and_identify(rig, config, deadline: float, say: Callable[[str], None]
                       unrefined)
 
 
-def _identify(jumps: list[Recording], prior: RigParams, config, deadline: float) -> Identification:
-    searches = config.identification_restarts
-    with work_bar("(b) identification", searches * config.identification_evaluations, "twin") as bar:
+def _identify(jumps: list[Recording], prior: RigParams, config, deadline: float,
+              warm: Identification | None) -> Identification:
+    """The first fit: `identification_restarts` searches (as the deadline allows); a later one, of more
+    recordings: one search beside the fit before it, on half the evaluations."""
+    searches = config.identification_restarts if warm is None else 1
+    evaluations = config.identification_evaluations if warm is None else config.identification_evaluations // 2
+    with work_bar("(b) identification", searches * evaluations, "twin") as bar:
         def progress(count: int, best: float) -> None:
             bar.advance(1, f"closest {best:.2g} rad^2" if math.isfinite(best) else None)
 
-        return identify_best(jumps, prior, config.identification_evaluations,
-                             seeds=[config.seed + k for k in range(searches)], progress=progress, deadline=deadline)
+        found = identify_best(jumps, prior, evaluations, seeds=[config.seed + k for k in range(searches)],
+                              progress=progress, deadline=deadline, warm=warm)
+    if warm is None:
+        return found
+    return dataclasses.replace(found, seconds=found.seconds + warm.seconds, evaluations=found.evaluations
+                               + warm.evaluations, searches=warm.searches)
 
 
 def _described(widest: dict[str, float]) -> str:

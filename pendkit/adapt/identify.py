@@ -93,6 +93,13 @@ def candidate(base: RigParams, x: np.ndarray) -> tuple[RigParams, float]:
     return dataclasses.replace(base, **changes).with_dowel_length(length_m), float(x[-1])
 
 
+def point_of(base: RigParams, params: RigParams, last: float) -> np.ndarray:
+    """The point of the search box that `candidate(base, x)` turns into `params` (and `last`)."""
+    x = [math.log(params.dowel_length_m / base.dowel_length_m) if name == "dowel_length_m"
+         else math.log(getattr(params, name) / getattr(base, name)) for name in SERVO_BOUNDS if name != "latency_ms"]
+    return np.array([*x, last])
+
+
 def search_box(last: tuple[float, float] = SERVO_BOUNDS["latency_ms"]) -> list[tuple[float, float]]:
     """Log scales of the prior's fields, then `last` (the latency's ms, or the PWM phase's) as it is."""
     return [(math.log(low), math.log(high)) if name != "latency_ms" else last
@@ -218,11 +225,12 @@ def identify(recordings: list[Recording], prior: RigParams | None = None, max_ev
 def identify_best(recordings: list[Recording], prior: RigParams | None = None, max_evaluations: int = 1200,
                   seeds: Sequence[int] = (0,), cost: Cost = matching_cost,
                   progress: Callable[[int, float], None] | None = None, workers: int | None = None,
-                  deadline: float = math.inf) -> Identification:
+                  deadline: float = math.inf, warm: Identification | None = None) -> Identification:
     """`identify` once per seed, the fit with the lowest matching cost kept (its evaluations and seconds are
     those of all the runs): differential evolution sometimes settles in a worse fit of the same recordings,
     and the device's design on that twin then misses the rig (docs/results/transfer.md). A search after the
-    first starts only when another as long as the last ends before `deadline` (a `time.time()`)."""
+    first starts only when another as long as the last ends before `deadline` (a `time.time()`). `warm`: an
+    earlier fit (of fewer recordings) that every search starts beside the prior."""
     if not seeds:
         raise ConfigError("identify_best needs at least one seed")
     prior = prior or RigParams()
@@ -232,7 +240,11 @@ def identify_best(recordings: list[Recording], prior: RigParams | None = None, m
     cost = replay_cost if replayed else cost
     last = (0.0, prior.pwm_period_ms) if replayed else SERVO_BOUNDS["latency_ms"]
     last_prior = pwm_wait_ms(prior) if replayed else PRIOR_LATENCY_MS
-    at = functools.partial(candidate, fit_pendulum(recordings, prior))
+    pendulum = fit_pendulum(recordings, prior)
+    at = functools.partial(candidate, pendulum)
+    known = [[0.0] * (len(SERVO_BOUNDS) - 1) + [last_prior]]  # the prior is one of the first candidates
+    if warm is not None:
+        known.append(point_of(pendulum, warm.params, warm.pwm_phase_ms if replayed else warm.latency_ms))
     count, best = 0, math.inf
 
     with CostPool(cost, at, recordings, workers if kits else 1) as pool:
@@ -249,7 +261,7 @@ def identify_best(recordings: list[Recording], prior: RigParams | None = None, m
         runs = []
         for seed in seeds:
             began = time.time()
-            runs.append(_search(costs, np.array(search_box(last)), last_prior, max_evaluations, seed))
+            runs.append(_search(costs, np.array(search_box(last)), known, max_evaluations, seed))
             if time.time() + (time.time() - began) > deadline:
                 break
     best_x, best_cost = min(runs, key=lambda run: run[1])
@@ -263,16 +275,16 @@ def identify_best(recordings: list[Recording], prior: RigParams | None = None, m
                           seconds, pwm_phase_ms=fitted_last, searches=len(runs))
 
 
-def _search(costs: Callable[[np.ndarray], np.ndarray], box: np.ndarray, last_prior: float, max_evaluations: int,
+def _search(costs: Callable[[np.ndarray], np.ndarray], box: np.ndarray, known: list, max_evaluations: int,
             seed: int) -> tuple[np.ndarray, float]:
-    """Differential evolution over `box` (each generation's candidates costed together), then a Nelder-Mead
-    polish on a quarter of the budget: (the closest point, its cost)."""
+    """Differential evolution over `box` (each generation's candidates costed together; the `known` points among
+    the first), then a Nelder-Mead polish on a quarter of the budget: (the closest point, its cost)."""
     from scipy.optimize import differential_evolution, minimize
 
     dims, evolving = len(box), 3 * max_evaluations // 4  # a quarter left to polish
     members = max(5, min(10 * dims, evolving // 2))  # a small budget still gets a generation past the first
     start = np.random.default_rng(seed).uniform(box[:, 0], box[:, 1], size=(members, dims))
-    start[0] = [0.0] * (dims - 1) + [last_prior]  # the prior is one of the first candidates
+    start[:len(known)] = np.clip(known, box[:, 0], box[:, 1])
     generations = max(1, evolving // members - 1)
     result = differential_evolution(lambda xs: costs(xs.T), box, maxiter=generations, init=start, seed=seed,
                                     polish=False, tol=1e-6, mutation=(0.5, 1.0), recombination=0.7,

@@ -92,3 +92,17 @@ def test_the_budget_must_be_a_positive_number_of_seconds_or_none():
             AdaptConfig(budget_s=bad)
     with pytest.raises(ConfigError, match="min_excitation_episodes"):
         AdaptConfig(min_excitation_episodes=0)
+
+
+def test_the_excitation_stops_when_another_episode_no_longer_narrows_the_servo(monkeypatch):
+    """Nothing ever passes (a bound of x/÷1.0) and no episode can narrow enough (all of the excess): after the
+    minimum's fit and one more episode's, it stops short of the maximum and says why."""
+    monkeypatch.setattr(excite_identify, "EXCITATION_SPREAD", 1.0)
+    monkeypatch.setattr(excite_identify, "NARROWING", 1.0)
+    config = AdaptConfig(episodes=4, excitation_episodes=4, min_excitation_episodes=2, identification_evaluations=30,
+                         identification_restarts=1)
+    said = []
+    found = excite_identify.excite_and_identify(twin_rig(HIDDEN, "classroom-wifi"), config, float("inf"),
+                                                said.append, tolerance=1.0)
+    assert len(found.jumps) == 3 and "hardly narrowed it: no more" in said[-1]
+    assert found.identification.evaluations > 30  # the second fit's evaluations added to the first's
