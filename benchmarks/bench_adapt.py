@@ -74,6 +74,7 @@ def adapt_line(name: str, hidden, report: dict) -> str:
     return (f"adapt rig={name} rig_s={report['rig_s_adaptation']:.1f} laptop_s={report['wall_s_adaptation']:.0f} "
             f"identified_err={max(abs(speed), abs(omega)):.3f} route={kind} solved={solved} "
             f"excitation_episodes={report['excitation_episodes']} identify_s={report['laptop_s_identification']:.0f} "
+            f"pinned={'/'.join(f'{ratio:.2f}' for ratio in report['excitation_spread'].values())} "
             f"speed_error={speed:+.1%} omega_error={omega:+.1%} recommended=\"{route or '-'}\" "
             f"routes={every_route(report)} cut=\"{'; '.join(report.get('budget_cut') or []) or '-'}\"")
 
