@@ -68,7 +68,8 @@ from pendkit.rig import RigParams
 @click.option("--budget-s", type=click.FloatRange(0), default=300.0, show_default=True,
               help="Wall seconds from the start until every route is ready (identification, designs, the "
                    "learned route's training), the rig's evaluation episodes after it; a smaller budget trains "
-                   "less, and the end of the run says what it cut. 0: no limit.")
+                   "less (the first identification search and each policy's as-shipped verdict always run), and "
+                   "the end of the run says what it cut. 0: no limit.")
 @click.option("--seed", type=int, default=0, show_default=True)
 @broker_login_options
 def adapt(backend, rig_id, broker, params_path, impairment, out_dir, episodes, fine_tune, twin_episodes, twin_tolerance,
