@@ -5,6 +5,7 @@ import torch
 
 from pendkit.grading import expect, task
 from pendkit.grading.prelab import prelab_answers
+from pendkit.grading.suites.lab07 import huber_note, target_note, target_note_on_a_telling_batch
 
 schedule = task("07.epsilon", function="epsilon", title="The exploration schedule")
 huber = task("07.huber", function="huber", title="The Huber loss")
@@ -26,7 +27,9 @@ def matches_torch(fn, rng):
     for delta in (0.5, 2.0):
         expected = torch.nn.functional.huber_loss(torch.tensor(errors), torch.zeros(50), reduction="none",
                                                   delta=delta).numpy()
-        expect(np.allclose(np.asarray(fn(errors, delta), dtype=float), expected), f"wrong for delta={delta}")
+        got = np.asarray(fn(errors, delta), dtype=float)
+        expect(got.shape == expected.shape and np.allclose(got, expected),
+               f"50 random errors with delta={delta} do not match torch's huber_loss" + huber_note(got, errors, delta))
 
 
 target = task("07.td_target", function="td_target", title="The (double) DQN target")
@@ -42,7 +45,10 @@ def random_batches(fn, rng):
             expected = rewards + gamma * (1 - dones) * next_value
             got = np.asarray(fn(rewards, dones, online, target_q, gamma, double), dtype=float).reshape(-1)
             expect(got.shape == expected.shape and np.allclose(got, expected),
-                   f"td_target on a batch of {batch} with {actions} actions (double={double}) is wrong")
+                   f"td_target on a batch of {batch} with {actions} actions (double={double}): expected "
+                   f"{np.round(expected, 4).tolist()[:3]}, got {np.round(got, 4).tolist()[:3]}"
+                   + (target_note_on_a_telling_batch(fn, double)
+                      or target_note(got, rewards, dones, online, target_q, gamma, double)))
 
 
 prelab_answers("07", {"epsilon_halfway": 0.525, "horizon_steps": 100.0, "double_target": 1.085},
@@ -63,6 +69,9 @@ def any_order_and_both_kinds_of_start(fn, rng):
                f"{sum(held)} of 10 held: got held {got['held']}, solved {got['solved']}")
     only_rest = fn([True] * 10, ["rest"] * 10)
     expect(not only_rest["solved"], "10 episodes all hanging still is not the rule: it takes 5 random starts too")
+    twice = fn([True] * 20, starts * 2)
+    expect(not twice["solved"], "20 episodes, all held, should not be solved: the rule is exactly 10 episodes, 5 of "
+                                "each start (a longer run is not the rule; run the rule's 10)", hint=False)
 
 
 # --- The answer key (tests/grading/test_wrong_answers.py grades each through the tests above): a correct
@@ -100,12 +109,19 @@ MISTAKES = [
     ("07.td_target", lambda r, done, on, tq, g, double: td_target(r, done, on, tq, g, double, False), "no future"),
     ("07.huber", lambda e, delta: 0.5 * np.asarray(e) ** 2, "grows linearly"),
     ("07.huber", lambda e, delta: np.where(np.abs(e) <= delta, 0.5 * e**2, np.abs(e)), "subtract 0.5 delta"),
+    ("07.huber", lambda e, delta: np.where(np.abs(e) <= delta, 0.5 * e**2, delta * np.abs(e)), "subtract 0.5 delta",
+     {"quadratic_then_linear", "matches_torch"}),
+    ("07.huber", lambda e, delta: np.where(np.abs(e) <= delta, 0.5 * e**2, delta * (np.abs(e) - delta)),
+     "not all of it", {"matches_torch"}),
+    ("07.policy_verdict", lambda held, starts: {"held": sum(map(bool, held)), "episodes": len(held), "solved": len(
+        held) >= 10 and list(starts).count("rest") >= 5 and list(starts).count("random") >= 5
+        and sum(map(bool, held)) >= 0.9 * len(held)}, "exactly 10 episodes"),
     ("07.policy_verdict", lambda held, starts: policy_verdict(held, starts, strict=True), "9 passes"),
     ("07.policy_verdict", lambda held, starts: policy_verdict(held, starts, lucky=True), "one lucky episode"),
     ("07.policy_verdict", lambda held, starts: policy_verdict(held, starts, share=True), "the rule takes 10"),
     ("07.td_target", lambda r, done, online, target, gamma, double: td_target(r, 1 - np.asarray(done), online,
                                                                                target, gamma, double),
-     "kept it only where it ended"),
+     "kept it only where it ended", {"double_and_plain_targets", "random_batches"}),
     ("07.td_target", lambda r, done, online, target, gamma, double: td_target(r, done, target, online, gamma, double)
      if double else td_target(r, done, online, target, gamma, double), "roles are swapped"),
     ("07.td_target", lambda r, done, online, target, gamma, double: np.asarray(r) + gamma * (1 - np.asarray(done))

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pendkit.grading.core import Failed, as_number, expect, task
+from pendkit.grading.core import Diagnosis, Failed, as_number, expect, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
@@ -49,15 +49,16 @@ def _along_the_actions(fn, *arguments):
         raise
 
 
+# a batch on which every known wrong target differs from the right one and from the others
+TELLING_BATCH = (np.array([1.0, -1.0, 0.5]), np.array([0.0, 1.0, 0.0]), np.array([[1.0, 3.0], [2.0, 0.0], [0.0, 1.0]]),
+                 np.array([[5.0, 4.0], [9.0, 9.0], [2.0, 7.0]]), 0.9)
+
+
 @target.test(points=3, hint="The target is r + gamma (1 - done) Q'(s', a'), the future added to the reward; in "
                             "double DQN the online network picks a', the target network values it; no bootstrap "
                             "after a terminal step.")
 def double_and_plain_targets(fn, rng):
-    rewards = np.array([1.0, -1.0, 0.5])
-    dones = np.array([0.0, 1.0, 0.0])
-    online = np.array([[1.0, 3.0], [2.0, 0.0], [0.0, 1.0]])
-    target_q = np.array([[5.0, 4.0], [9.0, 9.0], [2.0, 7.0]])
-    gamma = 0.9
+    rewards, dones, online, target_q, gamma = TELLING_BATCH
     plain = rewards + gamma * (1 - dones) * target_q.max(axis=1)
     double = rewards + gamma * (1 - dones) * target_q[np.arange(3), online.argmax(axis=1)]
     got_double = _arrays(_along_the_actions(fn, rewards, dones, online, target_q, gamma, True),
@@ -65,25 +66,46 @@ def double_and_plain_targets(fn, rng):
     got_plain = _arrays(_along_the_actions(fn, rewards, dones, online, target_q, gamma, False),
                         "td_target(..., double=False)", 3)
     message = f"double targets should be {double.tolist()}, got {got_double.tolist()}"
-    future_double = gamma * (1 - dones) * target_q[np.arange(3), online.argmax(axis=1)]
-    if np.allclose(got_double, rewards - future_double) or np.allclose(got_double, -rewards + future_double):
-        message += (": the sign is wrong; the target is the reward PLUS gamma times the next state's value "
-                    "(r + gamma (1 - done) Q'), both with a plus sign")
-    elif np.allclose(got_double, plain):
-        message += ": that is the plain max; let the online network choose the action"
-    elif np.allclose(got_double, rewards + gamma * (1 - dones) * online[np.arange(3), target_q.argmax(axis=1)]):
-        message += (": the two networks' roles are swapped; the online network picks the action (argmax), "
-                    "the target network says what it is worth")
-    elif np.allclose(got_double, rewards + gamma * target_q[np.arange(3), online.argmax(axis=1)]):
-        message += ": a terminal step has no future: multiply by (1 - done)"
-    elif np.allclose(got_double, rewards + gamma * dones * target_q[np.arange(3), online.argmax(axis=1)]):
-        message += (": done is 1 at a terminal step, so (1 - done) keeps the future where the episode goes on; "
-                    "you kept it only where it ended")
-    expect(np.allclose(got_double, double), message)
+    expect(np.allclose(got_double, double), message + target_note(got_double, rewards, dones, online, target_q,
+                                                                   gamma, double=True))
     message = f"plain targets should be {plain.tolist()}, got {got_plain.tolist()}"
-    if np.allclose(got_plain, 2 * rewards - plain):
-        message += ": the sign is wrong; the target is the reward PLUS gamma times the next state's value"
-    expect(np.allclose(got_plain, plain), message)
+    expect(np.allclose(got_plain, plain), message + target_note(got_plain, rewards, dones, online, target_q, gamma,
+                                                                double=False))
+
+
+def target_note(got, rewards, dones, online, target_q, gamma, double: bool) -> str:
+    """The cause of a wrong target, when `got` is one of the known wrong ones (a `Diagnosis`), else ""."""
+    rows = np.arange(len(rewards))
+    pick = online.argmax(axis=1) if double else target_q.argmax(axis=1)
+    future = target_q[rows, pick]
+    right = rewards + gamma * (1 - dones) * future
+    causes = [(rewards - gamma * (1 - dones) * future, ": the sign is wrong; the target is the reward PLUS gamma "
+               "times the next state's value (r + gamma (1 - done) Q'), both with a plus sign"),
+              (-rewards + gamma * (1 - dones) * future, ": the sign is wrong; the target is the reward PLUS gamma "
+               "times the next state's value (r + gamma (1 - done) Q'), both with a plus sign")]
+    if double:
+        causes += [(rewards + gamma * (1 - dones) * target_q.max(axis=1),
+                    ": that is the plain max; let the online network choose the action"),
+                   (rewards + gamma * (1 - dones) * online[rows, target_q.argmax(axis=1)],
+                    ": the two networks' roles are swapped; the online network picks the action (argmax), the "
+                    "target network says what it is worth")]
+    causes += [(rewards + gamma * future, ": a terminal step has no future: multiply by (1 - done)"),
+               (rewards + gamma * dones * future, ": done is 1 at a terminal step, so (1 - done) keeps the future "
+                "where the episode goes on; you kept it only where it ended")]
+    got = np.asarray(got, dtype=float)
+    named = {cause for wrong, cause in causes
+             if got.shape == wrong.shape and np.allclose(got, wrong) and not np.allclose(wrong, right)}
+    return Diagnosis(named.pop()) if len(named) == 1 else ""  # a batch that cannot tell two causes apart names none
+
+
+def target_note_on_a_telling_batch(fn, double: bool) -> str:
+    """The cause of a wrong target as the public test's batch shows it (it tells every known cause apart)."""
+    rewards, dones, online, target_q, gamma = TELLING_BATCH
+    try:
+        got = np.asarray(fn(rewards.copy(), dones.copy(), online.copy(), target_q.copy(), gamma, double), dtype=float)
+    except Exception:  # noqa: BLE001 (the student's code: the test reports its own failure)
+        return ""
+    return target_note(got, rewards, dones, online, target_q, gamma, double)
 
 
 @huber.test(points=2, hint="0.5 e^2 where |e| <= delta, delta (|e| - 0.5 delta) beyond.")
@@ -92,14 +114,33 @@ def quadratic_then_linear(fn, rng):
     expected = np.where(np.abs(errors) <= 1.0, 0.5 * errors**2, np.abs(errors) - 0.5)
     got = _arrays(fn(errors, 1.0), "huber(errors, 1.0)", 5)
     message = f"huber({errors.tolist()}, 1.0) should be {expected.tolist()}, got {got.tolist()}"
-    small = np.abs(errors) <= 1.0
-    if np.allclose(got[small], errors[small] ** 2) and not np.allclose(errors[small], 0.0):
-        message += ": the quadratic part is half the square, 0.5 e^2 (its slope then meets the linear part's at delta)"
-    elif np.allclose(got, 0.5 * errors**2):
-        message += ": beyond delta the loss grows linearly (that is what makes it robust)"
-    elif np.allclose(got, np.where(np.abs(errors) <= 1.0, 0.5 * errors**2, np.abs(errors))):
-        message += ": subtract 0.5 delta in the linear part, so the two pieces meet"
-    expect(np.allclose(got, expected), message)
+    expect(np.allclose(got, expected), message + huber_note(got, errors, 1.0))
+
+
+def huber_note(got, errors, delta: float) -> str:
+    """The cause of a wrong Huber loss, when `got` is one of the known wrong ones (a `Diagnosis`), else ""."""
+    size = np.abs(errors)
+    small = size <= delta
+    causes = [(np.where(small, errors**2, delta * (size - 0.5 * delta)),
+               ": the quadratic part is half the square, 0.5 e^2 (its slope then meets the linear part's at delta)"),
+              (0.5 * errors**2, ": beyond delta the loss grows linearly (that is what makes it robust)"),
+              (np.where(small, 0.5 * errors**2, delta * size), ": the linear part is delta (|e| - 0.5 delta): "
+               "subtract 0.5 delta in the linear part, so the two pieces meet at |e| = delta (without it the loss "
+               "jumps by delta^2 / 2 there)"),
+              (np.where(small, 0.5 * errors**2, size), ": the linear part is delta (|e| - 0.5 delta): subtract "
+               "0.5 delta in the linear part, so the two pieces meet, and scale it by delta"),
+              (np.where(small, 0.5 * errors**2, size - 0.5 * delta), ": the linear part is delta (|e| - 0.5 "
+               "delta): it is scaled by delta, so its slope is delta where the quadratic part ends"),
+              (np.where(small, 0.5 * errors**2, delta * (size - delta)), ": the linear part subtracts half of "
+               "delta, 0.5 delta, not all of it, so the two pieces meet at |e| = delta"),
+              (np.where(errors <= delta, 0.5 * errors**2, delta * (errors - 0.5 * delta)),
+               ": the size of an error is |e|: a large negative error is beyond delta too (use np.abs)")]
+    got = np.asarray(got, dtype=float)
+    right = np.where(small, 0.5 * errors**2, delta * (size - 0.5 * delta))
+    for wrong, cause in causes:
+        if got.shape == wrong.shape and np.allclose(got, wrong) and not np.allclose(wrong, right):
+            return Diagnosis(cause)
+    return ""
 
 
 prelab_task("07", ("epsilon_halfway", "horizon_steps", "double_target"))
