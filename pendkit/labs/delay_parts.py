@@ -49,6 +49,30 @@ class StudentDelay(gym.Wrapper):
         return np.clip(rows[-1], self.observation_space.low, self.observation_space.high)
 
 
+def steps_late(fn: Callable, delay_steps: int, rows: int = 16) -> int | None:
+    """How many steps late the student's `delayed_view(observations, delay_steps)` shows a ramp (None when its
+    answer is not the ramp shifted by a whole number of steps, or it raises)."""
+    ramp = np.arange(rows, dtype=float)[:, None]
+    try:
+        seen = np.asarray(fn(ramp.copy(), delay_steps), dtype=float).reshape(ramp.shape)
+    except Exception:  # noqa: BLE001 (the student's code: the cell that calls it shows its error)
+        return None
+    return next((k for k in range(rows) if np.array_equal(seen, ramp[np.maximum(0, np.arange(rows) - k)])), None)
+
+
+def delay_said(fn: Callable, delay_steps: int, dt_s: float) -> str | None:
+    """None when `fn` delays by `delay_steps`; else what delay it gives instead, in words."""
+    late = steps_late(fn, delay_steps)
+    if late == delay_steps:
+        return None
+    asked = f"delayed_view(observations, {delay_steps}) should show each step {delay_steps} steps late " \
+            f"({1000 * delay_steps * dt_s:.0f} ms)"
+    if late is None:
+        return f"your {asked}; it is not a delay of a whole number of steps"
+    steps = "1 step" if late == 1 else f"{late} steps"
+    return f"your {asked}; it shows them {steps} late ({1000 * late * dt_s:.0f} ms)"
+
+
 def student_gru_cell(fn: Callable, trunk) -> Callable:
     """A `GruTrunk.step` replacement that runs the student's `gru_step` on the trunk's own weights."""
     gru = trunk.gru

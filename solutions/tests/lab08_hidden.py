@@ -6,6 +6,7 @@ import torch
 from pendkit.grading import expect, task
 from pendkit.grading.core import shown
 from pendkit.grading.prelab import prelab_answers
+from pendkit.grading.suites.lab08 import gru_note, reference_gru_step
 
 gru = task("08.gru_step", function="gru_step", title="One step of a GRU cell")
 augmented = task("08.augmented_state", function="augmented_state", title="The augmented state of a delayed rig")
@@ -19,7 +20,10 @@ def matches_torch(fn, rng):
     with torch.no_grad():
         expected = cell(torch.tensor(x)[None], torch.tensor(h)[None])[0].numpy()
     weights = [p.detach().numpy() for p in (cell.weight_ih, cell.weight_hh, cell.bias_ih, cell.bias_hh)]
-    expect(np.allclose(np.asarray(fn(x, h, *weights), dtype=float), expected), "differs from torch.nn.GRUCell")
+    got = np.asarray(fn(x, h, *weights), dtype=float)
+    expect(got.shape == expected.shape and np.allclose(got, expected),
+           f"a torch.nn.GRUCell(5, 6) gives {np.round(expected, 4).tolist()}, your gru_step on its weights "
+           f"{np.round(got, 4).tolist()}" + gru_note(got, x, h, *weights))
 
 
 @delayed.test(points=1, hidden=True, hint="A delay longer than the episode shows only the first observation.")
@@ -91,13 +95,8 @@ def augmented_state(observation, recent, n, oldest_first=False, one_hot=True):
     return np.concatenate([np.asarray(observation, dtype=float).ravel(), codes])
 
 
-def gru_step(x, h, w_ih, w_hh, b_ih, b_hh, swap_update=False):
-    size = len(h)
-    gi, gh = w_ih @ x + b_ih, w_hh @ h + b_hh
-    reset = 1 / (1 + np.exp(-(gi[:size] + gh[:size])))
-    update = 1 / (1 + np.exp(-(gi[size:2 * size] + gh[size:2 * size])))
-    new = np.tanh(gi[2 * size:] + reset * gh[2 * size:])
-    return update * new + (1 - update) * h if swap_update else (1 - update) * new + update * h
+def gru_step(x, h, w_ih, w_hh, b_ih, b_hh, variant=""):
+    return reference_gru_step(np.asarray(x, float), np.asarray(h, float), w_ih, w_hh, b_ih, b_hh, variant)
 
 
 CORRECT = {
@@ -111,8 +110,15 @@ MISTAKES = [
     ("08.delayed_view", lambda obs, k: np.roll(obs, k, axis=0), "np.roll"),
     ("08.delayed_view", lambda obs, k: np.asarray(obs), "nothing is delayed"),
     ("08.delayed_view", lambda obs, k: np.asarray(obs)[np.clip(np.arange(len(obs)) - k + 1, 0, len(obs) - 1)],
-     "one step short"),
-    ("08.gru_step", lambda x, h, a, b, c, d: gru_step(x, h, a, b, c, d, swap_update=True), "swapped"),
+     "one step short", {"shifted_and_padded"}),
+    ("08.gru_step", lambda x, h, a, b, c, d: gru_step(x, h, a, b, c, d, "z swapped"), "z and (1 - z) are swapped",
+     {"matches_the_equations", "matches_torch"}),
+    ("08.gru_step", lambda x, h, a, b, c, d: gru_step(x, h, a, b, c, d, "b_hn outside"), "b_hn is added outside",
+     {"matches_the_equations", "matches_torch"}),
+    ("08.gru_step", lambda x, h, a, b, c, d: gru_step(x, h, a, b, c, d, "update first"), "order (update, reset)",
+     {"matches_the_equations", "matches_torch"}),
+    ("08.gru_step", lambda x, h, a, b, c, d: gru_step(x, h, a, b, c, d, "reset on h"), "multiplies h before W_hn",
+     {"matches_the_equations", "matches_torch"}),
     ("08.augmented_state", lambda o, r, n: augmented_state(o, r, n, oldest_first=True), "wrong order"),
     ("08.augmented_state", lambda o, r, n: augmented_state(o, r, n, one_hot=False), "one-hot codes"),
     ("08.breaking_delay", lambda d, p, r, t=0.5: d[int(np.argmin(p))], "first breaks"),

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pendkit.grading.core import Failed, expect, shown, task
+from pendkit.grading.core import Diagnosis, Failed, expect, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
@@ -30,13 +30,13 @@ def shifted_and_padded(fn, rng):
     got = _array(fn(observations.copy(), 2), "delayed_view(observations, 2)", (6, 2))
     message = f"delayed_view(..., 2) should be {expected.tolist()}, got {got.tolist()}"
     if np.allclose(got, np.roll(observations, 2, axis=0)):
-        message += ": np.roll wraps the last rows round to the start; the agent cannot see the future"
+        message += Diagnosis(": np.roll wraps the last rows round to the start; the agent cannot see the future")
     elif np.allclose(got, observations):
-        message += ": nothing is delayed"
+        message += Diagnosis(": nothing is delayed")
     else:
         for steps, said in ((1, "one step short"), (3, "one step too many")):
             if np.allclose(got, observations[np.maximum(0, np.arange(6) - steps)]):
-                message += f": that is a delay of {steps}, {said} (row t is observation t - delay)"
+                message += Diagnosis(f": that is a delay of {steps}, {said} (row t is observation t - delay)")
     expect(np.allclose(got, expected), message)
     same = _array(fn(observations.copy(), 0), "delayed_view(observations, 0)", (6, 2))
     expect(np.allclose(same, observations), "a delay of 0 should return the observations unchanged")
@@ -86,15 +86,47 @@ def observation_then_one_hot_actions(fn, rng):
                                                  f"got {single.tolist()}")
 
 
-def reference_gru_step(x, h, w_ih, w_hh, b_ih, b_hh):
-    """PyTorch's GRUCell, gates stacked (reset, update, new)."""
+def reference_gru_step(x, h, w_ih, w_hh, b_ih, b_hh, variant: str = ""):
+    """PyTorch's GRUCell, gates stacked (reset, update, new); `variant` names one of the known wrong cells."""
     gi, gh = w_ih @ x + b_ih, w_hh @ h + b_hh
     size = len(h)
     sigmoid = lambda v: 1 / (1 + np.exp(-v))  # noqa: E731
     reset = sigmoid(gi[:size] + gh[:size])
     update = sigmoid(gi[size:2 * size] + gh[size:2 * size])
-    new = np.tanh(gi[2 * size:] + reset * gh[2 * size:])
+    if variant == "update first":
+        reset, update = update, reset
+    if variant == "b_hn outside":
+        new = np.tanh(gi[2 * size:] + reset * (w_hh[2 * size:] @ h) + b_hh[2 * size:])
+    elif variant == "reset on h":
+        new = np.tanh(gi[2 * size:] + w_hh[2 * size:] @ (reset * h) + b_hh[2 * size:])
+    elif variant == "no reset":
+        new = np.tanh(gi[2 * size:] + gh[2 * size:])
+    else:
+        new = np.tanh(gi[2 * size:] + reset * gh[2 * size:])
+    if variant == "z swapped":
+        return update * new + (1 - update) * h
     return (1 - update) * new + update * h
+
+
+GRU_MISTAKES = {
+    "z swapped": ": z and (1 - z) are swapped; z keeps the old state: h' = (1 - z) n + z h",
+    "b_hn outside": ": b_hn is added outside the reset gate; PyTorch's cell scales both, r (W_hn h + b_hn)",
+    "update first": ": the gates are taken in the order (update, reset); each weight and bias stacks them (reset, "
+                    "update, new): rows 0..H-1 are the reset gate's",
+    "reset on h": ": the reset gate multiplies h before W_hn (the original paper's cell); PyTorch's scales the "
+                  "product, r (W_hn h + b_hn)",
+    "no reset": ": the reset gate is left out of the new gate: n = tanh(W_in x + b_in + r (W_hn h + b_hn))",
+}
+
+
+def gru_note(got, x, h, w_ih, w_hh, b_ih, b_hh) -> str:
+    """The cause of a wrong GRU step, when `got` is one of the known wrong cells (a `Diagnosis`), else ""."""
+    got = np.asarray(got, dtype=float)
+    for variant, cause in GRU_MISTAKES.items():
+        wrong = reference_gru_step(x, h, w_ih, w_hh, b_ih, b_hh, variant)
+        if got.shape == wrong.shape and np.allclose(got, wrong, atol=1e-9):
+            return Diagnosis(cause)
+    return ""
 
 
 @gru.test(points=3, hint="Gates stacked (reset, update, new); h' = (1 - z) n + z h; the reset gate scales "
@@ -107,11 +139,7 @@ def matches_the_equations(fn, rng):
     expected = reference_gru_step(x, h, w_ih, w_hh, b_ih, b_hh)
     got = _array(fn(x, h, w_ih, w_hh, b_ih, b_hh), "gru_step(...)", (size,))
     message = f"gru_step should give {np.round(expected, 4).tolist()}, got {np.round(got, 4).tolist()}"
-    update = 1 / (1 + np.exp(-(w_ih @ x + b_ih + w_hh @ h + b_hh)[size:2 * size]))
-    new_from_expected = (expected - update * h) / (1 - update)
-    if np.allclose(got, update * new_from_expected + (1 - update) * h):
-        message += ": z and (1 - z) are swapped; z keeps the old state"
-    expect(np.allclose(got, expected, atol=1e-9), message)
+    expect(np.allclose(got, expected, atol=1e-9), message + gru_note(got, x, h, w_ih, w_hh, b_ih, b_hh))
 
 
 @contrast.test(points=2, hint="The first delay (in the given order) where plain < threshold <= recurrent; "
