@@ -50,3 +50,16 @@ def test_lab10_the_students_chunks_reach_the_rig_and_big_endian_ones_do_not():
     assert "1 accepted" in right, right
     assert "the upload failed" in wrong and "0 accepted" in wrong, wrong
     assert "big-endian; the rig reads little-endian" in wrong, wrong  # the cause, not the blob's size
+
+
+CHUNKS_ONE_BYTE_SHORT = '''
+def upload_chunks(blob, start=0, chunk_bytes=1024):
+    return [b"PKUP" + struct.pack("<II", offset, len(blob)) + blob[offset:offset + chunk_bytes - 1]
+            for offset in range(start, len(blob), chunk_bytes)]
+'''
+
+
+def test_lab10_chunks_one_byte_short_are_named_before_they_are_sent():
+    said = printed_by_lab("10_on_device.ipynb", "chunker=your_chunks", {"upload_chunks": CHUNKS_ONE_BYTE_SHORT})
+    assert "the upload failed" in said and "byte 1023 is never sent" in said, said
+    assert "a slice's end is left out" in said, said
