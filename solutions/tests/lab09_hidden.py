@@ -6,9 +6,9 @@ import numpy as np
 
 from pendkit.episode import time_to_upright_s
 from pendkit.grading import expect, task
-from pendkit.grading.core import shown
+from pendkit.grading.core import Diagnosis, shown
 from pendkit.grading.prelab import prelab_answers
-from pendkit.grading.suites.lab09 import ARM_LIMIT_RAD, SPIN_LIMIT_RAD_S, STALE_AFTER_S
+from pendkit.grading.suites.lab09 import ARM_LIMIT_RAD, SPIN_LIMIT_RAD_S, STALE_AFTER_S, balance_note, cost_note
 
 upright = task("09.time_to_upright_s", function="time_to_upright_s", title="Time to upright from a run")
 balance = task("09.balance_error_deg", function="balance_error_deg", title="Balance error once upright")
@@ -49,7 +49,8 @@ def random_balance_tails(fn, rng):
         got = fn(angles, 0.06)
         expected = None if start is None else float(np.degrees(np.sqrt(np.mean(angles[start:] ** 2))))
         ok = got is None if expected is None else got is not None and abs(got - expected) < 1e-6
-        expect(ok, f"a random run of {len(angles)} steps: expected {shown(expected)}, got {shown(got)}")
+        note = "" if start is None else balance_note(got, angles, start)
+        expect(ok, f"a random run of {len(angles)} steps: expected {shown(expected)}, got {shown(got)}" + note)
 
 
 @watchdog.test(points=1, hidden=True, hint="Right at and just past each limit, and for readings that never came.")
@@ -78,8 +79,13 @@ def random_swings(fn, rng):
         gap = np.angle(np.exp(1j * (simulated - recorded)))
         expected = float(np.mean(gap ** 2))
         got = fn(simulated.copy(), recorded.copy())
-        expect(got is not None and abs(float(got) - expected) < 1e-9 * max(1.0, expected),
-               f"{n} steps of a random swing: expected {expected:.6g}, got {shown(got)}")
+        if got is not None and abs(float(got) - expected) < 1e-9 * max(1.0, expected):
+            continue
+        unwrapped = float(np.mean((simulated - recorded) ** 2))
+        note = (Diagnosis(": the gaps were not wrapped into [-pi, pi); across the wrap at the bottom two nearly "
+                          "equal readings are almost 2 pi apart") if got is not None and abs(float(got) - unwrapped)
+                < 1e-9 * max(1.0, unwrapped) else cost_note(fn))
+        expect(False, f"{n} steps of a random swing: expected {expected:.6g}, got {shown(got)}" + note)
 
 
 prelab_answers("09", {"speed_ratio": 1.4, "stale_steps": 5.0, "growth_before_stop": 4.4817},
@@ -100,11 +106,11 @@ def first_upright_entry(angles, dt):
     return None if final_upright_start(angles, dt) is None else float(inside[0] * dt)
 
 
-def balance_error_deg(angles, dt, rms=True):
+def balance_error_deg(angles, dt, rms=True, whole_run=False):
     start = final_upright_start(angles, dt)
     if start is None:
         return None
-    tail = np.asarray(angles, dtype=float)[int(round(start / dt)):]
+    tail = np.asarray(angles, dtype=float)[0 if whole_run else int(round(start / dt)):]
     return float(np.degrees(np.sqrt(np.mean(tail**2)) if rms else np.mean(tail)))
 
 
@@ -133,6 +139,14 @@ MISTAKES = [
     ("09.time_to_upright_s", lambda a, dt: None if final_upright_start(a, dt) is None
      else round(final_upright_start(a, dt) / dt), "step index"),
     ("09.balance_error_deg", lambda a, dt: balance_error_deg(a, dt, rms=False), "mean"),
+    ("09.balance_error_deg", lambda a, dt: balance_error_deg(a, dt, whole_run=True), "over the whole run",
+     {"rms_over_the_final_run", "random_balance_tails"}),
+    ("09.matching_cost", lambda sim, rec: CORRECT["09.matching_cost"](sim, rec) ** 0.5, "leave out the square root",
+     {"a_mean_of_squares", "gaps_either_way_add_up", "the_wrap_at_the_bottom", "random_swings"}),
+    ("09.matching_cost", lambda sim, rec: float(np.mean(np.abs((np.asarray(sim) - rec + np.pi) % (2 * np.pi) - np.pi))),
+     "square the differences", {"a_mean_of_squares", "gaps_either_way_add_up", "the_wrap_at_the_bottom"}),
+    ("09.matching_cost", lambda sim, rec: float(np.mean((np.asarray(sim) - rec) ** 2)), "wrap",
+     {"the_wrap_at_the_bottom", "random_swings"}),
     ("09.balance_error_deg", lambda a, dt: None if balance_error_deg(a, dt) is None
      else math.radians(balance_error_deg(a, dt)), "radians"),
     ("09.should_stop", lambda arm, rate, age: "arm" if abs(arm) > 1.6 or abs(rate) > 20 or age > 0.3 else None,

@@ -1,12 +1,15 @@
 """Lab 09: the student's watchdog and matching cost drive the rig runs and the identified twin."""
 
 import re
+from pathlib import Path
 
+import nbformat
 import pytest
 
 from tests.labs.student_loop import printed_by_lab
 from tests.labs.test_lab_claims import deployed_policies
 
+ROOT = Path(__file__).resolve().parents[2]
 pytestmark = pytest.mark.expensive  # minutes of notebook runs: scheduled first (conftest.py)
 
 NEVER_STOPS = '''
@@ -48,37 +51,40 @@ def test_lab09_the_students_cost_identifies_a_twin_that_follows_the_rig_and_a_si
     assert right < 0.75 and signed > right + 0.2, text  # the nominal twin is 1.0
 
 
-def test_lab09_the_deployed_policies_come_up_on_their_twins_and_not_on_the_slower_virtual_rig():
-    """What the policy cell's text says to expect, in the lab's setting (its virtual rig, 400 steps, seed 0): up
-    within a few seconds on the twin each was trained on; never upright on the rig from hanging still (a busier
-    machine only adds delay). The rig waits for the pendulum to settle first: a run that begins while it still
-    swings from the run before starts elsewhere (td3-realistic once came up at 2.8 s in a run that did not wait)."""
+def test_lab09_the_deployed_policies_come_up_on_their_twins_and_seldom_on_a_twin_of_the_rig():
+    """What the policy cell's text says to expect, in the lab's setting (400 steps): up within a few seconds on the
+    twin each was trained on, seed 0; on a simulated twin of the lab's virtual rig (its servo, the classroom
+    Wi-Fi), from 10 starts hanging still, as often as the text says (`dqn-ideal` from none, `td3-realistic` from
+    2 of 10). The real-time rig itself is not asserted: `td3-realistic` came up there in 4 of 20 runs, which the
+    text quotes from docs/results/labs.md."""
+    import dataclasses
+
     import pendkit
     from pendkit.agents.pretrained import load_policy, policy_env_options
     from pendkit.deploy import run_guarded
     from pendkit.features import time_to_upright_s
-    from pendkit.link.virtual_rig import LocalRig
+    from pendkit.network import IMPAIRMENTS
+    from pendkit.sim.fidelity import FIDELITY_PRESETS
 
-    def upright_at(env, name):
-        run = run_guarded(env, load_policy(name, env), lambda *reading: None, steps=400, seed=0)
+    def upright_at(env, name, seed=0):
+        run = run_guarded(env, load_policy(name, env), lambda *reading: None, steps=400, seed=seed)
         up = time_to_upright_s(list(run.trace.pendulum_from_upright_rad), 0.06)
         return None if up is None or up > 400 * 0.06 - 2.0 else up  # the lab's measure: held the last 2 s at least
 
-    rig = LocalRig(impairment="classroom-wifi", params=pendkit.RigParams.preset("hitec-d645mw-4v8"))
-    try:
-        for name in deployed_policies():
-            options = policy_env_options(name)
-            on_twin = upright_at(pendkit.make(**options, start="rest"), name)
-            assert on_twin is not None and on_twin < 5.0, (name, on_twin)
-            rig_env = pendkit.make(backend="rig", broker=rig.url, rig=rig.rig,
-                                   rig_options={"reset_stop_s": 2.0, "observation_timeout_s": 2.0, "settle": True},
-                                   **{k: v for k, v in options.items() if k != "fidelity"})
-            try:
-                assert upright_at(rig_env, name) is None, name
-            finally:
-                rig_env.close()
-    finally:
-        rig.stop()
+    like_the_rig = dataclasses.replace(FIDELITY_PRESETS["realistic"], network=IMPAIRMENTS["classroom-wifi"])
+    params = pendkit.RigParams.preset("hitec-d645mw-4v8")
+    text = " ".join(" ".join(cell.source for cell in nbformat.read(ROOT / "solutions" / "09_deploy.ipynb",
+                                                                      as_version=4).cells).split())
+    said = {"dqn-ideal": "`dqn-ideal` came up from none", "td3-realistic": "`td3-realistic` from {k} of 10"}
+    for name in deployed_policies():
+        options = policy_env_options(name)
+        on_twin = upright_at(pendkit.make(**options, start="rest"), name)
+        assert on_twin is not None and on_twin < 5.0, (name, on_twin)
+        rest = {k: v for k, v in options.items() if k != "fidelity"}
+        ups = [upright_at(pendkit.make(**rest, fidelity=like_the_rig, params=params, start="rest"), name, seed)
+               for seed in range(10)]
+        came = sum(up is not None for up in ups)
+        assert said[name].format(k=came) in text and (came == 0) == (name == "dqn-ideal"), (name, ups)
 
 
 def test_lab09_on_a_twin_of_its_rig_a_design_for_its_servo_comes_up_and_one_for_the_ideal_twin_does_not():

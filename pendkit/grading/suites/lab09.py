@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from pendkit.grading.core import Failed, as_number, expect, shown, task
+from pendkit.grading.core import Diagnosis, Failed, as_number, expect, is_real, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
@@ -64,14 +64,32 @@ def rms_over_the_final_run(fn, rng):
     got = _optional_number(fn(angles, dt), "balance_error_deg(angles, 0.06)")
     expected = math.sqrt((16 + 9 + 16 + 9) / 4)
     message = f"the final upright run [4, -3, 4, -3] deg has an RMS error of {expected:.3f} deg, got {shown(got)}"
-    if got is not None and abs(got - 0.5) < 1e-9:
-        message += ": that is the mean; square, average, then take the root"
-    elif got is not None and abs(got - math.radians(expected)) < 1e-6:
-        message += ": that is in radians; the lab wants degrees"
+    message += balance_note(got, angles, 3)
     expect(got is not None and abs(got - expected) < 1e-6, message)
     angles, dt = run_of([0, 20, 60, 120])
     got = fn(angles, dt)
     expect(got is None, f"a run that ends fallen has no balance error (None), got {shown(got)}")
+
+
+def balance_note(got, angles_rad, start: int) -> str:
+    """The cause of a wrong balance error, when `got` is one of the known wrong ones (a `Diagnosis`), else ""."""
+    if got is None or not is_real(got):
+        return ""
+    angles = np.asarray(angles_rad, dtype=float)
+    tail = angles[start:]
+    right = np.degrees(np.sqrt(np.mean(tail**2)))
+    causes = [(np.degrees(np.sqrt(np.mean(angles**2))), ": that is the RMS over the whole run, swing-up included; "
+               "the balance error is over the final upright stretch only (from where time_to_upright_s says it "
+               "begins)"),
+              (np.degrees(np.mean(tail)), ": that is the mean; square, average, then take the root"),
+              (np.degrees(np.mean(np.abs(tail))), ": that is the mean of |angle|; square, average, then take the root"),
+              (np.sqrt(np.mean(tail**2)), ": that is in radians; the lab wants degrees"),
+              (np.degrees(np.sqrt(np.mean(tail[1:] ** 2))), ": the stretch starts one step late; it begins at the "
+               "first step of the final upright stretch")]
+    for wrong, cause in causes:
+        if abs(float(got) - wrong) < 1e-6 * max(1.0, abs(wrong)) and abs(wrong - right) > 1e-9:
+            return Diagnosis(cause)
+    return ""
 
 
 def _stops(fn, call, *args) -> bool:
@@ -114,9 +132,9 @@ def a_mean_of_squares(fn, rng):
     got = _cost(fn, recorded + 0.1, recorded)
     message = f"a gap of 0.1 rad at every step should cost 0.01 rad^2, got {shown(got)}"
     if abs(got - 0.2) < 1e-9:
-        message += ": that is a sum over the 20 steps; take the mean"
-    elif abs(got - 0.1) < 1e-9:
-        message += ": square the differences"
+        message += Diagnosis(": that is a sum over the 20 steps; take the mean")
+    else:
+        message += cost_note(fn)
     expect(abs(got - 0.01) < 1e-9, message)
     longer = _cost(fn, np.linspace(0.0, 1.0, 80) + 0.1, np.linspace(0.0, 1.0, 80))
     expect(abs(longer - 0.01) < 1e-9, f"the same gap over 80 steps should still cost 0.01, got {shown(longer)}")
@@ -129,11 +147,11 @@ def gaps_either_way_add_up(fn, rng):
     simulated = np.array([0.2, -0.2] * 5)
     got = _cost(fn, simulated, recorded)
     message = f"gaps of +0.2 and -0.2 rad in turn should cost 0.04, got {shown(got)}"
-    if abs(got) < 1e-9:
-        message += ": the signed differences cancelled; square each difference before the mean"
-    elif got > 1.0:
-        message += (": a gap of -0.2 rad came out near 2 pi (6.08 rad); wrap each difference into [-pi, pi), "
-                    "not [0, 2 pi)")
+    if got > 1.0:
+        message += Diagnosis(": a gap of -0.2 rad came out near 2 pi (6.08 rad); wrap each difference into "
+                             "[-pi, pi), not [0, 2 pi)")
+    else:
+        message += cost_note(fn)
     expect(abs(got - 0.04) < 1e-9, message)
 
 
@@ -145,8 +163,31 @@ def the_wrap_at_the_bottom(fn, rng):
     got = _cost(fn, simulated, recorded)
     message = f"every pair here is 0.1 rad apart across the wrap at the bottom: 0.01 rad^2 expected, got {shown(got)}"
     if got > 1.0:
-        message += ": the pendulum swings through 0 = 2 pi all the time; wrap the difference"
+        message += Diagnosis(": the pendulum swings through 0 = 2 pi all the time; wrap the difference")
+    else:
+        message += cost_note(fn)
     expect(abs(got - 0.01) < 1e-9, message)
+
+
+def cost_note(fn) -> str:
+    """The cause of a wrong matching cost, from gaps that tell the known wrong costs apart (a `Diagnosis`), else
+    "": gaps of +0.1 and -0.3 rad in turn, away from the wrap."""
+    gaps = np.array([0.1, -0.3, 0.1, -0.3, 0.1])
+    recorded = np.full(len(gaps), 1.0)
+    try:
+        got = float(fn(recorded + gaps, recorded.copy()))
+    except Exception:  # noqa: BLE001 (the student's code: the test reports its own failure)
+        return ""
+    cancelled = ": the signed differences cancelled; square each difference before the mean"
+    causes = [(math.sqrt(np.mean(gaps**2)), ": that is the root of the mean square (RMS); the cost is the mean "
+               "square itself: leave out the square root"),
+              (np.mean(np.abs(gaps)), ": that is the mean of |gap|; square the differences (the mean of gap^2)"),
+              (np.mean(gaps) ** 2, cancelled), (np.mean(gaps), cancelled), (abs(np.mean(gaps)), cancelled),
+              (np.sum(gaps**2), ": that is a sum over the steps; take the mean")]
+    for wrong, cause in causes:
+        if abs(got - wrong) < 1e-9:
+            return Diagnosis(cause)
+    return ""
 
 
 prelab_task("09", ("speed_ratio", "stale_steps", "growth_before_stop"))
