@@ -272,7 +272,7 @@ def record_checked(rig, excitations: Sequence[Excitation], seed: int = 0,
     before anything is written: a refused one leaves nothing behind. Returns (the recordings, the prior, each
     log's contents by file name, for the caller to keep). `on_episode()` after each recording (a progress bar)."""
     with tempfile.TemporaryDirectory(prefix="pendkit-excitation-") as folder:
-        env = rig.make_env(stream=EXCITATION_STREAM, log_dir=folder, **Excitation.env_kwargs())
+        env = rig.make_env(stream=EXCITATION_STREAM, log_dir=folder, held=True, **Excitation.env_kwargs())
         try:
             recordings = []
             for k, excitation in enumerate(excitations):

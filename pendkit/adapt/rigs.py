@@ -24,6 +24,7 @@ from pendkit.network import IMPAIRMENTS
 from pendkit.rig import RigParams
 from pendkit.sim.fidelity import FIDELITY_PRESETS
 
+HELD_RESET_STOP_S = 0.5  # the reset's stop before an excitation episode's own hold (the stream's first readings)
 DEVICE_SEED = 20_000  # the twin's first episode on its device (from rest; each draws the network's delays anew)
 
 
@@ -49,8 +50,8 @@ def twin_rig(params, impairment="classroom-wifi", residual_offset_counts: int = 
     network = IMPAIRMENTS[impairment] if isinstance(impairment, str) else impairment
     steps, device_seeds, residual = [0], itertools.count(DEVICE_SEED), [residual_offset_counts]
 
-    def make_env(stream: dict | None = None, **env_kwargs):
-        chosen = dataclasses.replace(params, **(stream or {}))
+    def make_env(stream: dict | None = None, held: bool = False, **env_kwargs):
+        chosen = dataclasses.replace(params, **(stream or {}))  # a twin resets at rest: `held` changes nothing
         fidelity = FIDELITY_PRESETS["realistic"].replace(name="hidden-rig", network=network,
                                                          encoder_residual_offset_counts=residual[0])
         return _CountedSteps(pendkit.make(fidelity=fidelity, params=chosen, start="rest", **env_kwargs), steps)
@@ -102,13 +103,15 @@ def mqtt_rig(rig_id: str, broker: str | None, login=None) -> Rig:
         return dataclasses.replace(base, encoder_offset_counts=(base.encoder_offset_counts + shift[0])
                                    % base.encoder_counts)
 
-    def make_env(stream: dict | None = None, **env_kwargs):
+    def make_env(stream: dict | None = None, held: bool = False, **env_kwargs):
         if not first:
             first.append(time.monotonic())
         params = dataclasses.replace(calibrated(), **(stream or {}))  # the env sends its offset: o<counts>
+        # `held`: the caller holds the arm until the pendulum hangs still (the excitation), quicker than the
+        # reset's wait with the servo stopped, and less of the rig's time
+        waiting = {"settle": False, "reset_stop_s": HELD_RESET_STOP_S} if held else {"settle": True}
         return pendkit.make(backend="rig", rig=rig_id, broker=broker, params=params,
-                            rig_options={"settle": True, **login_options},
-                            **env_kwargs)
+                            rig_options={**waiting, **login_options}, **env_kwargs)
 
     def seconds() -> float:
         reported = rig_status(rig_id, broker, link_arguments=link_arguments).get("busy_s")

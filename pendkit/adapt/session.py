@@ -55,8 +55,9 @@ from pendkit.safe_write import check_no_links, write_bytes, write_text
 
 @dataclass
 class Rig:
-    """A rig to adapt to: `make_env(stream=None, **env_kwargs)` makes an env on it (`stream`: RigParams' fields
-    of the device's stream to ask for, e.g. `EXCITATION_STREAM`); `seconds()` is the rig time it has
+    """A rig to adapt to: `make_env(stream=None, held=False, **env_kwargs)` makes an env on it (`stream`:
+    RigParams' fields of the device's stream to ask for, e.g. `EXCITATION_STREAM`; `held`: its reset need not
+    wait for the pendulum to settle, the caller holds the arm until it hangs still); `seconds()` is the rig time it has
     counted itself (commands received); `prior()` the parameters to start from: the defaults with what the
     rig's firmware reports of itself (its servo's end counts), nothing it does not."""
 
