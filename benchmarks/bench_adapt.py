@@ -2,7 +2,7 @@
 parameters, network and encoder mounting only there): rig time, laptop time until every route is ready, how
 far identification landed, the route it recommends and what that route solved on the rig.
 
-    python benchmarks/bench_adapt.py [--rigs 6] [--evaluate 3] [--budget-s 300] [--backend mqtt|sim]
+    python benchmarks/bench_adapt.py [--rigs 6] [--evaluate 3] [--budget-s 300] [--backend mqtt|sim] [--quick]
 
 The stand-ins are `bench_transfer.py adapt`'s (held-out ranges, seed 2027). `--backend sim` runs each as a
 twin in this process instead (no broker: quicker, the same rigs). One line per rig:
@@ -74,7 +74,7 @@ def adapt_line(name: str, hidden, report: dict) -> str:
     return (f"adapt rig={name} rig_s={report['rig_s_adaptation']:.1f} laptop_s={report['wall_s_adaptation']:.0f} "
             f"identified_err={max(abs(speed), abs(omega)):.3f} route={kind} solved={solved} "
             f"excitation_episodes={report['excitation_episodes']} identify_s={report['laptop_s_identification']:.0f} "
-            f"pinned={'/'.join(f'{ratio:.2f}' for ratio in report['excitation_spread'].values())} "
+            f"speed_pinned={report['excitation_spread']['servo_speed_s_per_60deg']:.2f} "
             f"speed_error={speed:+.1%} omega_error={omega:+.1%} recommended=\"{route or '-'}\" "
             f"routes={every_route(report)} cut=\"{'; '.join(report.get('budget_cut') or []) or '-'}\"")
 
@@ -97,6 +97,8 @@ def main() -> None:
     parser.add_argument("--budget-s", type=float, default=300.0)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--backend", choices=("mqtt", "sim"), default="mqtt")
+    parser.add_argument("--quick", action="store_true",
+                        help="a smoke run: one search of 400 candidates, the shipped policy untrained, no candidates")
     args = parser.parse_args()
 
     from pendkit.adapt.rigs import mqtt_rig, twin_rig
@@ -104,7 +106,9 @@ def main() -> None:
     from pendkit.link.broker import MosquittoBroker
     from pendkit.sim.randomize import held_out_rigs
 
-    config = AdaptConfig(evaluation_episodes=args.evaluate, budget_s=args.budget_s, seed=args.seed)
+    quick = {"identification_evaluations": 400, "identification_restarts": 1, "candidates": (), "twin_episodes": 0}
+    config = AdaptConfig(evaluation_episodes=args.evaluate, budget_s=args.budget_s, seed=args.seed,
+                         **(quick if args.quick else {}))
     for k, hidden in enumerate(held_out_rigs(args.rigs, ADAPT_RIG_SEED)):
         if args.only is not None and k not in args.only:
             continue

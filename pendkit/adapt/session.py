@@ -169,8 +169,7 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     report["excitation_episodes"] = len(jumps)
     report["excitation_spread"] = found.widest
     say(f"(a) {len(recordings)} excitation episodes: {report['rig_s_excitation']:.0f} s of rig time (the recordings "
-        f"pin the servo's speed within x/÷{found.widest['servo_speed_s_per_60deg']:.2f}, its loop's damping within "
-        f"x/÷{found.widest['servo_damping_ratio']:.2f})")
+        f"pin the servo's speed within x/÷{found.widest['servo_speed_s_per_60deg']:.2f})")
     if found.unrefined is not None:
         report["servo_refined"] = {"loop_episodes": len(recordings) - len(jumps),
                                    "before": rig_values(found.unrefined.params, found.unrefined.latency_ms)}
