@@ -85,8 +85,9 @@ def every_route(report: dict) -> str:
         return f"{sum(result['solved'])}/{len(result['solved'])}" if "solved" in result else "-"
 
     policy = f"policy:{solved(report['policy_on_rig'])}/{solved(report['policy_on_device'])}"
-    return ",".join([policy] + [f"{name}:{solved(report['classical_on_rig'][name])}/"
-                                f"{solved(report['classical_on_device'][name])}" for name in report["classical_on_rig"]])
+    classical = [f"{name}:{solved(report['classical_on_rig'][name])}/{solved(report['classical_on_device'][name])}"
+                 for name in report["classical_on_rig"]]
+    return ",".join([policy, *classical])
 
 
 def main() -> None:

@@ -1,9 +1,10 @@
 """(a) and (b) of `pendkit adapt`: as few excitation episodes as the identification needs, then the twin.
 
 The rig's time is the class's scarcest: the excitation starts with `min_excitation_episodes` and records one
-more (up to `excitation_episodes`) only while the recordings leave the servo's speed uncertain (the interval over which the twin still matches them: `pendkit.adapt.uncertainty.fit_spread`,
-wider than `EXCITATION_SPREAD`) and the last episode still narrowed it, each time identifying again from
-every recording so far (one search, started beside the fit before it, on half the evaluations).
+more (up to `excitation_episodes`) only while the recordings leave the servo's speed uncertain (the interval
+over which the twin still matches them, `pendkit.adapt.uncertainty.fit_spread`, wider than
+`EXCITATION_SPREAD`) and the last episode still narrowed it, each time identifying again from every recording
+so far (one search, started beside the fit before it, on half the evaluations).
 """
 
 from __future__ import annotations
