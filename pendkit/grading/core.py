@@ -48,7 +48,7 @@ class Diagnosis(str):
 
 class Failed(AssertionError):
     """A test's specific feedback for the student. `hint=False` (or a `Diagnosis` message): the message names
-    the cause, so the test's hint is left off."""
+    the cause, so the test's hint (what it checks) is left off."""
 
     def __init__(self, message: str = "", hint: bool | None = None) -> None:
         super().__init__(message)
@@ -304,10 +304,21 @@ def _task_after_loading(task_id: str) -> Task:
     return TASKS[task_id]
 
 
+COVERS = "This test checks: "  # what stands before a test's hint in its feedback
+
+
 def _failed(test: TestCase, message: str, with_hint: bool = True) -> TestResult:
+    """A failure's result. A message that names no cause gets the test's hint, shown as what the test checks
+    (a scope, never a cause): a hint read as "the cause" misled whenever the mistake was another one."""
     if with_hint and test.hint:
-        message = f"{message}{'' if message.endswith(('.', '?', '!')) else '.'} Hint: {test.hint}"
+        message = f"{message}{'' if message.endswith(('.', '?', '!')) else '.'} {COVERS}{_sentence(test.hint)}"
     return TestResult(test.name, 0.0, test.points, False, message, test.hidden)
+
+
+def _sentence(hint: str) -> str:
+    """The hint continuing a sentence: "Any alpha" reads "any alpha"; "MagINC" and "OCF" stay as they are."""
+    first = hint.split(" ", 1)[0]
+    return hint[0].lower() + hint[1:] if first.isalpha() and first[1:].islower() else hint
 
 
 def format_report(task_id: str, results: list[TestResult]) -> str:

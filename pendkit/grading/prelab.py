@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 
-from pendkit.grading.core import Failed, Task, expect, is_real, task
+from pendkit.grading.core import Failed, Task, expect, is_real, shown, task
 
 
 def prelab_task(lab: str, keys: tuple[str, ...]) -> Task:
@@ -32,15 +32,21 @@ def prelab_task(lab: str, keys: tuple[str, ...]) -> Task:
 
 
 def prelab_answers(lab: str, expected: dict[str, float], relative: float = 0.01,
-                   where: str = "Work it out from the lab's background section.") -> None:
-    """Hidden tests, one point per question: the answer within `relative` of the expected value; `where`:
-    the hint, saying where the facts a question needs are."""
+                   where: str = "Work it out from the lab's background section.",
+                   how: dict[str, str] | None = None) -> None:
+    """Hidden tests, one point per question: the answer within `relative` of the expected value. A wrong
+    answer is shown beside the expected one, with `how[key]` (the derivation, in the question's units) or,
+    for a key without one, `where` (where the facts the question needs are)."""
     prelab = task(f"{lab}.prelab", function="prelab", title="Pre-lab questions")
     for key, value in expected.items():
-        def check(fn, rng, key=key, value=value):
+        derivation = (how or {}).get(key, "")
+
+        def check(fn, rng, key=key, value=value, derivation=derivation):
             answer = _answers(fn).get(key)
-            expect(is_real(answer) and abs(answer - value) <= relative * abs(value) + 1e-9,
-                   f"prelab()[{key!r}] is not right (got {answer!r})")
+            if is_real(answer) and abs(answer - value) <= relative * abs(value) + 1e-9:
+                return
+            message = f"prelab()[{key!r}] should be {value:.4g}, got {shown(answer)}"
+            raise Failed(f"{message}: {derivation}" if derivation else message, hint=not derivation)
 
         check.__name__ = key
         prelab.test(points=1, hidden=True, hint=where)(check)

@@ -31,6 +31,9 @@ def approach_lines(search, approach, terminal_cost) -> list[str]:
                  f"{float(terminal_cost(list(before), upright)):.3f} at the search's, {at_upright:.3g} standing still "
                  "upright")
     if abs(at_upright) > 1e-9:
-        lines.append("  standing still upright must cost 0 (solve_ocp steers towards your cost's lowest point): "
-                     "measure the pendulum's error from upright_rad")
+        from pendkit.grading.suites.lab05 import cost_note
+
+        still = [0.0, upright, 0.0, 0.0, 0.0]
+        cause = cost_note(at_upright, still, upright) or ": check each term against c(x)"
+        lines.append("  standing still upright must cost 0 (solve_ocp steers towards your cost's lowest point)" + cause)
     return lines

@@ -19,6 +19,7 @@ class PredictionRun:
     ignoring_deg: np.ndarray  # the angle DELAY_STEPS earlier (what a controller ignoring the delay acts on)
     predicted_deg: np.ndarray | None  # the student's prediction made DELAY_STEPS earlier (None: not written)
     delay_s: float
+    cause: str = ""  # the prediction's mistake, named from its values where it is a known one
 
     @staticmethod
     def rms(error_deg: np.ndarray) -> float:
@@ -62,8 +63,20 @@ def predictions(predict_angle, seed: int = 0) -> PredictionRun:
     if predict_angle is not None:
         got = [attempt(predict_angle, float(angles[i]), float(velocities[i]), delay_s, w0) for i in now]
         predicted = None if any(g is None for g in got) else np.degrees(np.asarray(got, dtype=float))
+    cause = "" if predicted is None else _cause(angles[now], velocities[now], delay_s, w0, np.radians(predicted))
     return PredictionRun(times[now + DELAY_STEPS], np.degrees(angles[now + DELAY_STEPS]), np.degrees(angles[now]),
-                         predicted, delay_s)
+                         predicted, delay_s, cause)
+
+
+def _cause(angles, velocities, delay_s: float, w0: float, predicted) -> str:
+    """The grader's words for the first prediction that a known mistake explains, or ""."""
+    from pendkit.grading.suites.lab06 import prediction_note
+
+    for theta, rate, got in zip(angles, velocities, predicted):
+        note = prediction_note(float(theta), float(rate), delay_s, w0, float(got))
+        if note:
+            return note
+    return ""
 
 
 def plot_predictions(run: PredictionRun):
@@ -96,10 +109,13 @@ def verdict(run: PredictionRun) -> str:
         return said + ": far off the plot; is the delay in seconds (the function gets 0.12, not 120)?"
     if got >= ignoring:
         return said + ": worse than not predicting at all; check the sign of the velocity term"
+    if got > 1.0 and run.cause:
+        return said + run.cause
     if got > 1.0:
         ahead = float(np.mean((run.predicted_deg - run.actual_deg) * np.sign(run.actual_deg)))
         if ahead < 0:
-            return said + (": it falls short of the pendulum; gravity pushes it away from upright, so its "
-                           "term adds (+ w0^2 theta d^2 / 2)")
+            return said + (": it falls short of the pendulum: its gravity term is too small or pulls the wrong "
+                           "way; gravity pushes it away from upright, so the term is + w0^2 theta d^2 / 2, w0 "
+                           "squared")
         return said + ": it overshoots the pendulum; check the gravity term's 1/2"
     return said + ": the prediction lands on the pendulum"

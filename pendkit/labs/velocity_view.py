@@ -61,6 +61,8 @@ def notes(true_rev_s, raw, mean, smooth, readings=None) -> list[str]:
         if smooth.shape == raw.shape and np.allclose(smooth, encoder.low_pass(raw, 1 - ALPHA)):
             line += f"; that is a low-pass with alpha {1 - ALPHA:g}: alpha and 1 - alpha are swapped"
         elif smooth.shape != raw.shape or not np.allclose(smooth, encoder.low_pass(raw, ALPHA)):
-            line += f"; it differs from y_k = y_(k-1) + {ALPHA} (x_k - y_(k-1))"
+            from pendkit.grading.suites.lab02 import low_pass_note
+
+            line += f"; it differs from y_k = y_(k-1) + {ALPHA} (x_k - y_(k-1))" + low_pass_note(raw, ALPHA, smooth)
         lines.append(line)
     return lines

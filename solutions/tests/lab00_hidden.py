@@ -7,27 +7,23 @@ import numpy as np
 from pendkit.grading import expect, task
 from pendkit.grading.core import is_real, shown
 from pendkit.grading.prelab import prelab_answers
-from pendkit.grading.suites.lab00 import percent_note
+from pendkit.grading.suites.lab00 import fraction_note, reward_note
 
 reward = task("00.reward", function="reward", title="The paper's reward")
 fraction = task("00.upright_fraction", function="upright_fraction", title="Fraction of time upright")
 
 
-@reward.test(points=1, hidden=True, hint="The reward must match the formula for any angle and velocity, of "
-                                        "either sign.")
+@reward.test(points=1, hidden=True, hint="20 random angles and velocities, each of either sign.")
 def reward_is_symmetric(fn, rng):
     for theta, omega in rng.uniform(-3, 3, (20, 2)):
         expected = -theta**2 - 0.5 * (omega / (2 * math.pi)) ** 2
         got = fn(theta, omega)
         message = f"reward({theta:.3f}, {omega:.3f}) should be {expected:.4f}, got {shown(got)}"
-        if abs(got - (-theta**2 - 0.5 * omega**2)) < 1e-9:
-            message += ": the velocity arrives in rad/s; convert it to rev/s first"
-        elif abs(got - fn(-theta, -omega)) > 1e-12:
-            message += ": it changes when both signs flip; both terms are squared, so the sign must not matter"
-        expect(abs(got - expected) < 1e-9, message)
+        note = reward_note(theta, omega, got, mirrored=fn(-theta, -omega))
+        expect(is_real(got) and abs(got - expected) < 1e-9, message + note)
 
 
-@fraction.test(points=1, hidden=True, hint="Accept lists as well as arrays; the bound is strict.")
+@fraction.test(points=1, hidden=True, hint="A list (not an array) of six angles, one of them exactly 0.3.")
 def lists_and_the_boundary(fn, rng):
     angles = [0.3, -0.3, 0.2999, -0.1, -1.0, -2.5]  # each mistake below gives its own answer
     got = fn(angles)
@@ -47,10 +43,13 @@ def boundary_note(got) -> str:
     for value, cause in causes.items():
         if is_real(got) and abs(got - value) < 1e-9:
             return cause
-    return percent_note(1 / 3, got)
+    return fraction_note([0.3, -0.3, 0.2999, -0.1, -1.0, -2.5], got)
 
 
-prelab_answers("00", {"steps_per_second": 16.666667, "episode_seconds": 30.0})
+prelab_answers("00", {"steps_per_second": 16.666667, "episode_seconds": 30.0}, how={
+    "steps_per_second": "a step is 60 ms = 0.06 s, so steps per second = 1 / 0.06 ≈ 16.7 (1/60 takes the ms "
+                        "for seconds)",
+    "episode_seconds": "500 steps of 0.06 s each: 500 × 0.06 = 30 s"})
 
 
 # --- The answer key (tests/grading/test_wrong_answers.py grades each through the tests above): a correct
@@ -75,4 +74,8 @@ MISTAKES = [
      {"lists_and_the_boundary"}),
     ("00.upright_fraction", lambda angles: float(np.mean(np.asarray(angles) <= 0.3)), "absolute value and a strict",
      {"lists_and_the_boundary"}),
+    ("00.reward", lambda theta, omega: -theta**2 - 0.5 * (omega * 2 * math.pi) ** 2, "multiplied by 2 pi",
+     {"reward_values", "reward_is_symmetric"}),
+    ("00.upright_fraction", lambda angles: float(np.sum(np.abs(np.asarray(angles)) < 0.3) / (len(angles) - 1)),
+     "divided by len - 1", {"fraction_of_steps", "random_traces", "lists_and_the_boundary"}),
 ]

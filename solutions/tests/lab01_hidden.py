@@ -6,7 +6,14 @@ from pendkit import encoder
 from pendkit.grading import Failed, expect, outcomes, task
 from pendkit.grading.core import shown
 from pendkit.grading.prelab import prelab_answers
-from pendkit.grading.suites.lab01 import diagnose_position, parity_first, wrap_direction_note
+from pendkit.grading.suites.lab01 import (
+    angle_message,
+    diagnose_position,
+    parity_first,
+    rejection_note,
+    upright_note,
+    wrap_direction_note,
+)
 
 decode = task("01.decode_frame", function="decode_frame", title="Decode an EMS-22A SSI frame")
 to_angle = task("01.counts_to_angle", function="counts_to_angle", title="Counts to angle from the bottom")
@@ -20,7 +27,8 @@ def random_frames_match_the_reference(fn, rng):
     for frame, outcome in zip(frames, outcomes(fn, [(frame,) for frame in frames])):
         status, got = encoder.frame_status(frame), outcome.value
         if isinstance(outcome.error, ValueError):
-            expect(status != "ok", f"decode_frame(0x{frame:04X}) rejected a valid frame")
+            expect(status != "ok", f"decode_frame(0x{frame:04X}) rejected a valid frame"
+                                   f"{rejection_note(frame, outcome.error)}")
             continue
         if outcome.error is not None:
             raise Failed(f"decode_frame(0x{frame:04X}) raised {type(outcome.error).__name__} instead of ValueError")
@@ -46,8 +54,8 @@ def whole_range(fn, rng):
             raise Failed(f"counts_to_angle({raw}, {offset}) raised {type(outcome.error).__name__}: {outcome.error}")
         got = outcome.value
         expect(0 <= got < 2 * math.pi, f"counts_to_angle({raw}, {offset}) = {shown(got)} is outside [0, 2 pi)")
-        expect(abs(got - float(encoder.counts_to_rad(raw, offset))) < 1e-9,
-               f"counts_to_angle({raw}, {offset}) is wrong")
+        expected = float(encoder.counts_to_rad(raw, offset))
+        expect(abs(got - expected) < 1e-9, angle_message(f"counts_to_angle({raw}, {offset})", expected, got))
 
 
 @wrap.test(points=1, hidden=True, hint="Any step shorter than half a turn must come back exactly.")
@@ -64,14 +72,16 @@ def every_short_step(fn, rng):
 upright = task("01.angle_from_upright", function="angle_from_upright", title="Angle from upright")
 
 
-@upright.test(points=1, hidden=True, hint="Any angle, any number of turns: the result is in [-pi, pi).")
+@upright.test(points=1, hidden=True, hint="60 random angles, many turns either way, and the multiples of pi.")
 def random_angles_and_the_seam(fn, rng):
     angles = [*rng.uniform(-40, 40, 60).tolist(), 0.0, 2 * math.pi, -2 * math.pi, math.pi, -math.pi, 4 * math.pi]
     for angle, outcome in zip(angles, outcomes(fn, [(a,) for a in angles])):
         expected = (angle % (2 * math.pi)) - math.pi
         got = outcome.value
+        note = upright_note(angle, got) if outcome.error is None else ""
         expect(outcome.error is None and -math.pi <= float(got) < math.pi and abs(float(got) - expected) < 1e-9,
-               f"angle_from_upright({angle:.4f}) should be {expected:.4f} in [-pi, pi), got {outcome.error or got!r}")
+               f"angle_from_upright({angle:.4f}) should be {expected:.4f} in [-pi, pi), got "
+               f"{shown(outcome.error or got)}{note}")
 
 
 @wrap.test(points=1, hidden=True, hint="Both sides of the seam, each way round: a jump one count beyond half a "
@@ -96,7 +106,9 @@ def the_seam_exactly(fn, rng):
         expect(outcome.error is None and got == want, message)
 
 
-prelab_answers("01", {"counts_per_turn": 1024, "counts_between_readings": 25.6})
+prelab_answers("01", {"counts_per_turn": 1024, "counts_between_readings": 25.6}, how={
+    "counts_per_turn": "the position is 10 bits (15..6), so 2^10 = 1024 positions per turn",
+    "counts_between_readings": "1 rev/s for 25 ms is 0.025 turns, and 0.025 × 1024 = 25.6 counts"})
 
 
 # --- The answer key (tests/grading/test_wrong_answers.py grades each through the tests above): a correct
@@ -200,6 +212,7 @@ MISTAKES = [
     ("01.decode_frame", decode_with_odd_parity, "parity check is inverted"),
     ("01.decode_frame", decode_ignoring_status, "OCF"),
     ("01.decode_frame", decode_rejecting_one_magnet_bit, "only one magnet bit"),
+    ("01.decode_frame", decode_rejecting_one_magnet_bit, "and, not or", {"random_frames_match_the_reference"}),
     ("01.decode_frame", decode_whole_frame, "whole frame"),
     ("01.decode_frame", decode_off_by_one_shift, "frame >> 6",
      {"random_frames_match_the_reference", "every_position_round_trips", "one_magnet_bit_alone_is_valid"}),
@@ -209,6 +222,8 @@ MISTAKES = [
     ("01.counts_to_angle", counts_without_wrap, "negative"),
     ("01.angle_from_upright", lambda angle: angle - math.pi, "wrap into [-pi, pi)"),
     ("01.angle_from_upright", lambda angle: angle, "still the angle from the bottom"),
+    ("01.angle_from_upright", lambda angle: (angle + math.pi) % (2 * math.pi) - math.pi, "hanging is pi from upright",
+     {"upright_is_zero_and_sides_have_signs", "random_angles_and_the_seam"}),
     ("01.wrap_delta", lambda new, old: new - old, "long way round"),
     ("01.wrap_delta", wrap_delta_correcting_the_wrong_way, "correction went the wrong way"),
     ("01.wrap_delta", lambda new, old: -wrap_delta(new, old), "wrong sign"),

@@ -8,7 +8,7 @@ from pendkit import encoder
 from pendkit.grading import expect, task
 from pendkit.grading.core import shown
 from pendkit.grading.prelab import prelab_answers
-from pendkit.grading.suites.lab02 import mean_note, velocity_note
+from pendkit.grading.suites.lab02 import low_pass_note, mean_note, velocity_note
 
 velocity = task("02.velocity_rev_s", function="velocity_rev_s", title="Wrap-aware velocity in rev/s")
 mean = task("02.firmware_mean", function="firmware_mean", title="The firmware's mean of the last N")
@@ -42,14 +42,18 @@ smooth = task("02.low_pass", function="low_pass", title="A first-order low-pass"
 limits = task("02.period_limits", function="period_limits", title="What a reading period can resolve")
 
 
-@smooth.test(points=1, hidden=True, hint="Any alpha in (0, 1] and any input length.")
+@smooth.test(points=1, hidden=True, hint="Random signals (none starting at zero), alpha from 0.05 to 1.")
 def random_signals(fn, rng):
     for alpha in rng.uniform(0.05, 1.0, 4):
         values = rng.normal(size=int(rng.integers(3, 40)))
         expected = encoder.low_pass(values, float(alpha))
         got = np.asarray(fn(values.tolist(), float(alpha)), dtype=float)
-        expect(got.shape == expected.shape and np.allclose(got, expected),
-               f"low_pass(..., {alpha:.3f}) differs from y_k = y_(k-1) + alpha (x_k - y_(k-1))")
+        if got.shape != expected.shape:
+            expect(False, f"low_pass of {len(values)} values should return {len(values)}, got shape {got.shape}")
+        expect(np.allclose(got, expected), f"low_pass(x, {alpha:.3f}) with x starting "
+               f"{np.round(values[:3], 3).tolist()} should start {np.round(expected[:3], 3).tolist()}, "
+               f"got {np.round(got[:3], 3).tolist()}"
+               + low_pass_note(values, float(alpha), got))
 
 
 @limits.test(points=1, hidden=True, hint="Both limits scale with 1 / period.")
@@ -65,7 +69,10 @@ def random_periods(fn, rng):
         expect(ok, message)
 
 
-prelab_answers("02", {"slowest_rev_s": 0.097656, "fastest_rev_s": 20.0})
+prelab_answers("02", {"slowest_rev_s": 0.097656, "fastest_rev_s": 20.0}, how={
+    "slowest_rev_s": "one count (1/1024 of a turn) in 10 ms = 0.010 s: (1/1024) / 0.010 ≈ 0.0977 rev/s",
+    "fastest_rev_s": "beyond half a turn between readings the shorter way is the wrong way: 0.5 turn / 0.025 s = "
+                     "20 rev/s"})
 
 
 # --- The answer key (tests/grading/test_wrong_answers.py grades each through the tests above): a correct
@@ -97,6 +104,22 @@ def mean_centred(v, w):
     return np.convolve(v, np.ones(w) / w, mode="same")
 
 
+def low_pass_swapped(v, a):
+    out, y = [], float(v[0])
+    for x in v:
+        y = a * y + (1 - a) * x
+        out.append(y)
+    return np.array(out)
+
+
+def low_pass_from_zero(v, a):
+    out, y = [], 0.0
+    for x in v:
+        y = y + a * (x - y)
+        out.append(y)
+    return np.array(out)
+
+
 CORRECT = {
     "02.velocity_rev_s": lambda p, t: encoder.finite_difference_rev_s(p, t),
     "02.firmware_mean": lambda v, w: np.convolve(np.concatenate([np.zeros(w - 1), v]), np.ones(w) / w, "valid"),
@@ -112,6 +135,8 @@ MISTAKES = [
     ("02.firmware_mean", mean_without_zero_padding, "full of zeros"),
     ("02.firmware_mean", mean_centred, "looks ahead"),
     ("02.low_pass", lambda v, a: encoder.low_pass(v, 1 - a) if a < 1 else np.asarray(v, float), "1 - alpha"),
+    ("02.low_pass", low_pass_swapped, "1 - alpha", {"step_response", "random_signals", "alpha_one_is_identity"}),
+    ("02.low_pass", low_pass_from_zero, "started from y = 0", {"step_response", "random_signals"}),
     ("02.period_limits", lambda ms: (1 / 1024 / (ms / 1000), 1 / (ms / 1000)), "half a turn"),
     ("02.period_limits", lambda ms: (2 * math.pi / 1024 / (ms / 1000), 0.5 / (ms / 1000)), "rad/s"),
     ("02.period_limits", lambda ms: (1 / 1024 / ms, 0.5 / ms), "milliseconds"),

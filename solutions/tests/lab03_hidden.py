@@ -7,7 +7,7 @@ import numpy as np
 from pendkit.grading import expect, task
 from pendkit.grading.core import is_real, shown
 from pendkit.grading.prelab import prelab_answers
-from pendkit.grading.suites.lab03 import damping_note, slew_note, start_note
+from pendkit.grading.suites.lab03 import damping_note, frequency_note, half_period_note, slew_note, start_note
 from pendkit.rig import RigParams
 from pendkit.sim.lab_readings import free_swing_readings
 
@@ -16,22 +16,25 @@ period = task("03.period_from_crossings", function="period_from_crossings", titl
 damping = task("03.damping_ratio", function="damping_ratio", title="Damping from successive peaks")
 
 
-@frequency.test(points=1, hidden=True, hint="Check it against the rig's own numbers.")
+@frequency.test(points=1, hidden=True, hint="The rig's own pendulum (its mass, centre of mass and inertia).")
 def the_rigs_own_pendulum(fn, rng):
     p = RigParams()
-    got = fn(p.pendulum_mass_kg, p.pendulum_com_from_pivot_m, p.pendulum_inertia_about_pivot_kg_m2)
-    expect(abs(got - p.pendulum_natural_frequency_rad_s) < 1e-6, f"the rig's pendulum should give "
-           f"{p.pendulum_natural_frequency_rad_s:.4f} rad/s, got {shown(got)}")
+    args = (p.pendulum_mass_kg, p.pendulum_com_from_pivot_m, p.pendulum_inertia_about_pivot_kg_m2)
+    got = fn(*args)
+    note = frequency_note(*args, float(got)) if is_real(got) else ""
+    expect(is_real(got) and abs(got - p.pendulum_natural_frequency_rad_s) < 1e-6, f"the rig's pendulum should give "
+           f"{p.pendulum_natural_frequency_rad_s:.4f} rad/s, got {shown(got)}" + note)
 
 
-@period.test(points=1, hidden=True, hint="It must work on a real (twin) swing sampled every 25 ms.")
+@period.test(points=1, hidden=True, hint="The twin's own small swing, sampled every 25 ms.")
 def a_twin_swing(fn, rng):
     readings = free_swing_readings(period_ms=25.0, duration_s=6.0, start_velocity_rad_s=1.0)
     angles = (readings.raw_counts * 2 * math.pi / 1024 + math.pi) % (2 * math.pi) - math.pi
     got = fn(readings.times_ms / 1000, angles)
     expected = 2 * math.pi / RigParams().pendulum_natural_frequency_rad_s
-    expect(abs(got - expected) < 0.01,
-           f"the twin's small swing has a period of about {expected:.3f} s, got {shown(got)}")
+    note = half_period_note(float(got), expected) if is_real(got) else ""
+    expect(is_real(got) and abs(got - expected) < 0.01,
+           f"the twin's small swing has a period of about {expected:.3f} s, got {shown(got)}" + note)
 
 
 @damping.test(points=1, hidden=True, hint="Average the decrement over all cycles, not just the first.")
@@ -78,7 +81,9 @@ def the_twins_servo(fn, rng):
            f"{expected:.3f} rad/s, got {shown(got)}{slew_note(got, expected)}")
 
 
-prelab_answers("03", {"period_s": 1.185507, "log_decrement": 0.693147})
+prelab_answers("03", {"period_s": 1.185507, "log_decrement": 0.693147}, how={
+    "period_s": "a period is one full cycle, 2 pi rad: T = 2 pi / w0 = 2 pi / 5.3 ≈ 1.186 s",
+    "log_decrement": "delta = ln(A_k / A_(k+1)) = ln 2 ≈ 0.693 (the natural logarithm)"})
 
 
 # --- The answer key (tests/grading/test_wrong_answers.py grades each through the tests above): a correct
@@ -150,7 +155,10 @@ MISTAKES = [
     ("03.natural_frequency", lambda m, com, j: m * 9.81 * com / j, "square root"),
     ("03.natural_frequency", lambda m, com, j: math.sqrt(m * 9.81 * com / j) / (2 * math.pi), "Hz"),
     ("03.natural_frequency", lambda m, com, j: math.sqrt(9.81 / com), "point mass"),
-    ("03.period_from_crossings", lambda t, a: period_counting_both_directions(t, a), "both directions"),
+    ("03.period_from_crossings", lambda t, a: period_counting_both_directions(t, a), "both directions",
+     {"one_crossing_per_period", "a_twin_swing"}),
+    ("03.natural_frequency", lambda m, com, j: math.sqrt(j / (m * 9.81 * com)), "upside down",
+     {"compound_pendulum", "the_rigs_own_pendulum"}),
     ("03.period_from_crossings", lambda t, a: float(np.mean(np.diff(up_crossings(t, a, interpolate=False)))),
      "interpolation"),
     ("03.damping_ratio", lambda p: log_decrement(p), "decrement itself"),

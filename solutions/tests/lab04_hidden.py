@@ -6,29 +6,33 @@ import numpy as np
 from pendkit.control.model import FurutaModel, discretise
 from pendkit.grading import expect, task
 from pendkit.grading.prelab import prelab_answers
-from pendkit.grading.suites.lab04 import matrices_note
+from pendkit.grading.suites.lab04 import _pair, gain_note, matrices_message
 from pendkit.rig import RigParams
 
 gain = task("04.lqr_gain", function="lqr_gain", title="A discrete LQR gain")
 poles = task("04.closed_loop_poles", function="closed_loop_poles", title="Closed-loop poles")
 
 
-@gain.test(points=1, hidden=True, hint="The gain must stabilise the model for any sensible weights.")
+@gain.test(points=1, hidden=True, hint="Two other sets of weights, on another servo's rig.")
 def stabilises_other_weights(fn, rng):
     system = discretise(FurutaModel.from_rig(RigParams.preset("turnigy-tgy-wp23")).linearise("upright"), 0.06)
     a, b = np.asarray(system.A), np.asarray(system.B)
     for q, r in [([1, 10, 0.1, 0.1], 1.0), ([5, 100, 0.01, 1.0], 0.2)]:
         k = np.asarray(fn(a, b, q, r), dtype=float).reshape(1, 4)
-        expect(np.max(np.abs(np.linalg.eigvals(a - b @ k))) < 1, f"the gain for Q={q}, R={r} is not stabilising")
         expected, _, _ = control.dlqr(a, b, np.diag(q), [[r]])
-        expect(np.allclose(k, expected, rtol=1e-6), f"the gain for Q={q}, R={r} differs from dlqr's")
+        largest = float(np.max(np.abs(np.linalg.eigvals(a - b @ k))))
+        what = f"is not stabilising (its largest pole magnitude is {largest:.3f})" if largest >= 1 else \
+            "differs from dlqr's"
+        expect(largest < 1 and np.allclose(k, expected, rtol=1e-6),
+               f"the gain for Q={q}, R={r} {what}: expected {np.array2string(np.asarray(expected), precision=4)}, "
+               f"got {np.array2string(k, precision=4)}" + gain_note(a, b, q, r, k))
 
 
 @poles.test(points=1, hidden=True, hint="Return all four eigenvalues, complex ones included.")
 def complex_poles_kept(fn, rng):
     a = np.array([[0.9, 0.5, 0, 0], [-0.5, 0.9, 0, 0], [0, 0, 0.5, 0], [0, 0, 0, 0.2]])
     b = np.array([[0.0], [1.0], [0.0], [0.0]])
-    k = np.zeros((1, 4))
+    k = np.zeros((1, 4))  # K = 0 on purpose: this test is about complex poles only (A + B K is another test's)
     got = np.sort_complex(np.asarray(fn(a, b, k), dtype=complex).reshape(-1))
     expect(np.allclose(got, np.sort_complex(np.linalg.eigvals(a))), "with K = 0 the poles are A's eigenvalues")
 
@@ -43,15 +47,16 @@ def random_rigs(fn, rng):
                            arm_mass_kg=float(rng.uniform(0.08, 0.2)))
         model = FurutaModel.from_rig(params)
         reference = model.linearise("upright")
-        got = fn(model)
-        a, b = (np.asarray(x, dtype=float) for x in got)
+        a, b = _pair(fn(model), "upright_matrices(model)")
         expect(np.allclose(a, np.asarray(reference.A), rtol=1e-6, atol=1e-9)
                and np.allclose(b.reshape(4, 1), np.asarray(reference.B), rtol=1e-6, atol=1e-9),
-               f"upright_matrices is wrong for a rig with a {1000 * params.tip_mass_kg:.1f} g tip and a "
-               f"{1000 * params.dowel_length_m:.0f} mm dowel" + matrices_note(model, a, b))
+               matrices_message(model, a, b, f"for a rig with a {1000 * params.tip_mass_kg:.1f} g tip and a "
+                                f"{1000 * params.dowel_length_m:.0f} mm dowel"))
 
 
-prelab_answers("04", {"growth_per_step": 1.3498588075760032, "steps_to_tenfold": 7.675283643313486})
+prelab_answers("04", {"growth_per_step": 1.3498588075760032, "steps_to_tenfold": 7.675283643313486}, how={
+    "growth_per_step": "a tilt grows as e^(5 t); over one step, t = 0.06 s: e^(5 × 0.06) = e^0.3 ≈ 1.35",
+    "steps_to_tenfold": "n steps multiply it by 1.35^n = 10: n = ln 10 / ln 1.35 = 2.303 / 0.3 ≈ 7.68"})
 
 
 # --- The answer key (tests/grading/test_wrong_answers.py grades each through the tests above): a correct
@@ -73,6 +78,12 @@ def upright_matrices_with(model, gravity_sign=1.0, coupling=True, coupling_sign=
     return a, b
 
 
+def upright_matrices_b_without_inverse(model):
+    a, b = upright_matrices_with(model)
+    b[2:, 0] = [model.servo_kp_n_m_per_rad, 0.0]
+    return a, b
+
+
 CORRECT = {
     "04.upright_matrices": lambda model: tuple(np.asarray(m) for m in (model.linearise("upright").A,
                                                                         model.linearise("upright").B)),
@@ -89,6 +100,12 @@ MISTAKES = [
     ("04.closed_loop_poles", lambda a, b, k: np.linalg.eigvals(a + b @ k), "A + B K"),
     ("04.upright_matrices", lambda model: upright_matrices_with(model, coupling_sign=1.0), "coupling's sign"),
     ("04.upright_matrices", lambda model: upright_matrices_with(model, arm_damping=False), "back-EMF"),
+    ("04.upright_matrices", upright_matrices_b_without_inverse, "without M^-1",
+     {"match_the_linearisation", "random_rigs"}),
+    ("04.lqr_gain", lambda a, b, q, r: -np.asarray(control.dlqr(a, b, np.diag(q), [[r]])[0]), "wrong sign",
+     {"matches_dlqr", "stabilises_other_weights"}),
+    ("04.lqr_gain", lambda a, b, q, r: np.asarray(control.lqr(a, b, np.diag(q), [[r]])[0]), "continuous-time",
+     {"matches_dlqr", "stabilises_other_weights"}),
     ("04.closed_loop_poles", lambda a, b, k: np.abs(np.linalg.eigvals(np.asarray(a) - np.asarray(b) @ k)),
      "magnitudes"),
 ]

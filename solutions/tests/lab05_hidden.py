@@ -3,20 +3,22 @@
 import math
 
 from pendkit.grading import expect, outcomes, task
-from pendkit.grading.core import Diagnosis, shown
+from pendkit.grading.core import Diagnosis, as_number, is_real, shown
 from pendkit.grading.prelab import prelab_answers
-from pendkit.grading.suites.lab05 import cost_note, pumping_note, rate_note
+from pendkit.grading.suites.lab05 import bounds_pair, catch_note, cost_note, energy_note, pumping_note, rate_note
 
 energy = task("05.pendulum_energy", function="pendulum_energy", title="Normalised pendulum energy")
 direction = task("05.pumping_direction", function="pumping_direction", title="Which way to accelerate the arm")
 
 
-@energy.test(points=1, hidden=True, hint="Angles past a full turn are the same pendulum position.")
+@energy.test(points=1, hidden=True, hint="Angles wound past a full turn, and a negative one, at rest.")
 def wound_up_angles(fn, rng):
     for alpha in (2 * math.pi, 3 * math.pi, -math.pi / 3):
         expected = -math.cos(alpha)
         got = fn(alpha, 0.0, 5.3)
-        expect(abs(got - expected) < 1e-9, f"pendulum_energy({alpha:.3f}, 0, 5.3) should be {expected:.4f}")
+        note = energy_note(alpha, 0.0, 5.3, float(got)) if is_real(got) else ""
+        expect(is_real(got) and abs(got - expected) < 1e-9,
+               f"pendulum_energy({alpha:.3f}, 0, 5.3) should be {expected:.4f}, got {shown(got)}" + note)
 
 
 @direction.test(points=1, hidden=True, hint="Check every quadrant and both directions of swing.")
@@ -61,15 +63,22 @@ final_cost = task("05.terminal_cost", function="terminal_cost", title="The plan'
 limits = task("05.path_limits", function="path_limits", title="Bounds along the swing-up plan")
 
 
-@catch.test(points=1, hidden=True, hint="Every threshold goes where its name says, for any values.")
+ENTRIES = ("arm angle", "pendulum angle", "arm rate", "pendulum rate")
+
+
+@catch.test(points=1, hidden=True, hint="Random thresholds, upright at pi, -pi and 3 pi.")
 def random_thresholds(fn, rng):
     for _ in range(10):
         upright = float(rng.choice([math.pi, -math.pi, 3 * math.pi]))
         angle, velocity, arm, arm_velocity = (float(v) for v in rng.uniform(0.05, 8.0, 4))
-        lower, upper = (list(map(float, x)) for x in fn(upright, angle, velocity, arm, arm_velocity))
+        call = f"catch_set({upright:.4f}, {angle:.3f}, {velocity:.3f}, {arm:.3f}, {arm_velocity:.3f})"
+        lower, upper = bounds_pair(fn(upright, angle, velocity, arm, arm_velocity), call)
         want = ([-arm, upright - angle, -arm_velocity, -velocity], [arm, upright + angle, arm_velocity, velocity])
-        expect(all(abs(a - b) < 1e-9 for a, b in zip(lower + upper, want[0] + want[1])),
-               f"catch_set({upright:.4f}, {angle:.3f}, {velocity:.3f}, {arm:.3f}, {arm_velocity:.3f}) is wrong")
+        wrong = [i for i in range(4) if abs(lower[i] - want[0][i]) > 1e-9 or abs(upper[i] - want[1][i]) > 1e-9]
+        if wrong:
+            i = wrong[0]
+            expect(False, f"{call}: the {ENTRIES[i]} bounds should be ({want[0][i]:.4f}, {want[1][i]:.4f}), got "
+                          f"({shown(lower[i])}, {shown(upper[i])})" + catch_note(lower, upper, upright, angle))
 
 
 @final_cost.test(points=1, hidden=True, hint="Random states, both uprights; the fifth entry does not count.")
@@ -78,8 +87,9 @@ def random_states(fn, rng):
         state = [float(v) for v in rng.uniform(-4, 4, 5)]
         upright = float(rng.choice([math.pi, -math.pi]))
         expected = (0.1 * state[0] ** 2 + 10 * (state[1] - upright) ** 2 + 0.1 * state[2] ** 2 + state[3] ** 2)
-        got = float(fn(state, upright))
-        expect(abs(got - expected) < 1e-9 * max(1.0, expected), f"terminal_cost({state}, {upright:.4f}) is wrong"
+        call = f"terminal_cost({[round(v, 4) for v in state]}, {upright:.4f})"
+        got = as_number(fn(state, upright), call)
+        expect(abs(got - expected) < 1e-9 * max(1.0, expected), f"{call} should be {expected:.4f}, got {got:.4f}"
                + cost_note(got, state, upright))
 
 
@@ -94,7 +104,11 @@ def other_limits(fn, rng):
                f"{2 * math.pi * overspin:.3f} rad/s, got {shown(rate)}" + rate_note(rate, overspin))
 
 
-prelab_answers("05", {"energy_bottom_fast": 1.0, "energy_tilted_at_rest": -0.5, "energy_horizontal_moving": 0.5})
+prelab_answers("05", {"energy_bottom_fast": 1.0, "energy_tilted_at_rest": -0.5, "energy_horizontal_moving": 0.5},
+               how={"energy_bottom_fast": "e = 0.5 (alpha' / w0)^2 - cos(alpha) = 0.5 × 2^2 - cos 0 = 2 - 1 = 1, "
+                                          "upright's own energy: just enough",
+                    "energy_tilted_at_rest": "at rest only -cos(alpha) is left: -cos(60 deg) = -0.5",
+                    "energy_horizontal_moving": "e = 0.5 × 1^2 - cos(pi/2) = 0.5 - 0 = 0.5"})
 
 
 # --- The answer key (tests/grading/test_wrong_answers.py grades each through the tests above): a correct
@@ -140,7 +154,12 @@ MISTAKES = [
     ("05.next_mode", lambda mode, theta, w: next_mode(mode, theta, w, check_velocity=False), "fly through"),
     ("05.path_limits", lambda arm, rev_s: (arm, rev_s), "left in rev/s", {"targets_and_rates", "other_limits"}),
     ("05.pumping_direction", lambda alpha, w: -1 if w * math.cos(alpha) > 0 else 1, "not 0", {"all_quadrants"}),
-    ("05.catch_set", lambda up, a, w, arm, arm_w: catch_set(up, a, w, arm, arm_w, centre=0.0), "around hanging"),
     ("05.catch_set", lambda up, a, w, arm, arm_w: catch_set(up, a, w, arm, arm_w, one_sided=True), "both sides"),
     ("05.terminal_cost", lambda x, up: terminal_cost(x, 0.0), "not from 0", {"distance_from_upright", "random_states"}),
+    ("05.terminal_cost", lambda x, up: terminal_cost(list(x)[1:5], up), "state[1:5]",
+     {"distance_from_upright", "random_states"}),
+    ("05.catch_set", lambda up, a, w, arm, arm_w: catch_set(up, a, w, arm, arm_w, centre=0.0), "around 0",
+     {"box_around_upright", "random_thresholds"}),
+    ("05.pendulum_energy", lambda alpha, w, w0: 0.5 * (w / w0) ** 2 + math.cos(alpha), "cosine's sign",
+     {"hanging_upright_and_moving", "wound_up_angles"}),
 ]

@@ -3,7 +3,7 @@
 import numpy as np
 
 from pendkit.grading import expect, task
-from pendkit.grading.core import as_number, shown
+from pendkit.grading.core import as_number, is_real, shown
 from pendkit.grading.prelab import prelab_answers
 from pendkit.grading.suites.lab06 import jitter_note, median_note, prediction_note, spread_note
 
@@ -12,35 +12,39 @@ fit = task("06.fit_latency", function="fit_latency", title="A latency distributi
 predict = task("06.predict_angle", function="predict_angle", title="Predicting the angle past the delay")
 
 
-@jitter.test(points=1, hidden=True, hint="Any nominal period, any number of steps.")
+@jitter.test(points=1, hidden=True, hint="A 35 ms nominal period: 300 steps of random jitter, from t = 5 s.")
 def other_periods(fn, rng):
     periods = 0.035 + rng.normal(0, 0.001, 300)
     times = np.concatenate([[5.0], 5.0 + np.cumsum(periods)])
     expected = float(np.percentile(np.abs(periods - 0.035) * 1000, 99))
     got = as_number(fn(times, 0.035), "period_error_p99_ms(times, 0.035)")
-    expect(abs(got - expected) < 1e-6, f"wrong for a 35 ms period with random jitter: expected {expected:.3f} ms, "
+    expect(abs(got - expected) < 1e-6, f"for a 35 ms period with random jitter: expected {expected:.3f} ms, "
                                        f"got {got:.3f}" + jitter_note(np.diff(times), 0.035, got))
 
 
-@fit.test(points=1, hidden=True, hint="Works on lists too, and on a narrow distribution.")
+@fit.test(points=1, hidden=True, hint="A list (not an array) of a narrow distribution on a high floor.")
 def narrow_distribution_from_a_list(fn, rng):
-    samples = list(0.5 + 3.0 * np.exp(0.2 * rng.standard_normal(2000))) + [0.5]
+    # a floor as high as the median: log(sample) without it gives a spread far from 0.2 (about 0.12)
+    samples = list(3.0 + 3.0 * np.exp(0.2 * rng.standard_normal(2000))) + [3.0]
     floor, median, spread = (float(x) for x in fn(samples))
-    expect(abs(floor - 0.5) < 1e-9 and abs(median - 3.0) < 0.1 and abs(spread - 0.2) < 0.02,
-           f"expected about (0.5, 3.0, 0.2), got ({floor:.3f}, {median:.3f}, {spread:.3f})"
+    expect(abs(floor - 3.0) < 1e-9 and abs(median - 3.0) < 0.1 and abs(spread - 0.2) < 0.02,
+           f"expected about (3.0, 3.0, 0.2), got ({floor:.3f}, {median:.3f}, {spread:.3f})"
            + (median_note(samples, median) or spread_note(samples, spread)))
 
 
-@predict.test(points=1, hidden=True, hint="The formula holds for any signs.")
+@predict.test(points=1, hidden=True, hint="20 random states of either sign, delays up to 0.1 s.")
 def random_states(fn, rng):
     for theta, rate, delay in rng.uniform([-0.2, -2, 0], [0.2, 2, 0.1], (20, 3)):
         expected = theta + rate * delay + 0.5 * 5.3**2 * theta * delay**2
         got = fn(theta, rate, delay, 5.3)
-        expect(abs(got - expected) < 1e-9, f"predict_angle({theta:.3f}, {rate:.3f}, {delay:.3f}, 5.3) should be "
-               f"{expected:.5f}, got {shown(got)}{prediction_note(theta, rate, delay, 5.3, got)}")
+        expect(is_real(got) and abs(got - expected) < 1e-9,
+               f"predict_angle({theta:.3f}, {rate:.3f}, {delay:.3f}, 5.3) should be {expected:.5f}, got {shown(got)}"
+               + prediction_note(theta, rate, delay, 5.3, got))
 
 
-prelab_answers("06", {"round_trip_ms": 40.0, "growth_during_delay": 1.419068})
+prelab_answers("06", {"round_trip_ms": 40.0, "growth_during_delay": 1.419068}, how={
+    "round_trip_ms": "there and back: 20 ms + 20 ms = 40 ms",
+    "growth_during_delay": "a tilt grows as e^(5 t); for t = 70 ms = 0.07 s: e^(5 × 0.07) = e^0.35 ≈ 1.42"})
 
 
 # --- The answer key (tests/grading/test_wrong_answers.py grades each through the tests above): a correct
@@ -67,7 +71,11 @@ MISTAKES = [
     ("06.period_error_p99_ms", lambda t, n: float(np.percentile((np.diff(t) - n) * 1000, 99)), "absolute error"),
     ("06.fit_latency", lambda samples: fit_latency(samples, subtract_floor=False), "subtract the floor"),
     ("06.fit_latency", lambda samples: fit_latency(samples, spread_above_floor=False), "spread of log(sample)",
-     {"recovers_a_shifted_lognormal"}),
+     {"recovers_a_shifted_lognormal", "narrow_distribution_from_a_list"}),
+    ("06.period_error_p99_ms", lambda t, n: float(np.percentile(np.abs(np.diff(t) - n) * 1000, 0.99)),
+     "takes percent", {"percentile_of_absolute_error", "other_periods"}),
+    ("06.predict_angle", lambda theta, rate, d, w0: theta + rate * d + 0.5 * w0 * theta * d**2, "not squared",
+     {"second_order_prediction", "random_states"}),
     ("06.predict_angle", lambda theta, rate, d, w0: theta + rate * d, "left out gravity"),
     ("06.predict_angle", lambda theta, rate, d, w0: theta + rate * d - 0.5 * w0**2 * theta * d**2, "not minus"),
     ("06.predict_angle", lambda theta, rate, d, w0: theta - rate * d + 0.5 * w0**2 * theta * d**2, "velocity term"),

@@ -73,3 +73,10 @@ def test_the_notebook_does_not_print_or_state_its_prelab_answers(lab):
         if isinstance(value, float) and not float(value).is_integer():
             for shown in {f"{value:.2f}", f"{value:.3f}"}:
                 assert shown not in text, f"lab {lab} states {key} = {shown} outside the pre-lab"
+
+
+def test_a_wrong_answer_is_shown_beside_the_expected_one_and_how_to_get_it(all_tests_loaded):
+    """1/60 for the steps per second: the feedback says what a step is in seconds, not only "not right"."""
+    results = run_task("00.prelab", lambda: {"steps_per_second": 1 / 60, "episode_seconds": 30.0}, include_hidden=True)
+    message = " ".join(r.message for r in results if not r.passed)
+    assert "should be 16.67, got 0.0166667" in message and "1 / 0.06" in message, message

@@ -107,14 +107,14 @@ def test_check_prints_and_strict_mode_raises(all_tests_loaded, monkeypatch, caps
     # a message that names the cause carries no hint about another one
     ("00.upright_fraction", lambda angles: float(np.mean(np.abs(np.asarray(angles)) <= 0.3)), "Accept lists"),
     ("00.upright_fraction", lambda angles: float(np.mean(np.asarray(angles) < 0.3)), "the bound is strict"),
-    ("00.upright_fraction", lambda angles: float(np.mean(np.asarray(angles) < 0.3)), "Hint"),
+    ("00.upright_fraction", lambda angles: float(np.mean(np.asarray(angles) < 0.3)), "This test checks"),
     ("03.damping_ratio", lambda p: -CORRECT["03.damping_ratio"](p), "Average the decrement"),
-    ("03.slew_rate", lambda t, c, a: KEYS["03"].slew_rate(t, c, a, from_zero=True), "Hint"),
-    ("05.path_limits", lambda arm, rev_s: (arm, rev_s), "Hint"),
-    ("05.terminal_cost", lambda x, up: KEYS["05"].terminal_cost(x, 0.0), "Hint"),
-    ("06.fit_latency", lambda samples: KEYS["06"].fit_latency(samples, subtract_floor=False), "Hint"),
-    ("06.fit_latency", lambda samples: KEYS["06"].fit_latency(samples, spread_above_floor=False), "Hint"),
-    ("00.upright_fraction", lambda angles: 100 * float(np.mean(np.abs(np.asarray(angles)) < 0.3)), "Hint"),
+    ("03.slew_rate", lambda t, c, a: KEYS["03"].slew_rate(t, c, a, from_zero=True), "This test checks"),
+    ("05.path_limits", lambda arm, rev_s: (arm, rev_s), "This test checks"),
+    ("05.terminal_cost", lambda x, up: KEYS["05"].terminal_cost(x, 0.0), "This test checks"),
+    ("06.fit_latency", lambda samples: KEYS["06"].fit_latency(samples, subtract_floor=False), "This test checks"),
+    ("06.fit_latency", lambda samples: KEYS["06"].fit_latency(samples, spread_above_floor=False), "This test checks"),
+    ("00.upright_fraction", lambda angles: 100 * float(np.mean(np.abs(np.asarray(angles)) < 0.3)), "This test checks"),
     ("01.decode_frame", KEYS["01"].decode_off_by_one_shift, "MagINC or MagDEC alone"),
     ("04.upright_matrices", lambda model: KEYS["04"].upright_matrices_with(model, gravity_sign=-1.0),
      "come from M^-1"),
@@ -142,9 +142,21 @@ def test_a_diagnosis_drops_the_hint_and_other_failures_keep_it():
     def flagged():
         raise Failed("wrong: in seconds", hint=False)
 
-    assert run_test(failing(plain), None).message == "wrong. Hint: Look elsewhere."
+    assert run_test(failing(plain), None).message == "wrong. This test checks: look elsewhere."
     assert run_test(failing(named), None).message == "wrong: the sign is flipped"
     assert run_test(failing(flagged), None).message == "wrong: in seconds"
+
+
+def test_no_failure_says_only_that_it_is_wrong(all_tests_loaded):
+    """A bare "is wrong" / "is not right" tells a student nothing: every failure a mistake causes shows the
+    value it got (and what was expected, or why it is wrong)."""
+    bare = []
+    for task_id, fn, *_ in MISTAKES:
+        for result in run_task(task_id, fn, include_hidden=True):
+            message = result.message.split(". This test checks: ")[0]
+            if not result.passed and ("is wrong" in message or "is not right" in message) and "got" not in message:
+                bare.append((task_id, result.name, result.message))
+    assert not bare, bare
 
 
 def test_a_damping_ratio_near_the_answer_shows_how_far_off_it_is(all_tests_loaded):

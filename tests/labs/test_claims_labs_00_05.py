@@ -92,6 +92,9 @@ def test_lab03_the_students_functions_drive_the_identification(free_swing):
     delta = float(np.mean(np.log(peaks[:-1] / peaks[1:])))
     zeta = delta / math.sqrt(4 * math.pi**2 + delta**2)
     assert len(yours_against_the_kit(period, zeta, fit)) == 1  # right: one line, no note
+    assert len(yours_against_the_kit(period, zeta, fit, times, angles)) == 1
+    at_samples = float(np.mean(np.diff(times[up + 1])))  # within the kit's error, yet not interpolated: named
+    assert "not interpolated" in " ".join(yours_against_the_kit(at_samples, zeta, fit, times, angles))
     both = np.nonzero((angles[:-1] < 0) != (angles[1:] < 0))[0]
     assert "only upward crossings" in " ".join(yours_against_the_kit(float(np.mean(np.diff(times[both]))), zeta, fit))
     log10 = float(np.mean(np.log10(peaks[:-1] / peaks[1:])))

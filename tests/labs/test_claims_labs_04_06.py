@@ -102,8 +102,9 @@ def test_lab04_the_servo_speed_does_not_enter_the_linear_design():
 
 @pytest.mark.parametrize("name, fn, rms, words", [
     ("right", lambda th, om, d, w0: th + om * d + 0.5 * w0**2 * th * d**2, 0.11, "lands on the pendulum"),
-    ("gravity's sign", lambda th, om, d, w0: th + om * d - 0.5 * w0**2 * th * d**2, 5.86, "falls short"),
-    ("no gravity", lambda th, om, d, w0: th + om * d, 2.94, "falls short"),
+    ("gravity's sign", lambda th, om, d, w0: th + om * d - 0.5 * w0**2 * th * d**2, 5.86, "not minus"),
+    ("no gravity", lambda th, om, d, w0: th + om * d, 2.94, "left out gravity"),
+    ("w0 not squared", lambda th, om, d, w0: th + om * d + 0.5 * w0 * th * d**2, None, "not squared"),
     ("no 1/2", lambda th, om, d, w0: th + om * d + w0**2 * th * d**2, 2.91, "overshoots"),
     ("velocity's sign", lambda th, om, d, w0: th - om * d + 0.5 * w0**2 * th * d**2, 16.65, "velocity term"),
     ("milliseconds", lambda th, om, d, w0: th + om * d * 1000, None, "in seconds"),

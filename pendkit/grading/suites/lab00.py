@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from pendkit.grading.core import expect, is_real, shown, task
+from pendkit.grading.core import Diagnosis, expect, is_real, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
@@ -21,11 +21,23 @@ def reward_values(fn, rng):
         expected = -theta**2 - 0.5 * (omega_rad_s / (2 * math.pi)) ** 2
         got = fn(theta, omega_rad_s)
         message = f"reward({theta:.3f}, {omega_rad_s:.3f}) should be {expected:.4f}, got {shown(got)}"
-        if is_real(got) and omega_rad_s and abs(got - (-theta**2 - 0.5 * omega_rad_s**2)) < 1e-9:
-            message += ": convert the velocity from rad/s to rev/s first"
-        elif is_real(got) and got > 0:
-            message += ": the reward is a penalty, never positive"
-        expect(is_real(got) and abs(got - expected) < 1e-9, message)
+        expect(is_real(got) and abs(got - expected) < 1e-9, message + reward_note(theta, omega_rad_s, got))
+
+
+def reward_note(theta: float, omega_rad_s: float, got, mirrored=None) -> str:
+    """The cause of a wrong reward, named from its value (a `Diagnosis`), or "". `mirrored`: the reward at
+    (-theta, -omega), where the test has it."""
+    if not is_real(got):
+        return ""
+    if omega_rad_s and abs(got - (-theta**2 - 0.5 * omega_rad_s**2)) < 1e-9:
+        return Diagnosis(": the velocity arrives in rad/s; convert it to rev/s first (divide by 2 pi)")
+    if omega_rad_s and abs(got - (-theta**2 - 0.5 * (omega_rad_s * 2 * math.pi) ** 2)) < 1e-9:
+        return Diagnosis(": the velocity was multiplied by 2 pi; rad/s to rev/s divides by 2 pi")
+    if is_real(mirrored) and abs(got - mirrored) > 1e-12:
+        return Diagnosis(": it changes when both signs flip; both terms are squared, so the sign must not matter")
+    if got > 0:
+        return Diagnosis(": the reward is a penalty, never positive")
+    return ""
 
 
 @fraction_task.test(points=2, hint="Count steps with |angle| < 0.3 rad and divide by the number of steps.")
@@ -34,12 +46,23 @@ def fraction_of_steps(fn, rng):
     expected = 4 / 8
     got = fn(angles)
     message = f"upright_fraction({angles.tolist()}) should be {expected}, got {shown(got)}"
-    note = percent_note(expected, got)
-    if is_real(got) and abs(got - float(np.mean(angles < 0.3))) < 1e-9:
-        note = ": use the absolute value: -3.0 rad is far from upright"
-    if is_real(got) and abs(got - 4) < 1e-9:
-        note = ": that is a count; divide by the number of steps"
+    note = fraction_note(angles, got) or (": use the absolute value: -3.0 rad is far from upright"
+                                          if is_real(got) and abs(got - float(np.mean(angles < 0.3))) < 1e-9 else "")
     expect(is_real(got) and abs(float(got) - expected) < 1e-9, message + note, hint=not note)
+
+
+def fraction_note(angles, got) -> str:
+    """The cause of a wrong fraction of `angles`, named from its value: a count, a percentage, a division by
+    one step too few (or "")."""
+    angles = np.asarray(angles, dtype=float)
+    count = float(np.sum(np.abs(angles) < 0.3))
+    if not is_real(got) or len(angles) < 2:
+        return ""
+    if count and abs(got - count) < 1e-9:
+        return ": that is a count; divide by the number of steps"
+    if abs(got - count / (len(angles) - 1)) < 1e-9:
+        return f": divided by len - 1 ({len(angles) - 1}); divide by the number of steps, {len(angles)}"
+    return percent_note(count / len(angles), got)
 
 
 def percent_note(expected: float, got) -> str:
@@ -49,16 +72,16 @@ def percent_note(expected: float, got) -> str:
     return ""
 
 
-@fraction_task.test(points=1, hint="It must work for any length of trace.")
+@fraction_task.test(points=1, hint="A trace of 200 random angles of either sign.")
 def random_traces(fn, rng):
     angles = rng.uniform(-math.pi, math.pi, 200)
     expected = float(np.mean(np.abs(angles) < 0.3))
     got = fn(angles)
-    note = percent_note(expected, got)
+    note = fraction_note(angles, got)
     if is_real(got) and abs(got - float(np.mean(angles < 0.3))) < 1e-9:
         note = ": use the absolute value: the angles far below -0.3 rad counted as upright"
-    expect(abs(float(got) - expected) < 1e-9, f"for 200 random angles expected {expected:.3f}, got {shown(got)}{note}",
-           hint=not note)
+    expect(is_real(got) and abs(float(got) - expected) < 1e-9,
+           f"for 200 random angles expected {shown(expected)}, got {shown(got)}{note}", hint=not note)
 
 
 prelab_task("00", ("steps_per_second", "episode_seconds",))

@@ -130,20 +130,45 @@ def one_magnet_bit_alone_is_valid(fn, rng):
         try:
             got = fn(frame)
         except ValueError as error:
-            raise Failed(f"decode_frame(0x{frame:04X}) was rejected ({error}) but only one magnet bit is set") \
-                from error
+            raise Failed(f"decode_frame(0x{frame:04X}) was rejected ({error}) but only one magnet bit is set: "
+                         "reject only when both are (and, not or)", hint=False) from error
         expect(got == 123, diagnose_position(frame, 123, got))
 
 
-def _angle_message(call: str, expected: float, got) -> str:
+def rejection_note(frame: int, error) -> str:
+    """Why a valid frame a student's decode_frame rejected is valid: named from its status bits."""
+    closer, away = frame >> 2 & 1, frame >> 1 & 1
+    if closer != away:
+        bit = "MagINC (bit 2)" if closer else "MagDEC (bit 1)"
+        return Diagnosis(f" ({error}), but only {bit} is set: one magnet bit alone says the magnet is moving and "
+                         "the reading is valid; reject only when both are set (and, not or)")
+    return f" ({error}): its parity is even, OCF is 1, COF, LIN and the magnet bits are 0"
+
+
+def upright_note(angle: float, got) -> str:
+    """The cause of a wrong angle from upright, named from its value (a `Diagnosis`), or ""."""
+    if not is_real(got) or not math.isfinite(got):
+        return ""
+    expected = angle % (2 * math.pi) - math.pi
+    if abs(got - (angle - math.pi)) < 1e-9:
+        return Diagnosis(": close, but the angle may have wound several turns: wrap into [-pi, pi)")
+    if abs(got - angle) < 1e-9:
+        return Diagnosis(": that is still the angle from the bottom; upright is half a turn away")
+    if abs(abs(got - expected) - math.pi) < 1e-9:
+        return Diagnosis(": pi away from the answer: that is the angle from the bottom, wrapped; hanging is pi from "
+                         "upright, so shift by pi (angle % 2 pi - pi)")
+    return ""
+
+
+def angle_message(call: str, expected: float, got) -> str:
     message = f"{call} should be {expected:.4f} rad, got {shown(got)}"
     if is_real(got) and math.isfinite(got):
         if abs(got - math.degrees(expected)) < 1e-3:
-            return message + ": that is degrees; the lab uses radians"
+            return message + Diagnosis(": that is degrees; the lab uses radians")
         if abs(got - expected) < 2 * math.pi / 1024 * 2 and got != expected:
-            return message + ": off by a count or two; divide by 1024 (positions per turn), not 1023"
+            return message + Diagnosis(": off by a count or two; divide by 1024 (positions per turn), not 1023")
         if got < 0:
-            return message + ": negative; wrap the difference into 0..1023 first (the % operator)"
+            return message + Diagnosis(": negative; wrap the difference into 0..1023 first (the % operator)")
     return message
 
 
@@ -153,7 +178,7 @@ def calibrated_counts_scale_to_radians(fn, rng):
                                   (829, 317, math.pi), (600, 100, 500 * 2 * math.pi / 1024)]:
         got = fn(raw, offset)
         expect(is_real(got) and abs(got - expected) < 1e-9,
-               _angle_message(f"counts_to_angle({raw}, offset={offset})", expected, got))
+               angle_message(f"counts_to_angle({raw}, offset={offset})", expected, got))
 
 
 @to_angle.test(points=2, hint="A reading just below the offset is just below a full turn, not negative.")
@@ -165,7 +190,7 @@ def readings_below_the_offset_wrap(fn, rng):
         if not ok and is_real(got) and abs(got - (raw + offset) % 1024 * 2 * math.pi / 1024) < 1e-9:
             raise Failed(f"counts_to_angle({raw}, offset={offset}) should be {expected:.4f}, got {shown(got)}: "
                          "you added the offset; subtract it")
-        expect(ok, _angle_message(f"counts_to_angle({raw}, offset={offset})", expected, got))
+        expect(ok, angle_message(f"counts_to_angle({raw}, offset={offset})", expected, got))
 
 
 @upright.test(points=2, hint="Upright is half a turn from the bottom; wrap the result into [-pi, pi).")
@@ -176,12 +201,7 @@ def upright_is_zero_and_sides_have_signs(fn, rng):
         got = fn(angle)
         ok = is_real(got) and abs(got - expected) < 1e-9
         message = f"angle_from_upright({angle:.3f}) should be {expected:.4f} rad, got {shown(got)}"
-        if not ok and is_real(got):
-            if abs(got - (angle - math.pi)) < 1e-9:
-                message += ": close, but the angle may have wound several turns: wrap into [-pi, pi)"
-            elif abs(got - angle) < 1e-9:
-                message += ": that is still the angle from the bottom; upright is half a turn away"
-        expect(ok, message)
+        expect(ok, message + upright_note(angle, got))
 
 
 @wrap.test(points=1, hint="Without a wrap, the difference is simply new - old.")

@@ -88,10 +88,10 @@ def mean_note(values, window: int, got: np.ndarray, expected: np.ndarray) -> str
         return ""
     if np.allclose(got[window - 1:], expected[window - 1:]) and not np.allclose(got[:window - 1],
                                                                                expected[:window - 1]):
-        return (f": the firmware's buffer starts full of zeros, so early outputs divide by {window} too "
-                "(only the first window - 1 values differ)")
+        return Diagnosis(f": the firmware's buffer starts full of zeros, so early outputs divide by {window} too "
+                         "(only the first window - 1 values differ)")
     if np.allclose(got, np.convolve(values, np.ones(window) / window, mode="same")):
-        return ": np.convolve(mode='same') centres the window and looks ahead; use only past values"
+        return Diagnosis(": np.convolve(mode='same') centres the window and looks ahead; use only past values")
     return ""
 
 
@@ -102,27 +102,45 @@ def other_window_lengths(fn, rng):
         padded = np.concatenate([np.zeros(window - 1), values])
         expected = np.convolve(padded, np.ones(window) / window, mode="valid")
         got = _as_array(fn(values.tolist(), window), "firmware_mean", 12)
-        expect(np.allclose(got, expected), f"firmware_mean(..., {window}) is wrong: expected "
+        expect(np.allclose(got, expected), f"firmware_mean(..., {window}): expected "
                f"{np.round(expected[:4], 3).tolist()}..., got {np.round(got[:4], 3).tolist()}..."
                + mean_note(values, window, got, expected))
 
 
+def low_pass_note(values, alpha: float, got: np.ndarray) -> str:
+    """The cause of a low-pass output that differs from the right one, named from its values, or ""."""
+    values = np.asarray(values, dtype=float)
+    if got.shape != values.shape or not len(values):
+        return ""
+    from_zero = np.concatenate([[0.0], values])
+    if alpha < 1 and np.allclose(got, encoder.low_pass(values, 1 - alpha)):
+        return Diagnosis(": alpha is the weight of the *new* value; you used 1 - alpha")
+    if alpha == 1 and np.allclose(got, values[0]) and not np.allclose(values, values[0]):
+        return Diagnosis(": with alpha = 1 the output never left x_0: alpha weights the new value and 1 - alpha "
+                         "the old output; you swapped them")
+    if np.allclose(got, encoder.low_pass(from_zero, alpha)[1:]):
+        return Diagnosis(": it started from y = 0; the filter starts at the first sample, y_0 = x_0")
+    if alpha < 1 and np.allclose(got, encoder.low_pass(from_zero, 1 - alpha)[1:]):
+        return Diagnosis(": it started from y = 0 (start at y_0 = x_0) and used 1 - alpha as the new value's weight")
+    return ""
+
+
 @smooth.test(points=2, hint="y_k = y_(k-1) + alpha * (x_k - y_(k-1)), starting from y_0 = x_0.")
 def step_response(fn, rng):
-    values = [0.0, 1.0, 1.0, 1.0, 1.0]
-    expected = encoder.low_pass(values, 0.25)
-    got = _as_array(fn(values, 0.25), "low_pass", 5)
-    message = f"low_pass({values}, 0.25) should be {np.round(expected, 4).tolist()}, got {np.round(got, 4).tolist()}"
-    if np.allclose(got, encoder.low_pass(values, 0.75)):
-        message += ": alpha is the weight of the *new* value; you used 1 - alpha"
-    expect(np.allclose(got, expected), message)
+    for values in ([0.0, 1.0, 1.0, 1.0, 1.0], [2.0, 3.0, 3.0, 3.0, 3.0]):  # the second starts off zero
+        expected = encoder.low_pass(values, 0.25)
+        got = _as_array(fn(values, 0.25), "low_pass", 5)
+        expect(np.allclose(got, expected), f"low_pass({values}, 0.25) should be {np.round(expected, 4).tolist()}, "
+               f"got {np.round(got, 4).tolist()}" + low_pass_note(values, 0.25, got))
 
 
 @smooth.test(points=1, hint="alpha = 1 must pass the signal through unchanged.")
 def alpha_one_is_identity(fn, rng):
     values = rng.normal(size=10)
     got = _as_array(fn(values.tolist(), 1.0), "low_pass", 10)
-    expect(np.allclose(got, values), "low_pass(x, 1.0) should return x unchanged")
+    expect(np.allclose(got, values), f"low_pass(x, 1.0) should return x unchanged: expected "
+           f"{np.round(values[:3], 3).tolist()}..., got {np.round(got[:3], 3).tolist()}..."
+           + low_pass_note(values, 1.0, got))
 
 
 @limits.test(points=2, hint="One count per period is the smallest non-zero speed the estimate can show; "

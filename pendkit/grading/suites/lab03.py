@@ -26,13 +26,21 @@ def compound_pendulum(fn, rng):
         call = f"natural_frequency({mass}, {com}, {inertia})"
         got = as_number(fn(mass, com, inertia), call)
         message = f"{call} should be {expected:.4f} rad/s, got {got:.4f}"
-        if abs(got - expected**2) < 1e-6 * expected**2:
-            message += ": that is w0 squared; take the square root"
-        elif abs(got - expected / (2 * math.pi)) < 1e-6:
-            message += ": that is in Hz (cycles per second); the lab wants rad/s"
-        elif abs(got - math.sqrt(G / com)) < 1e-6:
-            message += ": that is a point mass on a massless rod; use the inertia J"
-        expect(abs(got - expected) < 1e-6 * expected, message)
+        expect(abs(got - expected) < 1e-6 * expected, message + frequency_note(mass, com, inertia, got))
+
+
+def frequency_note(mass: float, com: float, inertia: float, got: float) -> str:
+    """The cause of a wrong natural frequency, named from its value (a `Diagnosis`), or ""."""
+    expected = math.sqrt(mass * G * com / inertia)
+    causes = [(expected**2, ": that is w0 squared; take the square root"),
+              (expected / (2 * math.pi), ": that is in Hz (cycles per second); the lab wants rad/s"),
+              (math.sqrt(G / com), ": that is a point mass on a massless rod; use the inertia J"),
+              (1 / expected, ": that is sqrt(J / (m g l)), the ratio upside down: w0 = sqrt(m g l / J)"),
+              (2 * math.pi / expected, ": that is the period 2 pi / w0 in seconds; the lab wants w0 in rad/s")]
+    for value, cause in causes:
+        if abs(got - value) < 1e-6 * value:
+            return Diagnosis(cause)
+    return ""
 
 
 def _swing(period_s: float, samples: int = 1000, dt: float = 0.005, phase: float = 0.3):
@@ -45,9 +53,15 @@ def one_crossing_per_period(fn, rng):
     t, angle = _swing(1.18)
     got = as_number(fn(t, angle), "period_from_crossings(t, angle)")
     message = f"for a 1.18 s swing the period should be 1.180 s, got {got:.4f}"
-    if abs(got - 0.59) < 0.01:
-        message += ": that is half a period; you counted crossings in both directions"
-    expect(abs(got - 1.18) < 1e-3, message)
+    expect(abs(got - 1.18) < 1e-3, message + half_period_note(got, 1.18))
+
+
+def half_period_note(got: float, period_s: float) -> str:
+    """Words for a period that came out as half of it: crossings counted in both directions."""
+    if abs(got - period_s / 2) < 0.01 * period_s:
+        return Diagnosis(": that is half a period; you counted crossings in both directions (count only upward "
+                         "ones, negative to positive)")
+    return ""
 
 
 @period.test(points=2, hint="Interpolate between the samples on either side of each crossing.")

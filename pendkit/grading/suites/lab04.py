@@ -57,13 +57,32 @@ def match_the_linearisation(fn, rng):
     a, b = _pair(fn(model), "upright_matrices(model)")
     ref_a, ref_b = _reference(model)
     expect(np.allclose(a, ref_a, rtol=1e-6, atol=1e-9) and np.allclose(b, ref_b, rtol=1e-6, atol=1e-9),
-           "A or B differ from the linearisation about upright" + matrices_note(model, a, b))
+           matrices_message(model, a, b, "about upright"))
+
+
+def matrices_message(model: FurutaModel, a: np.ndarray, b: np.ndarray, where: str) -> str:
+    """Which of A and B differ from the linearisation (`where`: the rig's words), the first lower-half row that
+    does, expected and got, and the slip's cause when it is a known one."""
+    ref_a, ref_b = _reference(model)
+    b = np.asarray(b, dtype=float).reshape(4, 1)
+    wrong_a = not np.allclose(a, ref_a, rtol=1e-6, atol=1e-9)
+    wrong_b = not np.allclose(b, ref_b, rtol=1e-6, atol=1e-9)
+    name, want, got = ("A", ref_a, a) if wrong_a else ("B", ref_b.T, b.T)
+    row = next((i for i in range(len(want)) if not np.allclose(got[i], want[i], rtol=1e-6, atol=1e-9)), 0)
+    shown_row = f"{name}[{row}]" if name == "A" else "B"
+    message = (f"{' and '.join(m for m, w in (('A', wrong_a), ('B', wrong_b)) if w)} differ"
+               f"{'' if wrong_a and wrong_b else 's'} from the linearisation {where}: {shown_row} should be "
+               f"{np.array2string(want[row], precision=4)}, got {np.array2string(got[row], precision=4)}")
+    return message + matrices_note(model, a, b)
 
 
 def matrices_note(model: FurutaModel, a: np.ndarray, b: np.ndarray) -> str:
     """Which common slip makes `upright_matrices`' (a, b) for `model` differ from the linearisation, if any."""
-    ref_a, _ = _reference(model)
+    ref_a, ref_b = _reference(model)
     b = np.asarray(b, dtype=float).reshape(4, 1)
+    if np.allclose(a, ref_a, rtol=1e-6, atol=1e-9) and np.allclose(b[2:, 0], [model.servo_kp_n_m_per_rad, 0.0]):
+        return Diagnosis(": A is right; B's lower half is [kp, 0] without M^-1: like A's, it is M^-1 [kp, 0], so "
+                         "the pendulum's row is not 0")
     if np.allclose(a[2:, 1], -ref_a[2:, 1], rtol=1e-3) and not np.allclose(a[2:, 1], ref_a[2:, 1], rtol=1e-3):
         return Diagnosis(": the gravity column has the wrong sign (upright is unstable: gravity pushes away from it)")
     if abs(a[2, 1]) < 1e-9 and abs(ref_a[2, 1]) > 1e-3:
@@ -89,7 +108,7 @@ def follows_the_parameters(fn, rng):
     a, b = _pair(fn(model), "upright_matrices(heavier model)")
     ref_a, ref_b = _reference(model)
     expect(np.allclose(a, ref_a, rtol=1e-6, atol=1e-9) and np.allclose(b, ref_b, rtol=1e-6, atol=1e-9),
-           "with a heavier tip and more damping your A and B did not change as they should")
+           matrices_message(model, a, b, "for a heavier tip and more damping (read every number from the model)"))
 
 
 def _discrete():
@@ -104,14 +123,22 @@ def matches_dlqr(fn, rng):
     q, r = [2.0, 40.0, 0.05, 0.5], 3.0
     expected, _, _ = control.dlqr(a, b, np.diag(q), [[r]])
     got = np.asarray(fn(a, b, q, r), dtype=float).reshape(1, -1)
-    message = "K differs from control.dlqr's"
-    if got.shape == (1, 4):
-        continuous, _, _ = control.lqr(a, b, np.diag(q), [[r]])
-        if np.allclose(got, continuous, rtol=1e-3):
-            message += ": that is control.lqr, the continuous-time problem; these A, B are discrete"
-        elif np.allclose(got, -np.asarray(expected), rtol=1e-6):
-            message += ": right size, wrong sign (u = -K x)"
-    expect(got.shape == (1, 4) and np.allclose(got, expected, rtol=1e-6), message)
+    expect(got.shape == (1, 4) and np.allclose(got, expected, rtol=1e-6),
+           f"K differs from control.dlqr's: expected {np.array2string(np.asarray(expected), precision=4)}, got "
+           f"{np.array2string(got, precision=4)}" + gain_note(a, b, q, r, got))
+
+
+def gain_note(a: np.ndarray, b: np.ndarray, q, r: float, got: np.ndarray) -> str:
+    """The cause of a gain that differs from control.dlqr's, named from its value (a `Diagnosis`), or ""."""
+    if got.shape != (1, 4):
+        return ""
+    expected, _, _ = control.dlqr(a, b, np.diag(q), [[r]])
+    continuous, _, _ = control.lqr(a, b, np.diag(q), [[r]])
+    if np.allclose(got, continuous, rtol=1e-3):
+        return Diagnosis(": that is control.lqr, the continuous-time problem; these A, B are discrete (dlqr)")
+    if np.allclose(got, -np.asarray(expected), rtol=1e-6):
+        return Diagnosis(": right size, wrong sign: dlqr's K is for u = -K x, return it as it is")
+    return ""
 
 
 @poles.test(points=2, hint="The closed loop is x_(k+1) = (A - B K) x_k.")

@@ -25,14 +25,23 @@ def hanging_upright_and_moving(fn, rng):
                                    (0.0, 2 * W0, 1.0), (0.3, -4.0, 0.5 * (4.0 / W0) ** 2 - math.cos(0.3))]:
         call = f"pendulum_energy({alpha:.3f}, {omega}, {W0})"
         got = as_number(fn(alpha, omega, W0), call)
-        message = f"{call} should be {expected:.4f}, got {got:.4f}"
-        if abs(got + expected) < 1e-9 and expected:
-            message += ": the sign is flipped; measure alpha from the bottom, so hanging still is -1"
-        elif abs(got - ((omega / W0) ** 2 - math.cos(alpha))) < 1e-9 and omega:
-            message += ": kinetic energy has a factor 1/2"
-        elif abs(got - (0.5 * omega**2 - math.cos(alpha))) < 1e-9 and omega:
-            message += ": divide the rate by the natural frequency, so both terms are in units of m g l"
-        expect(abs(got - expected) < 1e-9, message)
+        expect(abs(got - expected) < 1e-9, f"{call} should be {expected:.4f}, got {got:.4f}"
+               + energy_note(alpha, omega, W0, got))
+
+
+def energy_note(alpha: float, omega: float, w0: float, got: float) -> str:
+    """The cause of a wrong energy, named from its value (a `Diagnosis`), or ""."""
+    expected = 0.5 * (omega / w0) ** 2 - math.cos(alpha)
+    if abs(got - ((omega / w0) ** 2 - math.cos(alpha))) < 1e-9 and omega:
+        return Diagnosis(": kinetic energy has a factor 1/2")
+    if abs(got - (0.5 * omega**2 - math.cos(alpha))) < 1e-9 and omega:
+        return Diagnosis(": divide the rate by the natural frequency, so both terms are in units of m g l")
+    if abs(got - (0.5 * (omega / w0) ** 2 + math.cos(alpha))) < 1e-9 and math.cos(alpha):
+        return Diagnosis(": the cosine's sign is flipped; measure alpha from the bottom, so hanging still is -1 "
+                         "(e = ... - cos(alpha))")
+    if abs(got + expected) < 1e-9 and expected:
+        return Diagnosis(": the sign is flipped; measure alpha from the bottom, so hanging still is -1")
+    return ""
 
 
 @direction.test(points=3, hint="de/dt is proportional to -cos(alpha) alpha' phi'': accelerate against "
@@ -111,11 +120,18 @@ def box_around_upright(fn, rng):
         lower, upper = bounds_pair(fn(upright, 0.25, 1.5, 0.9, 6.0), call)
         want_lower, want_upper = [-0.9, upright - 0.25, -6.0, -1.5], [0.9, upright + 0.25, 6.0, 1.5]
         message = f"{call} should be ({want_lower}, {want_upper}), got ({lower}, {upper})"
-        if abs(lower[1] + 0.25) < 1e-9 and abs(upper[1] - 0.25) < 1e-9:
-            message += ": the box is around hanging; centre it on upright_rad"
-        elif lower[2] == 0 or lower[3] == 0:
-            message += ": rates can be negative too; bound them on both sides"
-        expect(all(abs(a - b) < 1e-9 for a, b in zip(lower + upper, want_lower + want_upper)), message)
+        expect(all(abs(a - b) < 1e-9 for a, b in zip(lower + upper, want_lower + want_upper)),
+               message + catch_note(lower, upper, upright, 0.25))
+
+
+def catch_note(lower: list[float], upper: list[float], upright: float, angle: float) -> str:
+    """The cause of a wrong catch set, named from its bounds (a `Diagnosis`), or ""."""
+    if abs(lower[1] + angle) < 1e-9 and abs(upper[1] - angle) < 1e-9:
+        return Diagnosis(": the pendulum's box is around 0, which is hanging (the angle is from the bottom); "
+                         "centre it on upright_rad")
+    if lower[2] == 0 or lower[3] == 0:
+        return Diagnosis(": rates can be negative too; bound them on both sides")
+    return ""
 
 
 @final_cost.test(points=2, hint="0.1 phi^2 + 10 (alpha - upright)^2 + 0.1 phi'^2 + alpha'^2; ignore the fifth entry.")
@@ -131,11 +147,16 @@ def distance_from_upright(fn, rng):
 
 
 def cost_note(got: float, state, upright: float) -> str:
-    """Words for a terminal cost that measures the pendulum from 0 rather than from upright, or nothing."""
+    """Words for a terminal cost that measures the pendulum from 0 rather than from upright, or that reads the
+    state one entry late (state[1:5]), or nothing."""
     arm, pendulum, arm_rate, pendulum_rate = state[:4]
     from_zero = 0.1 * arm**2 + 10 * pendulum**2 + 0.1 * arm_rate**2 + pendulum_rate**2
     if abs(got - from_zero) < 1e-9 * max(1.0, from_zero):
         return Diagnosis(": measure the pendulum's error from upright_rad, not from 0")
+    late = 0.1 * state[1] ** 2 + 10 * (state[2] - upright) ** 2 + 0.1 * state[3] ** 2 + state[4] ** 2
+    if abs(got - late) < 1e-9 * max(1.0, late):
+        return Diagnosis(": it read state[1:5], one entry late; the state is [arm, pendulum, arm rate, pendulum "
+                         "rate, target], so the four terms are state[0] to state[3]")
     return ""
 
 

@@ -33,6 +33,10 @@ def jitter_note(periods: np.ndarray, nominal: float, got: float) -> str:
         return Diagnosis(": that is in seconds; the lab wants milliseconds")
     if abs(got - float(np.percentile((periods - nominal) * 1000, 99))) < 1e-9:
         return Diagnosis(": take the absolute error: early steps count too")
+    errors_ms = np.abs(periods - nominal) * 1000
+    if abs(got - float(np.percentile(errors_ms, 0.99))) < 1e-9 and abs(got - expected) > 1e-9:
+        return Diagnosis(": that is the 0.99th percentile, near the smallest error: np.percentile takes percent "
+                         "(0-100), so the 99th is np.percentile(errors, 99), not 0.99")
     return ""
 
 
@@ -86,12 +90,15 @@ def prediction_note(theta: float, rate: float, delay: float, w0: float, got) -> 
     """Words for the gravity term's mistakes (left out, or its sign flipped) and a flipped velocity term."""
     if not is_real(got):
         return ""
+    if theta and w0 != 1 and abs(got - (theta + rate * delay + 0.5 * w0 * theta * delay**2)) < 1e-12:
+        return Diagnosis(": w0 is not squared: near upright theta'' = w0^2 theta, so the term is "
+                         "w0^2 theta d^2 / 2")
     if theta and abs(got - (theta + rate * delay)) < 1e-12:
-        return ": you left out gravity, which pushes the pendulum away from upright during the delay"
+        return Diagnosis(": you left out gravity, which pushes the pendulum away from upright during the delay")
     if theta and abs(got - (theta + rate * delay - 0.5 * w0**2 * theta * delay**2)) < 1e-12:
-        return ": upright, gravity pushes away from the top: + w0^2 theta, not minus"
+        return Diagnosis(": upright, gravity pushes away from the top: + w0^2 theta, not minus")
     if abs(got - (theta - rate * delay + 0.5 * w0**2 * theta * delay**2)) < 1e-12 and rate:
-        return ": the velocity term's sign is flipped: the angle moves on by + theta' d"
+        return Diagnosis(": the velocity term's sign is flipped: the angle moves on by + theta' d")
     return ""
 
 
