@@ -153,7 +153,7 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
     out = Path(out_dir)
     for name in OUTPUTS:  # a link planted where an output goes is refused before any rig time is spent
         check_no_links(out / name)
-    started, laptop_started = time.perf_counter(), time.time()
+    started, started_at = time.perf_counter(), time.time()  # the second on the clock the deadline workers read
     report: dict = {"rig": rig.name, "config": dataclasses.asdict(config)}
 
     # checked before anything is written: a refused recording (RecordingError) leaves no output behind
@@ -208,13 +208,12 @@ def adapt(rig: Rig, out_dir: str | Path, config: AdaptConfig | None = None,
         report["uncertain"] = spread_table(identification, spread)
         say("(c) what the recordings allow: " + ", ".join(f"{name} {low:.3g}..{high:.3g}"
                                                           for name, (low, high) in spread.items()))
-    deadline = math.inf if config.budget_s is None else laptop_started + config.budget_s
+    deadline = math.inf if config.budget_s is None else started_at + config.budget_s
     if config.candidates:
         agent_run, report["candidates_on_twin"], device_run = choose_on_twin(identification, config, out / "policy.pt",
                                                                              say, spread, deadline)
     else:
         agent_run = device_run = train_on_twin(identification, config, out / "policy.pt", say, spread, deadline)
-    report["laptop_s"] = time.time() - laptop_started
     report["budget_cut"] = budget_cuts(config, report)
     if report["budget_cut"]:
         say(f"(c) the laptop's budget ({config.budget_s:.0f} s) cut: {'; '.join(report['budget_cut'])}")
