@@ -17,7 +17,7 @@ from pendkit.deploy.on_rig import RigSession, upload_to_rig
 from pendkit.deploy.swingup_design import design_swing_up
 from pendkit.device.controller_blob import pack
 from pendkit.queue.job_results import CSV_HEADER, save_excitation
-from pendkit.queue.jobs import submit_job
+from pendkit.queue.jobs import EXCITATION_STEPS, submit_job
 from pendkit.queue.rig_reset import spread_counts
 from pendkit.queue.runner import QueueRunner
 from pendkit.queue.store import QueueStore
@@ -207,6 +207,6 @@ def test_an_excitation_is_recorded_and_handed_back(store, tmp_path):
     assert job.state == "done" and result["summary"]["recorded_episodes"] == 2
     path = save_excitation(result, tmp_path / "mine")
     recordings = [Recording.from_dict(item) for item in json.loads(path.read_text())]
-    assert [len(r.actions) for r in recordings] == [102, 102]
+    assert [len(r.actions) for r in recordings] == [EXCITATION_STEPS, EXCITATION_STEPS]
     assert all(r.device is not None and len(r.device.ms) > 100 for r in recordings)  # the device's own clock
     assert (tmp_path / "mine" / "telemetry.csv").read_text().startswith(CSV_HEADER)
