@@ -354,8 +354,8 @@ def test_a_learner_afresh_trains_on_the_identified_twin_until_the_rule_holds_the
 def test_of_several_starting_policies_the_one_that_holds_on_the_identified_twin_goes_to_the_rig(tmp_path):
     """Judged by the kit's rule on the identified twin (here the default rig, exactly): dqn-ideal, trained
     on a twin without delays, loses it; td3-realistic holds it and is chosen though named second."""
-    from pendkit.adapt.identify import Identification
     from pendkit.adapt.candidates import choose_on_twin
+    from pendkit.adapt.identify import Identification
     from pendkit.adapt.session import AdaptConfig, candidates_markdown
     from pendkit.agents.data_files import load_data
     from pendkit.agents.pretrained import policy_weights
@@ -379,8 +379,8 @@ def test_of_several_starting_policies_the_one_that_holds_on_the_identified_twin_
 def test_the_rigs_device_gets_the_candidate_it_runs_even_when_the_laptop_chose_another(tmp_path):
     """td3-realistic holds the identified twin from the laptop, but the device does not run TD3; the R-DQN it
     runs is judged there (the rule's 10 starts, its blob on the identified twin's device) and goes to it."""
-    from pendkit.adapt.identify import Identification
     from pendkit.adapt.candidates import choose_on_twin
+    from pendkit.adapt.identify import Identification
     from pendkit.adapt.session import AdaptConfig, candidates_markdown
 
     fit = Identification(RigParams(), 10.0, 0.01, 0.1, 10, 1.0)
