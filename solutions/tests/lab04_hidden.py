@@ -1,14 +1,18 @@
 """Hidden tests for lab 04 (instructor material: never copied into labs/)."""
 
+import math
+
 import control
 import numpy as np
 
 from pendkit.control.model import FurutaModel, discretise
 from pendkit.grading import expect, task
+from pendkit.grading.core import Failed, is_real, shown
 from pendkit.grading.prelab import prelab_answers
 from pendkit.grading.suites.lab04 import _pair, gain_note, matrices_message
 from pendkit.rig import RigParams
 
+GROWTH_PER_STEP, STEPS_TO_TENFOLD = 1.3498588075760032, 7.675283643313486  # e^0.3, ln 10 / 0.3
 gain = task("04.lqr_gain", function="lqr_gain", title="A discrete LQR gain")
 poles = task("04.closed_loop_poles", function="closed_loop_poles", title="Closed-loop poles")
 
@@ -54,9 +58,29 @@ def random_rigs(fn, rng):
                                 f"{1000 * params.dowel_length_m:.0f} mm dowel"))
 
 
-prelab_answers("04", {"growth_per_step": 1.3498588075760032, "steps_to_tenfold": 7.675283643313486}, how={
-    "growth_per_step": "a tilt grows as e^(5 t); over one step, t = 0.06 s: e^(5 × 0.06) = e^0.3 ≈ 1.35",
-    "steps_to_tenfold": "n steps multiply it by 1.35^n = 10: n = ln 10 / ln 1.35 = 2.303 / 0.3 ≈ 7.68"})
+prelab_answers("04", {"growth_per_step": GROWTH_PER_STEP}, how={
+    "growth_per_step": "a tilt grows as e^(5 t); over one step, t = 0.06 s: e^(5 × 0.06) = e^0.3 ≈ 1.35"})
+prelab = task("04.prelab", function="prelab", title="Pre-lab questions")
+
+
+@prelab.test(points=1, hidden=True, hint="Work it out from the lab's background section.")
+def steps_to_tenfold(fn, rng):
+    """Right, or right from the student's own growth_per_step (ln 10 / ln growth): a slip in question 1 that
+    question 2 carries on rightly is charged once, to question 1 (the lab's pre-lab says so)."""
+    answers = fn()
+    if not isinstance(answers, dict):
+        raise Failed(f"prelab() should return a dict of answers, got {type(answers).__name__}")
+    answer, growth = answers.get("steps_to_tenfold"), answers.get("growth_per_step")
+    own = math.log(10) / math.log(growth) if is_real(growth) and math.isfinite(growth) and growth > 1 else None
+    for expected in (STEPS_TO_TENFOLD, own):
+        if expected is not None and is_real(answer) and abs(answer - expected) <= 0.01 * expected:
+            return
+    message = (f"prelab()['steps_to_tenfold'] should be {STEPS_TO_TENFOLD:.4g}, got {shown(answer)}: n steps multiply "
+               "it by 1.35^n = 10: n = ln 10 / ln 1.35 = 2.303 / 0.3 ≈ 7.68")
+    if own is not None and abs(growth - GROWTH_PER_STEP) > 0.01 * GROWTH_PER_STEP:
+        message += (f" (from your growth_per_step of {growth:.4g}, ln 10 / ln {growth:.4g} = {own:.4g} would count "
+                    "too: that slip is charged to question 1 only)")
+    raise Failed(message, hint=False)
 
 
 # --- The answer key (tests/grading/test_wrong_answers.py grades each through the tests above): a correct

@@ -2,6 +2,8 @@
 
 import re
 
+import pytest
+
 from tests.labs.student_loop import printed_by_lab
 
 WRONG_LQR_GAIN = '''
@@ -44,3 +46,34 @@ def test_lab04_k_is_designed_on_the_students_a_and_b_and_the_hanging_model_falls
     right = worst_error_deg(printed_by_lab("04_lqr.ipynb", "StateFeedback(K"))
     wrong = worst_error_deg(printed_by_lab("04_lqr.ipynb", "StateFeedback(K", {"upright_matrices": HANGING_A}))
     assert right < 1.0 and wrong > 30.0, (right, wrong)
+
+
+def solution_cell(start: str) -> str:
+    import nbformat
+
+    from tests.labs.student_loop import ROOT
+
+    notebook = nbformat.read(ROOT / "solutions" / "04_lqr.ipynb", as_version=4)
+    return next(c.source for c in notebook.cells if c.cell_type == "code" and start in c.source)
+
+
+@pytest.mark.expensive  # the notebook up to question 1's cell, twice
+def test_lab04_question_1s_cell_tries_other_weights_and_leaves_the_labs_k_alone():
+    trial = solution_cell("TRY_Q_DIAG, TRY_R_WEIGHT =")
+    heavier = trial.replace("TRY_Q_DIAG, TRY_R_WEIGHT = [2.0, 40.0, 0.05, 0.5], 3.0",
+                            "TRY_Q_DIAG, TRY_R_WEIGHT = [2.0, 400.0, 0.05, 0.5], 3.0")
+    assert heavier != trial
+    printed = printed_by_lab("04_lqr.ipynb", "TRY_Q_DIAG, TRY_R_WEIGHT =", then=heavier)
+    assert re.search(r"the lab's weights : K = .*largest pole magnitude 0\.870", printed), printed
+    assert re.search(r"your trial +: K = .*largest pole magnitude 0\.931", printed), printed  # the note's 0.93
+    assert printed.count("the lab's weights") == 2  # before and after the trial: the lab's K is the same
+
+
+@pytest.mark.expensive  # the notebook up to the delay cell
+def test_lab04_the_delay_cell_prints_the_parts_a_student_adds_up_and_one_window():
+    printed = printed_by_lab("04_lqr.ipynb", "def final_error_deg(")
+    assert "a command reaches the servo 23 ms after it is sent" in printed, printed
+    assert "a reading reaches the laptop 8 ms after it is taken (the WiFi), then waits 12.5 ms" in printed
+    assert "43.5 ms in all" in printed and "worst error in the last 2.4 s of 7.2 s:" in printed  # ci: 120 steps
+    errors = [float(x) for x in re.findall(r"step: +([\d.]+) deg", printed)]
+    assert len(errors) == 3 and errors[0] > 170 and errors[1] < 2 and errors[2] >= errors[1], errors
