@@ -60,3 +60,15 @@ def test_lab05_on_the_default_rig_the_approach_keeps_the_search_and_a_cost_from_
     wrong = printed_by_lab("05_swingup.ipynb", "your_planner(step_model, made)", {"terminal_cost": COST_FROM_ZERO})
     assert "it kept the search's motion" in right and "must cost 0" not in right, right  # the text's claim
     assert "must cost 0" in wrong and "from upright_rad" in wrong, wrong
+
+
+OVERSPIN_IN_REV_S = '''
+def path_limits(arm_limit_rad, overspin_rev_s):
+    return arm_limit_rad, overspin_rev_s  # left in rev/s
+'''
+
+
+def test_lab05_a_problem_without_a_solution_prints_the_limits_it_had():
+    wrong = printed_by_lab("05_swingup.ipynb", "your_planner(step_model, made)", {"path_limits": OVERSPIN_IN_REV_S})
+    assert "found no solution" in wrong and "the pendulum's rate within +-2.00 rad/s" in wrong, wrong
+    assert "passes the bottom near 2 w0 = 10.6 rad/s" in wrong and "pendulum [-3.39, -2.89]" in wrong, wrong

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from pendkit.grading.core import Diagnosis, as_number, expect, is_sequence_of, shown, task
+from pendkit.grading.core import Diagnosis, NotGradable, as_number, expect, is_sequence_of, outcomes, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
@@ -61,7 +61,9 @@ def against_velocity_times_cosine(fn, rng):
 
 def pumping_note(calls: list[tuple[float, float]], answers: list) -> str:
     """What a pumping rule that gave `answers` to `calls` (alpha, omega) got wrong, when every answer shows it."""
-    moving = [(alpha, omega, got) for (alpha, omega), got in zip(calls, answers) if omega * math.cos(alpha) != 0]
+    # at rest and exactly horizontal (cos(pi/2) is 6e-17, not 0) the lab's +1 is a convention, not the rule
+    moving = [(alpha, omega, got) for (alpha, omega), got in zip(calls, answers)
+              if abs(omega * math.cos(alpha)) > 1e-9]
     if moving and all(got == (1 if omega * math.cos(alpha) > 0 else -1) for alpha, omega, got in moving):
         return Diagnosis(": the sign is flipped in every quadrant: that brakes the swing, taking energy out; "
                          "accelerate *against* alpha' cos(alpha)")
@@ -71,7 +73,7 @@ def pumping_note(calls: list[tuple[float, float]], answers: list) -> str:
     return ""
 
 
-@switch.test(points=2, hint="Catch inside both thresholds; give up only beyond the (wider) fall angle.")
+@switch.test(points=1, hint="Catch inside both thresholds; give up only beyond the (wider) fall angle.")
 def hand_over_with_hysteresis(fn, rng):
     cases = [
         ("swing", 0.2, 1.0, "balance", "near upright and slow: catch it"),
@@ -84,6 +86,50 @@ def hand_over_with_hysteresis(fn, rng):
         got = fn(mode, theta, omega)
         expect(got == expected, f"next_mode({shown(mode)}, {theta}, {omega}) should be {shown(expected)} ({why}), "
                f"got {shown(got)}")
+
+
+CATCH_ANGLE_RAD, CATCH_VELOCITY_RAD_S, FALL_ANGLE_RAD = 0.8, 5.0, 1.1  # the lab's constants
+# each threshold: its name, the comparison, the mode, and (angle, rate) exactly on it, just inside, just outside;
+# the mode expected on and inside it, and outside it
+THRESHOLDS = [
+    ("CATCH_ANGLE_RAD", "|angle| < CATCH_ANGLE_RAD", "swing",
+     ((CATCH_ANGLE_RAD, 1.0), (CATCH_ANGLE_RAD - 0.01, 1.0), (CATCH_ANGLE_RAD + 0.01, 1.0)),
+     ("swing", "balance", "swing")),
+    ("CATCH_VELOCITY_RAD_S", "|velocity| < CATCH_VELOCITY_RAD_S", "swing",
+     ((0.2, CATCH_VELOCITY_RAD_S), (0.2, CATCH_VELOCITY_RAD_S - 0.1), (0.2, CATCH_VELOCITY_RAD_S + 0.1)),
+     ("swing", "balance", "swing")),
+    ("FALL_ANGLE_RAD", "|angle| > FALL_ANGLE_RAD", "balance",
+     ((-FALL_ANGLE_RAD, 0.0), (-FALL_ANGLE_RAD + 0.01, 0.0), (-FALL_ANGLE_RAD - 0.01, 0.0)),
+     ("balance", "balance", "swing")),
+]
+WRAPPED_AGAIN = ("swing", 2 * math.pi + 0.2, 1.0)  # upright a turn on: only a next_mode that wraps catches it
+
+
+@switch.test(points=1, hint="Exactly on a threshold the mode stays as it is: every comparison is strict.")
+def on_a_threshold(fn, rng):
+    calls = [(mode, *state) for _, _, mode, states, _ in THRESHOLDS for state in states] + [WRAPPED_AGAIN]
+    got = [outcome.error or outcome.value for outcome in outcomes(fn, calls)]
+    judged = 0
+    for k, (name, rule, mode, states, (on, inside, outside)) in enumerate(THRESHOLDS):
+        if got[3 * k + 1] != inside or got[3 * k + 2] != outside:
+            continue  # wrong on either side too: hand_over_with_hysteresis says how; here only the threshold counts
+        judged += 1
+        angle, rate = states[0]
+        expect(got[3 * k] == on, f"next_mode({shown(mode)}, {angle}, {rate}) should be {shown(on)}, got "
+               f"{shown(got[3 * k])}" + threshold_note(name, rule, got[-1] == "balance"))
+    if not judged:
+        raise NotGradable("next_mode is not right just inside and just outside its thresholds yet (see "
+                          "hand_over_with_hysteresis): this test then checks it exactly on each threshold")
+
+
+def threshold_note(name: str, rule: str, wraps_again: bool) -> str:
+    """Why a next_mode changed the mode exactly on a threshold, where the lab says it stays."""
+    if wraps_again and name == "CATCH_ANGLE_RAD":
+        return Diagnosis(f": exactly on {name} the mode stays (strict: {rule}). Your next_mode seems to wrap the "
+                         "angle again; it arrives wrapped to [-pi, pi), and wrapping 0.8 again, (0.8 + pi) % (2 pi) "
+                         "- pi, gives 0.7999999999999998, just inside: use the angle as it comes")
+    return Diagnosis(f": exactly on {name} the mode stays: the lab's thresholds are strict ({rule}; < and >, not "
+                     "<= and >=)")
 
 
 @limits.test(points=1, hint="The over-spin limit is in revolutions per second; the plan's rates are in rad/s.")
