@@ -59,6 +59,12 @@ def fit_latency(samples, subtract_floor=True, spread_above_floor=True):
     return floor, float(np.median(above)), float(np.std(np.log(logged[logged > 0])))
 
 
+def nearest_rank_p99(values):
+    """The textbook's nearest-rank 99th percentile: the smallest sample with 99% of them at or below it."""
+    ordered = np.sort(np.asarray(values, dtype=float))
+    return float(ordered[int(np.ceil(0.99 * len(ordered))) - 1])
+
+
 CORRECT = {
     "06.period_error_p99_ms": lambda t, nominal: float(np.percentile(np.abs(np.diff(t) - nominal) * 1000, 99)),
     "06.fit_latency": lambda samples: fit_latency(samples),
@@ -74,6 +80,8 @@ MISTAKES = [
      {"recovers_a_shifted_lognormal", "narrow_distribution_from_a_list"}),
     ("06.period_error_p99_ms", lambda t, n: float(np.percentile(np.abs(np.diff(t) - n) * 1000, 0.99)),
      "takes percent", {"percentile_of_absolute_error", "other_periods"}),
+    ("06.period_error_p99_ms", lambda t, n: nearest_rank_p99(np.abs(np.diff(t) - n) * 1000), "another definition",
+     {"percentile_of_absolute_error", "other_periods"}),
     ("06.predict_angle", lambda theta, rate, d, w0: theta + rate * d + 0.5 * w0 * theta * d**2, "not squared",
      {"second_order_prediction", "random_states"}),
     ("06.predict_angle", lambda theta, rate, d, w0: theta + rate * d, "left out gravity"),

@@ -37,7 +37,18 @@ def jitter_note(periods: np.ndarray, nominal: float, got: float) -> str:
     if abs(got - float(np.percentile(errors_ms, 0.99))) < 1e-9 and abs(got - expected) > 1e-9:
         return Diagnosis(": that is the 0.99th percentile, near the smallest error: np.percentile takes percent "
                          "(0-100), so the 99th is np.percentile(errors, 99), not 0.99")
+    for method in OTHER_PERCENTILES:
+        if abs(got - float(np.percentile(errors_ms, 99, method=method))) < 1e-9 and abs(got - expected) > 1e-9:
+            return Diagnosis(f": that is the 99th percentile by another definition (np.percentile's method="
+                             f"\"{method}\" gives it); the lab's is np.percentile(errors_ms, 99), numpy's default, "
+                             "which interpolates linearly between the two nearest ranks")
     return ""
+
+
+# the definitions a textbook or another library may use (nearest rank first), numpy's default "linear" aside
+OTHER_PERCENTILES = ("nearest", "inverted_cdf", "lower", "higher", "midpoint", "closest_observation",
+                     "averaged_inverted_cdf", "interpolated_inverted_cdf", "hazen", "weibull", "median_unbiased",
+                     "normal_unbiased")
 
 
 def _fit_result(got):
