@@ -31,13 +31,19 @@ def find_submissions(folder: Path, lab: str | None = None, one_student: bool = F
     """`folder/<student>/*.ipynb` or `folder/<student>.ipynb`, every one of them (a notebook that cannot be
     graded, or not in this run, still gets its row saying why), and a row for every other entry of the class
     folder that holds no notebook (a PDF, a zip, an empty folder: 0 with the reason). Links are not followed.
+    A folder whose notebooks are all lab files lying flat (`NN_name.ipynb`) is one student's: its rows take
+    the folder's name.
     `one_student`: the folder is one student's (Gradescope's submission folder), whose files its notebooks
     may read."""
     folder = Path(folder)
     found = []
-    for path in _notebooks(folder):
+    notebooks = _notebooks(folder)
+    # only the labs' own files (NN_name.ipynb) lying flat: one student's folder, its rows named after it
+    own_folder_name = folder.resolve().name if notebooks and all(
+        p.parent == folder and LAB_PREFIX.match(p.name) for p in notebooks) else None
+    for path in notebooks:
         relative = path.relative_to(folder)
-        student = relative.parts[0] if len(relative.parts) > 1 else path.stem
+        student = relative.parts[0] if len(relative.parts) > 1 else own_folder_name or path.stem
         own_folder = folder / relative.parts[0] if len(relative.parts) > 1 else (folder if one_student else None)
         if path.is_symlink():
             found.append(Submission(student, path, lab, own_folder, problem=f"not graded: {relative} is a symbolic "
