@@ -23,27 +23,18 @@ def reward_is_symmetric(fn, rng):
         expect(is_real(got) and abs(got - expected) < 1e-9, message + note)
 
 
-@fraction.test(points=1, hidden=True, hint="A list (not an array) of six angles, one of them exactly 0.3.")
-def lists_and_the_boundary(fn, rng):
-    angles = [0.3, -0.3, 0.2999, -0.1, -1.0, -2.5]  # each mistake below gives its own answer
+@fraction.test(points=1, hidden=True, hint="A list (not an array) of six angles, and a trace of seven zeros.")
+def a_list_and_an_upright_trace(fn, rng):
+    angles = [0.1, -0.25, 0.31, -0.5, 2.0, -3.1]  # away from the bound: the_bound_is_strict has it
     got = fn(angles)
-    note = boundary_note(got)
+    note = fraction_note(angles, got)
+    if not note and is_real(got) and abs(got - float(np.mean(np.asarray(angles) < 0.3))) < 1e-9:
+        note = ": the negative angles all counted as upright; use the absolute value"
     expect(is_real(got) and abs(got - 1 / 3) < 1e-9,
            f"upright_fraction({angles}) should be 1/3, got {shown(got)}{note}", hint=not note)
-    expect(abs(float(fn(np.zeros(7))) - 1.0) < 1e-9, "all-upright traces should give 1.0")
-
-
-def boundary_note(got) -> str:
-    """The cause of a wrong answer for `lists_and_the_boundary`'s angles, named from its value (or "")."""
-    causes = {2 / 3: ": |angle| = 0.3 counted as upright; the bound is strict (< 0.3, not <= 0.3)",
-              5 / 6: ": the negative angles all counted as upright; use the absolute value",
-              1.0: ": the negative angles and 0.3 itself counted as upright; use the absolute value and a "
-                   "strict bound (< 0.3)",
-              2.0: ": that is a count; divide by the number of steps"}
-    for value, cause in causes.items():
-        if is_real(got) and abs(got - value) < 1e-9:
-            return cause
-    return fraction_note([0.3, -0.3, 0.2999, -0.1, -1.0, -2.5], got)
+    got = fn(np.zeros(7))
+    expect(is_real(got) and abs(got - 1.0) < 1e-9, f"a trace of seven zeros (all upright) should give 1.0, got "
+           f"{shown(got)}{fraction_note(np.zeros(7), got)}")
 
 
 prelab_answers("00", {"steps_per_second": 16.666667, "episode_seconds": 30.0}, how={
@@ -67,15 +58,16 @@ MISTAKES = [
     ("00.reward", lambda theta, omega: -theta * abs(theta) - 0.5 * (omega / (2 * math.pi)) ** 2,
      "the sign must not matter"),
     ("00.upright_fraction", lambda angles: float(np.mean(np.asarray(angles) < 0.3)), "absolute value",
-     {"fraction_of_steps", "lists_and_the_boundary"}),
+     {"fraction_of_steps", "the_bound_is_strict", "a_list_and_an_upright_trace"}),
     ("00.upright_fraction", lambda angles: int(np.sum(np.abs(np.asarray(angles)) < 0.3)), "count"),
     ("00.upright_fraction", lambda angles: 100 * float(np.mean(np.abs(np.asarray(angles)) < 0.3)), "percentage"),
     ("00.upright_fraction", lambda angles: float(np.mean(np.abs(np.asarray(angles)) <= 0.3)), "the bound is strict",
-     {"lists_and_the_boundary"}),
+     {"the_bound_is_strict"}),
     ("00.upright_fraction", lambda angles: float(np.mean(np.asarray(angles) <= 0.3)), "absolute value and a strict",
-     {"lists_and_the_boundary"}),
+     {"the_bound_is_strict"}),
     ("00.reward", lambda theta, omega: -theta**2 - 0.5 * (omega * 2 * math.pi) ** 2, "multiplied by 2 pi",
      {"reward_values", "reward_is_symmetric"}),
     ("00.upright_fraction", lambda angles: float(np.sum(np.abs(np.asarray(angles)) < 0.3) / (len(angles) - 1)),
-     "divided by len - 1", {"fraction_of_steps", "random_traces", "lists_and_the_boundary"}),
+     "divided by len - 1",
+     {"fraction_of_steps", "random_traces", "the_bound_is_strict", "a_list_and_an_upright_trace"}),
 ]

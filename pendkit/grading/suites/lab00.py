@@ -40,7 +40,7 @@ def reward_note(theta: float, omega_rad_s: float, got, mirrored=None) -> str:
     return ""
 
 
-@fraction_task.test(points=2, hint="Count steps with |angle| < 0.3 rad and divide by the number of steps.")
+@fraction_task.test(points=1, hint="Count steps with |angle| < 0.3 rad and divide by the number of steps.")
 def fraction_of_steps(fn, rng):
     angles = np.array([0.0, 0.1, -0.2, 0.29, -0.31, 1.0, -3.0, 0.5])
     expected = 4 / 8
@@ -70,6 +70,31 @@ def percent_note(expected: float, got) -> str:
     if is_real(got) and expected and abs(got - 100 * expected) < 1e-6:
         return ": that is a percentage; return a fraction between 0 and 1 (do not multiply by 100)"
     return ""
+
+
+BOUNDARY_ANGLES = [0.3, -0.3, 0.2999, -0.1, -1.0, -2.5]  # each mistake below gives its own answer
+
+
+@fraction_task.test(points=1, hint="An angle of exactly 0.3 rad (either sign) is not within the bound: |angle| < 0.3.")
+def the_bound_is_strict(fn, rng):
+    got = fn(np.array(BOUNDARY_ANGLES))
+    note = boundary_note(got)
+    expect(is_real(got) and abs(got - 1 / 3) < 1e-9,
+           f"upright_fraction({BOUNDARY_ANGLES}) should be 1/3 (only 0.2999 and -0.1 are within 0.3 rad), "
+           f"got {shown(got)}{note}", hint=not note)
+
+
+def boundary_note(got) -> str:
+    """The cause of a wrong answer for `BOUNDARY_ANGLES`, named from its value (or "")."""
+    causes = {2 / 3: ": |angle| = 0.3 counted as upright; the bound is strict (< 0.3, not <= 0.3)",
+              5 / 6: ": the negative angles all counted as upright; use the absolute value",
+              1.0: ": the negative angles and 0.3 itself counted as upright; use the absolute value and a "
+                   "strict bound (< 0.3)",
+              2.0: ": that is a count; divide by the number of steps"}
+    for value, cause in causes.items():
+        if is_real(got) and abs(got - value) < 1e-9:
+            return cause
+    return fraction_note(BOUNDARY_ANGLES, got)
 
 
 @fraction_task.test(points=1, hint="A trace of 200 random angles of either sign.")
