@@ -4,7 +4,7 @@ import math
 
 from pendkit import encoder
 from pendkit.grading import Failed, expect, outcomes, task
-from pendkit.grading.core import shown
+from pendkit.grading.core import Diagnosis, shown
 from pendkit.grading.prelab import prelab_answers
 from pendkit.grading.suites.lab01 import (
     angle_message,
@@ -20,20 +20,23 @@ to_angle = task("01.counts_to_angle", function="counts_to_angle", title="Counts 
 wrap = task("01.wrap_delta", function="wrap_delta", title="Wrap-aware difference")
 
 
-@decode.test(points=2, hidden=True, hint="Compare your function with the frame layout on every bit pattern.")
+@decode.test(points=2, hidden=True, hint="400 random 16-bit patterns: each accepted exactly when its parity and "
+                                         "status bits are good.")
 def random_frames_match_the_reference(fn, rng):
+    # which frames pass is what this test scores; the position is positions_of_clean_frames' and
+    # every_position_round_trips' to score
     parity_first(fn)
     frames = rng.integers(0, 1 << 16, 400).tolist()
     for frame, outcome in zip(frames, outcomes(fn, [(frame,) for frame in frames])):
-        status, got = encoder.frame_status(frame), outcome.value
+        status = encoder.frame_status(frame)
         if isinstance(outcome.error, ValueError):
-            expect(status != "ok", f"decode_frame(0x{frame:04X}) rejected a valid frame"
-                                   f"{rejection_note(frame, outcome.error)}")
+            note = rejection_note(frame, outcome.error)  # a Diagnosis where one magnet bit explains it
+            expect(status != "ok", f"decode_frame(0x{frame:04X}) rejected a valid frame{note}",
+                   hint=not isinstance(note, Diagnosis))
             continue
         if outcome.error is not None:
             raise Failed(f"decode_frame(0x{frame:04X}) raised {type(outcome.error).__name__} instead of ValueError")
         expect(status == "ok", f"decode_frame(0x{frame:04X}) accepted a frame with {status}")
-        expect(got == frame >> 6, diagnose_position(frame, frame >> 6, got))
 
 
 @decode.test(points=1, hidden=True, hint="Every one of the 1024 positions must decode.")
@@ -215,7 +218,7 @@ MISTAKES = [
     ("01.decode_frame", decode_rejecting_one_magnet_bit, "and, not or", {"random_frames_match_the_reference"}),
     ("01.decode_frame", decode_whole_frame, "whole frame"),
     ("01.decode_frame", decode_off_by_one_shift, "frame >> 6",
-     {"random_frames_match_the_reference", "every_position_round_trips", "one_magnet_bit_alone_is_valid"}),
+     {"positions_of_clean_frames", "every_position_round_trips"}),
     ("01.counts_to_angle", counts_in_degrees, "degrees"),
     ("01.counts_to_angle", counts_adding_offset, "added the offset"),
     ("01.counts_to_angle", counts_over_1023, "not 1023"),

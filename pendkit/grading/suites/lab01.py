@@ -124,15 +124,15 @@ def bad_status_is_rejected(fn, rng):
 
 @decode.test(points=1, hint="MagINC or MagDEC alone only says the magnet is moving; the reading is valid.")
 def one_magnet_bit_alone_is_valid(fn, rng):
+    # accepted is all this test asks: the position is positions_of_clean_frames' to score, once
     parity_first(fn)
     for flags in ({"magnet_closer": True}, {"magnet_away": True}):
         frame = encode_ssi_frame(123, **flags)
         try:
-            got = fn(frame)
+            fn(frame)
         except ValueError as error:
             raise Failed(f"decode_frame(0x{frame:04X}) was rejected ({error}) but only one magnet bit is set: "
                          "reject only when both are (and, not or)", hint=False) from error
-        expect(got == 123, diagnose_position(frame, 123, got))
 
 
 def rejection_note(frame: int, error) -> str:
