@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from pendkit import encoder
@@ -65,4 +67,64 @@ def notes(true_rev_s, raw, mean, smooth, readings=None) -> list[str]:
 
             line += f"; it differs from y_k = y_(k-1) + {ALPHA} (x_k - y_(k-1))" + low_pass_note(raw, ALPHA, smooth)
         lines.append(line)
+    return lines
+
+
+@dataclass(frozen=True)
+class SweepPoint:
+    """One streaming period of the sweep: the RMS error against the truth, once the buffer is full, of the
+    student's `firmware_mean(velocity_rev_s(...), 4)` (None while either is not written) and of the firmware's."""
+
+    period_ms: float
+    yours_rev_s: float | None
+    firmware_rev_s: float
+    note: str = ""  # where yours parts from the firmware's: the notes' words for the cause
+
+
+def period_sweep(velocity_fn, mean_fn, periods_ms) -> list[SweepPoint]:
+    """The lab's swing sampled at each period, its velocity estimated by the student's two functions and by the
+    firmware (`pendkit.encoder.firmware_velocity`), each scored from the estimate's `MEAN_WINDOW`th value on."""
+    from pendkit.grading import attempt
+    from pendkit.sim.lab_readings import firmware_estimate_error_rev_s, free_swing_readings
+
+    points = []
+    for period_ms in periods_ms:
+        readings = free_swing_readings(period_ms=float(period_ms))
+        firmware = firmware_estimate_error_rev_s(float(period_ms))
+        true_rev_s = readings.true_velocity_rev_s[1:]
+        raw = attempt(velocity_fn, readings.raw_counts, readings.times_ms)
+        mean = None if raw is None else attempt(mean_fn, raw, MEAN_WINDOW)
+        if mean is None:
+            points.append(SweepPoint(float(period_ms), None, firmware))
+            continue
+        mean = np.asarray(mean, float)
+        full = slice(MEAN_WINDOW - 1, None)
+        if mean.shape != true_rev_s.shape:
+            points.append(SweepPoint(float(period_ms), None, firmware, f"your estimate has {len(mean)} values where "
+                                     f"there are {len(true_rev_s)} pairs of readings"))
+            continue
+        yours = rms(mean[full], true_rev_s[full])
+        note = ""
+        if round(yours, 3) != round(firmware, 3):
+            said = notes(true_rev_s, raw, mean, None, readings)
+            named = [(line.split(":", 1)[0].removeprefix("your "), line.split("; ", 1)[1])
+                     for line in said if "; " in line]  # each estimate's own line under the plot above
+            note = "; ".join(f"your {name}: {why}" for name, why in named)
+        points.append(SweepPoint(float(period_ms), yours, firmware, note))
+    return points
+
+
+def sweep_lines(points: list[SweepPoint]) -> list[str]:
+    """The sweep as the notebook prints it: a line per period, then the cause where yours part from the
+    firmware's (said once, at the first period it shows)."""
+    lines, said = [], set()
+    for point in points:
+        line = f"{point.period_ms:5.0f} ms: "
+        if point.yours_rev_s is not None:
+            line += f"yours {point.yours_rev_s:.3f} rev/s RMS, "
+        line += f"the firmware's {point.firmware_rev_s:.3f}, {1000 / point.period_ms:5.0f} messages per second"
+        lines.append(line)
+        if point.note and point.note not in said:
+            said.add(point.note)
+            lines.append(f"         yours part from the firmware's: {point.note}")
     return lines
