@@ -4,10 +4,18 @@ import math
 
 import numpy as np
 
-from pendkit.grading import expect, task
+from pendkit.grading import Failed, expect, task
 from pendkit.grading.core import is_real, shown
 from pendkit.grading.prelab import prelab_answers
-from pendkit.grading.suites.lab03 import damping_note, frequency_note, half_period_note, slew_note, start_note
+from pendkit.grading.suites.lab03 import (
+    damping_note,
+    frequency_note,
+    half_period_note,
+    period_by,
+    slew_note,
+    start_note,
+    zero_readings_note,
+)
 from pendkit.rig import RigParams
 from pendkit.sim.lab_readings import free_swing_readings
 
@@ -30,11 +38,25 @@ def the_rigs_own_pendulum(fn, rng):
 def a_twin_swing(fn, rng):
     readings = free_swing_readings(period_ms=25.0, duration_s=6.0, start_velocity_rad_s=1.0)
     angles = (readings.raw_counts * 2 * math.pi / 1024 + math.pi) % (2 * math.pi) - math.pi
-    got = fn(readings.times_ms / 1000, angles)
+    times = readings.times_ms / 1000
     expected = 2 * math.pi / RigParams().pendulum_natural_frequency_rad_s
-    note = half_period_note(float(got), expected) if is_real(got) else ""
-    expect(is_real(got) and abs(got - expected) < 0.01,
-           f"the twin's small swing has a period of about {expected:.3f} s, got {shown(got)}" + note)
+    zeros = int(np.sum(angles == 0.0))
+    said = (f"the twin's small swing ({zeros} of its {len(times)} readings exactly 0.0) has a period of about "
+            f"{expected:.3f} s")
+    try:
+        got = fn(times, angles)
+    except Exception as error:  # noqa: BLE001 - named when the 0.0 readings explain it, else shown as it is
+        note = zero_readings_note(fn, None, times, angles, expected, 0.01)
+        if note:
+            raise Failed(f"{said}; period_from_crossings raised {type(error).__name__} ({error}){note}",
+                         hint=False) from error
+        raise
+    ok = is_real(got) and abs(got - expected) < 0.01
+    note = ""
+    if not ok and is_real(got):
+        note = half_period_note(float(got), expected) or zero_readings_note(fn, float(got), times, angles, expected,
+                                                                            0.01)
+    expect(ok, f"{said}, got {shown(got)}" + note)
 
 
 @damping.test(points=1, hidden=True, hint="Average the decrement over all cycles, not just the first.")
@@ -134,6 +156,26 @@ def log_decrement(peaks, log=np.log):
     return float(np.mean(log(peaks[:-1] / peaks[1:])))
 
 
+def period_skipping_zero_readings(t, a):
+    """Upward crossings read literally as "negative to positive": a[i] < 0 < a[i+1]."""
+    return period_by(t, a, "a[i] < 0 < a[i+1]")
+
+
+def period_from_zero_readings_on(t, a):
+    """The other reading of "negative to positive": a[i] <= 0 < a[i+1]."""
+    return period_by(t, a, "a[i] <= 0 < a[i+1]")
+
+
+def period_failing_on_fewer_crossings(t, a):
+    """Skips the 0.0 readings (a[i] < 0 < a[i+1]) and raises where that leaves fewer than two crossings."""
+    t, a = np.asarray(t, float), np.asarray(a, float)
+    up = np.nonzero((a[:-1] < 0) & (a[1:] > 0))[0]
+    crossings = t[up] - a[up] * (t[up + 1] - t[up]) / (a[up + 1] - a[up])
+    if len(crossings) < 2:
+        raise ValueError(f"only {len(crossings)} crossing")
+    return (crossings[-1] - crossings[0]) / (len(crossings) - 1)
+
+
 def period_counting_both_directions(t, a):
     crossings = np.sort(np.concatenate([up_crossings(t, a), up_crossings(t, -np.asarray(a))]))
     return float(np.mean(np.diff(crossings)))
@@ -161,6 +203,12 @@ MISTAKES = [
      {"compound_pendulum", "the_rigs_own_pendulum"}),
     ("03.period_from_crossings", lambda t, a: float(np.mean(np.diff(up_crossings(t, a, interpolate=False)))),
      "interpolation"),
+    ("03.period_from_crossings", period_skipping_zero_readings, "yours skipped them",
+     {"readings_of_exactly_zero", "a_twin_swing"}),
+    ("03.period_from_crossings", period_from_zero_readings_on, "at or below 0 to one above 0",
+     {"readings_of_exactly_zero", "a_twin_swing"}),
+    ("03.period_from_crossings", period_failing_on_fewer_crossings, "the 0.0 readings are what it gets wrong",
+     {"readings_of_exactly_zero", "a_twin_swing"}),
     ("03.damping_ratio", lambda p: log_decrement(p), "decrement itself"),
     ("03.damping_ratio", lambda p: log_decrement(p) / (2 * math.pi), "light damping"),
     ("03.damping_ratio", lambda p: damping_with_log10(p), "log10"),

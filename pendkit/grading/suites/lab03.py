@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from pendkit.grading.core import Diagnosis, NotGradable, as_number, expect, is_real, task
+from pendkit.grading.core import Diagnosis, Failed, NotGradable, as_number, expect, is_real, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
@@ -48,7 +48,7 @@ def _swing(period_s: float, samples: int = 1000, dt: float = 0.005, phase: float
     return t, 0.4 * np.sin(2 * math.pi * t / period_s + phase)
 
 
-@period.test(points=2, hint="Use only upward crossings (negative to positive): one per period.")
+@period.test(points=1, hint="Use only upward crossings (negative to positive): one per period.")
 def one_crossing_per_period(fn, rng):
     t, angle = _swing(1.18)
     got = as_number(fn(t, angle), "period_from_crossings(t, angle)")
@@ -73,6 +73,113 @@ def interpolated_crossings(fn, rng):
                           "the interpolation once each period is counted once")
     expect(abs(got - 1.183) < 2e-3, f"with 60 ms samples the period should still come out as 1.183 s, got "
            f"{got:.4f}: without interpolation each crossing is only known to within a sample")
+
+
+COUNT_RAD = 2 * math.pi / 1024  # one encoder count
+
+
+def floored_swing(period_s: float = 1.2, amplitude_rad: float = 0.05, decay_per_s: float = 0.3,
+                  phase_rad: float = 0.2, dt_s: float = 0.025, duration_s: float = 6.0):
+    """A swing dying away, read as the encoder reads it: each angle floored to a whole count (0.0 for every
+    angle in [0, 1 count)), so many readings are exactly 0.0."""
+    t = np.arange(0.0, duration_s, dt_s)
+    angle = amplitude_rad * np.exp(-decay_per_s * t) * np.sin(2 * math.pi * t / period_s + phase_rad)
+    return t, np.floor(angle / COUNT_RAD) * COUNT_RAD
+
+
+# A crossing by the task's rule (below 0, then at or above 0) and the two slips at readings of exactly 0.0
+TASK_RULE = "a[i] < 0 <= a[i+1]"
+CROSSING_RULES = {TASK_RULE: lambda a: (a[:-1] < 0) & (a[1:] >= 0),
+                  "a[i] < 0 < a[i+1]": lambda a: (a[:-1] < 0) & (a[1:] > 0),
+                  "a[i] <= 0 < a[i+1]": lambda a: (a[:-1] <= 0) & (a[1:] > 0)}
+
+
+def crossings_by(times_s, angles_rad, rule: str = TASK_RULE, interpolate: bool = True) -> np.ndarray:
+    """The upward crossings' times by `rule` (a key of CROSSING_RULES): interpolated between the samples around
+    each, or (not) the sample after it."""
+    t, a = np.asarray(times_s, dtype=float), np.asarray(angles_rad, dtype=float)
+    up = np.nonzero(CROSSING_RULES[rule](a))[0]
+    if not interpolate:
+        return t[up + 1]
+    return t[up] - a[up] * (t[up + 1] - t[up]) / (a[up + 1] - a[up])
+
+
+def period_by(times_s, angles_rad, rule: str = TASK_RULE, interpolate: bool = True) -> float:
+    """The mean period from the upward crossings by `rule`; nan with fewer than two crossings."""
+    crossings = crossings_by(times_s, angles_rad, rule, interpolate)
+    return float(np.mean(np.diff(crossings))) if len(crossings) > 1 else math.nan
+
+
+def _same(got: float, value: float) -> bool:
+    return (math.isnan(got) and math.isnan(value)) or abs(got - value) < 1e-9
+
+
+def crossing_note(got, times_s, angles_rad) -> str:
+    """Words for a period that one of the slips at readings of exactly 0.0 gives on this swing (and the task's
+    rule does not), or nothing: crossings through a 0.0 reading skipped, or taken from a 0.0 reading on."""
+    if not is_real(got):
+        return ""
+    got, right = float(got), period_by(times_s, angles_rad)
+    a = np.asarray(angles_rad, dtype=float)
+    up = np.nonzero(CROSSING_RULES[TASK_RULE](a))[0]
+    through_zero = int(np.sum(a[up + 1] == 0.0))
+    for interpolated in (True, False):
+        skipped, from_zero = (period_by(times_s, angles_rad, rule, interpolated) for rule in list(CROSSING_RULES)[1:])
+        also = "" if interpolated else "; and interpolate each crossing between the two samples around it"
+        if _same(got, skipped) and not _same(got, right):
+            return Diagnosis(f": {through_zero} of this swing's {len(up)} upward crossings reach a reading of exactly "
+                             f"0.0, and yours skipped them (a[i] < 0 < a[i+1]): a crossing lies between a sample below "
+                             f"0 and the next one at or above 0 ({TASK_RULE}){also}")
+        if _same(got, from_zero) and not _same(got, right):
+            return Diagnosis(f": your crossings run from a sample at or below 0 to one above 0 (a[i] <= 0 < a[i+1]); "
+                             "a reading of exactly 0.0 means the pendulum is already at or past 0 (the encoder "
+                             "floors), so a crossing lies between a sample below 0 and the next one at or above 0 "
+                             f"({TASK_RULE}){also}")
+    return ""
+
+
+def zero_readings_note(fn, got, times_s, angles_rad, expected_s: float, tolerance_s: float) -> str:
+    """Why a period that is wrong on this swing went wrong at its readings of exactly 0.0, or nothing: a slip named
+    from its value (`crossing_note`), else, when the same function gets the period right once every 0.0 reading
+    is moved a hair above 0, that those readings are what it gets wrong. `got`: None where the function raised."""
+    note = "" if got is None else crossing_note(got, times_s, angles_rad)
+    angles = np.asarray(angles_rad, dtype=float)
+    if note or not np.any(angles == 0.0):
+        return note
+    try:
+        nudged = float(fn(times_s, np.where(angles == 0.0, 1e-9, angles)))
+    except Exception:  # noqa: BLE001 - then the 0.0 readings are not shown to be the cause
+        return ""
+    if abs(nudged - expected_s) < tolerance_s:
+        return Diagnosis(f": with every reading of exactly 0.0 moved a hair above 0 your function gives "
+                         f"{nudged:.4f} s, so the 0.0 readings are what it gets wrong: a crossing lies between a "
+                         f"sample below 0 and the next one at or above 0 ({TASK_RULE})")
+    return ""
+
+
+@period.test(points=1, hint="A reading of exactly 0.0 means the pendulum is at or past 0: a crossing lies between a "
+                            "sample below 0 and the next one at or above 0.")
+def readings_of_exactly_zero(fn, rng):
+    t, angle = floored_swing()
+    zeros = int(np.sum(angle == 0.0))
+    said = (f"for a 1.2 s swing read through the encoder (each angle floored to a whole count, so {zeros} of its "
+            f"{len(t)} readings are exactly 0.0) the period should be 1.2000 s")
+    try:
+        got = as_number(fn(t, angle), "period_from_crossings(t, angle)")
+    except (Failed, NotGradable, NotImplementedError):
+        raise
+    except Exception as error:  # noqa: BLE001 - named below when the 0.0 readings explain it, else shown as it is
+        note = zero_readings_note(fn, None, t, angle, 1.2, 1e-3)
+        if note:
+            raise Failed(f"{said}; period_from_crossings raised {type(error).__name__} ({error}){note}",
+                         hint=False) from error
+        raise
+    if half_period_note(got, 1.2):
+        raise NotGradable("the period comes out as half of it (see one_crossing_per_period): this test checks "
+                          "readings of exactly 0.0 once each period is counted once")
+    ok = abs(got - 1.2) < 1e-3
+    note = "" if ok else zero_readings_note(fn, got, t, angle, 1.2, 1e-3)
+    expect(ok, f"{said}, got {got:.4f}{note}", hint=not note)
 
 
 @damping.test(points=2, hint="delta = mean of ln(A_k / A_(k+1)); zeta = delta / sqrt(4 pi^2 + delta^2).")
