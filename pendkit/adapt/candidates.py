@@ -27,6 +27,9 @@ from pendkit.errors import ConfigError
 
 JUDGE_TWIN_SEED_OFFSET = 1_000  # the twin's judge draws other rigs than its training
 MIN_TRAIN_EPISODES = 3  # fewer are not worth a second verdict
+# a trained verdict's time, guessed from the shipped one's with this slack, and the seconds after it for handing
+# the rows back and writing the weights: on an idle machine the route ran 2 s past its budget without them
+JUDGING_SLACK, WRAP_UP_S = 1.2, 5.0
 
 
 def judge_candidate(name: str, identification: Identification, config, spread: dict | None,
@@ -72,9 +75,9 @@ def judge_candidate(name: str, identification: Identification, config, spread: d
                 now = time.time()
                 episode_s[0] = max(episode_s[0], now - episode_started[0])
                 episode_started[0] = now
-                return now + episode_s[0] + judging_s < deadline
+                return now + episode_s[0] + judging_s * JUDGING_SLACK < deadline - WRAP_UP_S
 
-            if time.time() + judging_s * (1 + MIN_TRAIN_EPISODES / 10) < deadline:
+            if time.time() + judging_s * (JUDGING_SLACK + MIN_TRAIN_EPISODES / 10) < deadline - WRAP_UP_S:
                 returns = train_sync(env, agent, config.twin_episodes, inputs, seed=config.seed, progress=False,
                                      on_episode=in_time)
                 if len(returns) >= MIN_TRAIN_EPISODES or len(returns) == config.twin_episodes:
