@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from pendkit.grading.suites.lab03 import crossing_note, crossings_by
+from pendkit.grading.suites.lab03 import count_note, crossing_note, crossings_by
 
 MIN_PEAK_RAD = 0.03  # smaller peaks are a few encoder counts: quantisation dominates them
 SE_LIMIT = 3  # how many of the kit's standard errors apart the student's figures are said to part from it
@@ -36,8 +36,12 @@ def yours_against_the_kit(period_s, zeta, fit, times_s=None, angles_rad=None) ->
     period_s, zeta = float(period_s), float(zeta)
     swing = times_s is not None and angles_rad is not None
     if math.isfinite(zeta) and -1 < zeta < 0:
-        return [f"yours:        zeta = {zeta:.4f} is negative, a swing that grows: the decrement's ratio is upside "
-                "down (ln(A_k / A_(k+1)), each peak over the next)"]
+        lines = [f"yours:        period {period_s:.4f} s, zeta = {zeta:.4f}: a negative zeta is a swing that grows, so "
+                 "no w0 follows; the decrement's ratio is upside down (ln(A_k / A_(k+1)), each peak over the next)"]
+        if math.isfinite(period_s) and period_s > 0:
+            lines += (_period_notes(period_s, 0.0, fit, times_s, angles_rad) if swing
+                      else _period_notes(period_s, 0.0, fit))
+        return lines
     if not (math.isfinite(period_s) and period_s > 0 and math.isfinite(zeta) and 0 <= zeta < 1):
         line = (f"yours:        period {period_s:.4g} s and zeta {zeta:.4g} make no swing (a period above 0, "
                 "a damping ratio in [0, 1))")
@@ -67,7 +71,7 @@ def _period_notes(period_s: float, zeta: float, fit, times_s=None, angles_rad=No
         return [f"  your period is {period_s / kit_period:.2f} of the kit's: count only upward crossings (negative "
                 "to positive), one per period"]
     if times_s is not None:
-        note = crossing_note(period_s, times_s, angles_rad)
+        note = crossing_note(period_s, times_s, angles_rad) or count_note(period_s, times_s, angles_rad)
         if note:
             return [f"  {off}{note}"]
         interpolation = _interpolation_note(period_s, zeta, times_s, angles_rad)
@@ -79,7 +83,8 @@ def _period_notes(period_s: float, zeta: float, fit, times_s=None, angles_rad=No
         return [f"  {off}: more than the two methods' difference explains; compare your crossings with the task's "
                 "rule (below 0, then at or above 0, interpolated)"]
     return [f"  {off}: more than the two methods' difference explains, and none of the usual slips (readings of "
-            "exactly 0.0 skipped or crossed from, no interpolation, both directions) gives your period on this "
+            "exactly 0.0 skipped or crossed from, no interpolation, both directions, dividing by the number of "
+            "crossings rather than of periods) gives your period on this "
             "swing: print your crossings' times and compare them with the plot above"]
 
 

@@ -109,9 +109,17 @@ def period_sweep(velocity_fn, mean_fn, periods_ms) -> list[SweepPoint]:
             said = notes(true_rev_s, raw, mean, None, readings)
             named = [(line.split(":", 1)[0].removeprefix("your "), line.split("; ", 1)[1])
                      for line in said if "; " in line]  # each estimate's own line under the plot above
-            note = "; ".join(f"your {name}: {why}" for name, why in named)
+            note = "; ".join(f"your {name}: {_cause(why)}" for name, why in named)
         points.append(SweepPoint(float(period_ms), yours, firmware, note))
     return points
+
+
+def _cause(why: str) -> str:
+    """A note's cause without its "they differ from the firmware's" (the sweep's line says so already)."""
+    for said in ("they differ from the firmware's: ", "it differs from the firmware's: "):
+        if why.startswith(said):
+            return why[len(said):]
+    return why
 
 
 def sweep_lines(points: list[SweepPoint]) -> list[str]:
@@ -126,5 +134,5 @@ def sweep_lines(points: list[SweepPoint]) -> list[str]:
         lines.append(line)
         if point.note and point.note not in said:
             said.add(point.note)
-            lines.append(f"         yours part from the firmware's: {point.note}")
+            lines.append(f"         yours part from the firmware's at {point.note}")
     return lines

@@ -6,9 +6,9 @@ import numpy as np
 
 from pendkit import encoder
 from pendkit.grading import expect, task
-from pendkit.grading.core import shown
+from pendkit.grading.core import is_sequence_of, shown
 from pendkit.grading.prelab import prelab_answers
-from pendkit.grading.suites.lab02 import low_pass_note, mean_note, velocity_note
+from pendkit.grading.suites.lab02 import limits_note, low_pass_note, mean_note, velocity_note
 
 velocity = task("02.velocity_rev_s", function="velocity_rev_s", title="Wrap-aware velocity in rev/s")
 mean = task("02.firmware_mean", function="firmware_mean", title="The firmware's mean of the last N")
@@ -62,11 +62,12 @@ def random_periods(fn, rng):
         got = fn(float(period_ms))
         period_s = period_ms / 1000
         want = (1 / 1024 / period_s, 0.5 / period_s)
-        ok = len(got) == 2 and abs(float(got[0]) - want[0]) < 1e-9 and abs(float(got[1]) - want[1]) < 1e-9
-        message = f"period_limits({period_ms:.2f}) should be ({want[0]:.4f}, {want[1]:.3f}), got {shown(got)}"
-        if not ok and len(got) == 2 and abs(float(got[1]) - want[1] / 1000) < 1e-9:
-            message += ": off by a factor of 1000; the period arrives in milliseconds"
-        expect(ok, message)
+        expect(is_sequence_of(got, 2), f"period_limits({period_ms:.2f}) should return a pair (quantisation step, "
+               f"aliasing limit), got {shown(got)}")
+        step, limit = float(got[0]), float(got[1])
+        ok = abs(step - want[0]) < 1e-9 and abs(limit - want[1]) < 1e-9
+        expect(ok, f"period_limits({period_ms:.2f}) should be ({want[0]:.4g}, {want[1]:.4g}) rev/s, got "
+                   f"({step:.4g}, {limit:.4g})" + limits_note(float(period_ms), step, limit))
 
 
 prelab_answers("02", {"slowest_rev_s": 0.097656, "fastest_rev_s": 20.0}, how={
@@ -130,14 +131,19 @@ CORRECT = {
 MISTAKES = [
     ("02.velocity_rev_s", velocity_no_wrap, "wrap-aware"),
     ("02.velocity_rev_s", velocity_rad_s, "rad/s", {"matches_the_firmware_on_a_twin_log", "steady_rotation"}),
-    ("02.velocity_rev_s", velocity_seconds, "milliseconds"),
+    ("02.velocity_rev_s", velocity_seconds, "milliseconds", {"steady_rotation", "matches_the_firmware_on_a_twin_log"}),
     ("02.velocity_rev_s", velocity_1023, "not 1023"),
-    ("02.firmware_mean", mean_without_zero_padding, "full of zeros"),
+    ("02.firmware_mean", mean_without_zero_padding, "full of zeros",
+     {"mean_of_the_last_window", "composes_to_the_firmware_estimate"}),
     ("02.firmware_mean", mean_centred, "looks ahead"),
     ("02.low_pass", lambda v, a: encoder.low_pass(v, 1 - a) if a < 1 else np.asarray(v, float), "1 - alpha"),
     ("02.low_pass", low_pass_swapped, "1 - alpha", {"step_response", "random_signals", "alpha_one_is_identity"}),
     ("02.low_pass", low_pass_from_zero, "started from y = 0", {"step_response", "random_signals"}),
-    ("02.period_limits", lambda ms: (1 / 1024 / (ms / 1000), 1 / (ms / 1000)), "half a turn"),
+    ("02.period_limits", lambda ms: (1 / 1024 / (ms / 1000), 1 / (ms / 1000)), "half a turn",
+     {"quantisation_and_aliasing", "random_periods"}),
     ("02.period_limits", lambda ms: (2 * math.pi / 1024 / (ms / 1000), 0.5 / (ms / 1000)), "rad/s"),
-    ("02.period_limits", lambda ms: (1 / 1024 / ms, 0.5 / ms), "milliseconds"),
+    ("02.period_limits", lambda ms: (1 / 1024 / ms, 1 / ms), "milliseconds: convert it to seconds; and a full turn",
+     {"quantisation_and_aliasing", "random_periods"}),
+    ("02.period_limits", lambda ms: (1 / 1024 / ms, 0.5 / ms), "milliseconds",
+     {"quantisation_and_aliasing", "random_periods"}),
 ]

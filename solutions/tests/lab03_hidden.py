@@ -8,9 +8,11 @@ from pendkit.grading import Failed, expect, task
 from pendkit.grading.core import is_real, shown
 from pendkit.grading.prelab import prelab_answers
 from pendkit.grading.suites.lab03 import (
+    count_note,
     damping_note,
     frequency_note,
     half_period_note,
+    interpolation_note,
     period_by,
     slew_note,
     start_note,
@@ -54,8 +56,8 @@ def a_twin_swing(fn, rng):
     ok = is_real(got) and abs(got - expected) < 0.01
     note = ""
     if not ok and is_real(got):
-        note = half_period_note(float(got), expected) or zero_readings_note(fn, float(got), times, angles, expected,
-                                                                            0.01)
+        note = (half_period_note(float(got), expected) or count_note(float(got), times, angles)
+                or zero_readings_note(fn, float(got), times, angles, expected, 0.01))
     expect(ok, f"{said}, got {shown(got)}" + note)
 
 
@@ -67,7 +69,10 @@ def noisy_peaks(fn, rng):
     got = fn(peaks)
     measured = log_decrement(peaks) / math.sqrt(4 * math.pi**2 + log_decrement(peaks) ** 2)  # these peaks' own
     note = damping_note(got, measured) if is_real(got) else ""
-    expect(abs(got - zeta) < 0.003, f"slightly noisy peaks with zeta = 0.07 gave {shown(got)}" + note)
+    if is_real(got) and abs(got + measured) < 1e-6:  # the sign is from_peak_amplitudes' to score
+        return ("the decrement is averaged over every cycle; your damping ratio comes out negative (the ratio "
+                "A_k / A_(k+1) upside down), which from_peak_amplitudes scores")
+    expect(is_real(got) and abs(got - zeta) < 0.003, f"slightly noisy peaks with zeta = 0.07 gave {shown(got)}" + note)
 
 
 slew = task("03.slew_rate", function="slew_rate", title="Servo slew rate from a step log")
@@ -86,6 +91,7 @@ def random_ramps(fn, rng):
                                      duration_s=1.0)
         got = fn(t, command, arm)
         note = slew_note(got, speed) or start_note(fn, t, command, arm, speed)
+        note = note or interpolation_note(got, t, command, arm)
         expect(abs(got - speed) < 0.01 * speed, f"a {speed:.2f} rad/s ramp from {start:.2f} to {target:.2f} rad "
                f"sampled every {1000 * dt:.0f} ms gave {shown(got)}" + note)
 
@@ -100,7 +106,8 @@ def the_twins_servo(fn, rng):
     expected = identify_servo_steps(t, command, arm).slew_rate_rad_s  # the kit's own 10-90 % slope
     got = fn(t, command, arm)
     expect(abs(got - expected) < 0.01 * expected, f"the twin's servo stepping 0.6 rad should give "
-           f"{expected:.3f} rad/s, got {shown(got)}{slew_note(got, expected)}")
+           f"{expected:.3f} rad/s, got {shown(got)}"
+           + (slew_note(got, expected) or interpolation_note(got, t, command, arm)))
 
 
 prelab_answers("03", {"period_s": 1.185507, "log_decrement": 0.693147}, how={
@@ -114,6 +121,8 @@ prelab_answers("03", {"period_s": 1.185507, "log_decrement": 0.693147}, how={
 
 def slew_rate(t, command, arm, interpolate=True, from_zero=False):
     t, command, arm = (np.asarray(v, dtype=float) for v in (t, command, arm))
+    if np.all(command == command[0]):
+        raise ValueError("the command never changes: there is no step to measure")
     k = int(np.argmax(command != command[0]))
     start = 0.0 if from_zero else arm[k - 1]
     progress = (arm[k:] - start) / (command[k] - start)
@@ -131,6 +140,8 @@ def slew_rate(t, command, arm, interpolate=True, from_zero=False):
 def slew_interpolating_the_wrong_pair(t, command, arm):
     """Interpolates, but between the sample at or past the level and the one after it."""
     t, command, arm = (np.asarray(v, dtype=float) for v in (t, command, arm))
+    if np.all(command == command[0]):
+        raise ValueError("the command never changes")
     k = int(np.argmax(command != command[0]))
     progress, times = (arm[k:] - arm[k - 1]) / (command[k] - arm[k - 1]), t[k:]
 
@@ -178,7 +189,19 @@ def period_failing_on_fewer_crossings(t, a):
 
 def period_counting_both_directions(t, a):
     crossings = np.sort(np.concatenate([up_crossings(t, a), up_crossings(t, -np.asarray(a))]))
-    return float(np.mean(np.diff(crossings)))
+    return float(np.mean(np.diff(crossings))) if len(crossings) > 1 else math.nan
+
+
+def period_over_crossings(t, a):
+    """The span from the first crossing to the last over the number of crossings (not of periods)."""
+    crossings = up_crossings(t, a)
+    return float((crossings[-1] - crossings[0]) / len(crossings)) if len(crossings) > 1 else math.nan
+
+
+def period_returning_zero(t, a):
+    """Right, but 0.0 rather than nan with fewer than two crossings."""
+    crossings = up_crossings(t, a)
+    return float(np.mean(np.diff(crossings))) if len(crossings) > 1 else 0.0
 
 
 def damping_with_log10(peaks):
@@ -188,7 +211,7 @@ def damping_with_log10(peaks):
 
 CORRECT = {
     "03.natural_frequency": lambda m, com, j: math.sqrt(m * 9.81 * com / j),
-    "03.period_from_crossings": lambda t, a: float(np.mean(np.diff(up_crossings(t, a)))),
+    "03.period_from_crossings": lambda t, a: period_by(t, a),
     "03.damping_ratio": lambda p: log_decrement(p) / math.sqrt(4 * math.pi**2 + log_decrement(p) ** 2),
     "03.slew_rate": lambda t, command, arm: slew_rate(t, command, arm),
 }
@@ -201,8 +224,13 @@ MISTAKES = [
      {"one_crossing_per_period", "a_twin_swing"}),
     ("03.natural_frequency", lambda m, com, j: math.sqrt(j / (m * 9.81 * com)), "upside down",
      {"compound_pendulum", "the_rigs_own_pendulum"}),
-    ("03.period_from_crossings", lambda t, a: float(np.mean(np.diff(up_crossings(t, a, interpolate=False)))),
-     "interpolation"),
+    ("03.period_from_crossings", lambda t, a: period_by(t, a, interpolate=False), "without interpolation",
+     {"interpolated_crossings"}),
+    ("03.period_from_crossings", period_over_crossings, "divide by crossings - 1",
+     {"one_crossing_per_period", "a_twin_swing"}),
+    ("03.period_from_crossings", period_returning_zero, "return nan", {"fewer_than_two_crossings"}),
+    ("03.slew_rate", lambda t, c, a: slew_rate(t, c, a) if np.any(np.asarray(c) != c[0]) else 0.0,
+     "raise ValueError", {"a_command_that_never_changes"}),
     ("03.period_from_crossings", period_skipping_zero_readings, "yours skipped them",
      {"readings_of_exactly_zero", "a_twin_swing"}),
     ("03.period_from_crossings", period_from_zero_readings_on, "at or below 0 to one above 0",
@@ -212,11 +240,12 @@ MISTAKES = [
     ("03.damping_ratio", lambda p: log_decrement(p), "decrement itself"),
     ("03.damping_ratio", lambda p: log_decrement(p) / (2 * math.pi), "light damping"),
     ("03.damping_ratio", lambda p: damping_with_log10(p), "log10"),
-    ("03.damping_ratio", lambda p: -CORRECT["03.damping_ratio"](p), "upside down",
-     {"from_peak_amplitudes", "noisy_peaks"}),
+    ("03.damping_ratio", lambda p: -CORRECT["03.damping_ratio"](p), "upside down", {"from_peak_amplitudes"}),
     ("03.slew_rate", lambda t, c, a: -slew_rate(t, c, a) if c[-1] < c[0] else slew_rate(t, c, a), "positive"),
     ("03.slew_rate", lambda t, c, a: slew_rate(t, c, a) / 0.8, "80 %"),
-    ("03.slew_rate", lambda t, c, a: slew_rate(t, c, a, interpolate=False), "interpolation"),
+    ("03.slew_rate", lambda t, c, a: slew_rate(t, c, a, interpolate=False), "without interpolation",
+     {"coarse_samples", "random_ramps"}),
     ("03.slew_rate", slew_interpolating_the_wrong_pair, "two samples around it"),
-    ("03.slew_rate", lambda t, c, a: slew_rate(t, c, a, from_zero=True), "not from 0", {"a_ramp_after_a_lag"}),
+    ("03.slew_rate", lambda t, c, a: slew_rate(t, c, a, from_zero=True), "not from 0",
+     {"a_ramp_after_a_lag", "random_ramps"}),
 ]

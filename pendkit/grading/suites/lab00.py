@@ -20,8 +20,15 @@ def reward_values(fn, rng):
     for theta, omega_rad_s in [(0.0, 0.0), (math.pi, 0.0), (0.3, 0.0), (0.0, 2 * math.pi), (-0.5, -math.pi)]:
         expected = -theta**2 - 0.5 * (omega_rad_s / (2 * math.pi)) ** 2
         got = fn(theta, omega_rad_s)
-        message = f"reward({theta:.3f}, {omega_rad_s:.3f}) should be {expected:.4f}, got {shown(got)}"
-        expect(is_real(got) and abs(got - expected) < 1e-9, message + reward_note(theta, omega_rad_s, got))
+        message = f"reward({theta:.3f}, {omega_rad_s:.3f}) should be {expected:.4f}, got {to_4(got)}"
+        if is_real(got) and abs(got - expected) < 1e-9:
+            continue
+        expect(False, message + reward_note(theta, omega_rad_s, got, mirrored=fn(-theta, -omega_rad_s)))
+
+
+def to_4(value) -> str:
+    """A student's number to 4 decimals, as the expected value beside it is shown (anything else as it is)."""
+    return f"{float(value):.4f}" if is_real(value) else shown(value)
 
 
 def reward_note(theta: float, omega_rad_s: float, got, mirrored=None) -> str:
@@ -72,29 +79,25 @@ def percent_note(expected: float, got) -> str:
     return ""
 
 
-BOUNDARY_ANGLES = [0.3, -0.3, 0.2999, -0.1, -1.0, -2.5]  # each mistake below gives its own answer
+# Each pair: an angle on or just inside the bound, and one that must count the same way (beyond it, or at 0).
+# Only the bound is scored here, in the student's own units (a count, a fraction): the other tests score those.
+BOUNDARY_PAIRS = [(0.3, 0.5), (-0.3, -0.5), (0.2999, 0.0), (-0.2999, 0.0)]
 
 
 @fraction_task.test(points=1, hint="An angle of exactly 0.3 rad (either sign) is not within the bound: |angle| < 0.3.")
 def the_bound_is_strict(fn, rng):
-    got = fn(np.array(BOUNDARY_ANGLES))
-    note = boundary_note(got)
-    expect(is_real(got) and abs(got - 1 / 3) < 1e-9,
-           f"upright_fraction({BOUNDARY_ANGLES}) should be 1/3 (only 0.2999 and -0.1 are within 0.3 rad), "
-           f"got {shown(got)}{note}", hint=not note)
-
-
-def boundary_note(got) -> str:
-    """The cause of a wrong answer for `BOUNDARY_ANGLES`, named from its value (or "")."""
-    causes = {2 / 3: ": |angle| = 0.3 counted as upright; the bound is strict (< 0.3, not <= 0.3)",
-              5 / 6: ": the negative angles all counted as upright; use the absolute value",
-              1.0: ": the negative angles and 0.3 itself counted as upright; use the absolute value and a "
-                   "strict bound (< 0.3)",
-              2.0: ": that is a count; divide by the number of steps"}
-    for value, cause in causes.items():
-        if is_real(got) and abs(got - value) < 1e-9:
-            return cause
-    return fraction_note(BOUNDARY_ANGLES, got)
+    for angle, like in BOUNDARY_PAIRS:
+        got, want = fn(np.array([angle, 1.0])), fn(np.array([like, 1.0]))  # arrays: lists are another test's
+        if is_real(got) and is_real(want) and abs(got - want) < 1e-9:
+            continue
+        inside = abs(angle) < 0.3
+        said = (f"upright_fraction([{angle}, 1.0]) gave {shown(got)} but upright_fraction([{like}, 1.0]) gave "
+                f"{shown(want)}")
+        if not inside and is_real(got) and is_real(want) and got > want:
+            expect(False, said + Diagnosis(": |angle| = 0.3 counted as upright; the bound is strict (< 0.3, not "
+                                           "<= 0.3)"))
+        expect(False, f"{said}: {angle} rad {'is within' if inside else 'is on'} the bound, so it counts as {like} "
+                      f"does ({'upright' if inside else 'not upright'})")
 
 
 @fraction_task.test(points=1, hint="A trace of 200 random angles of either sign.")

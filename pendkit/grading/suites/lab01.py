@@ -150,26 +150,46 @@ def upright_note(angle: float, got) -> str:
     if not is_real(got) or not math.isfinite(got):
         return ""
     expected = angle % (2 * math.pi) - math.pi
-    if abs(got - (angle - math.pi)) < 1e-9:
-        return Diagnosis(": close, but the angle may have wound several turns: wrap into [-pi, pi)")
+    if abs(expected + math.pi) < 1e-9 and abs(got - math.pi) < 1e-9:
+        return Diagnosis(": +pi is outside [-pi, pi): the interval is half-open, so hanging is -pi, never +pi")
     if abs(got - angle) < 1e-9:
         return Diagnosis(": that is still the angle from the bottom; upright is half a turn away")
+    turns = (got - expected) / (2 * math.pi)
+    if abs(turns - round(turns)) < 1e-9 and round(turns):
+        where = f"{shown(got)} is outside [-pi, pi), {abs(round(turns))} turn{'s' if abs(round(turns)) > 1 else ''} " \
+                f"{'above' if turns > 0 else 'below'} the answer"
+        if abs(got - (angle - math.pi)) < 1e-9 and angle < 0:
+            return Diagnosis(f": the shift by pi is right, but {where}: wrap into [-pi, pi) (Python's % gives a "
+                             "result in [0, 2 pi) for a negative angle too; math.fmod keeps the angle's sign)")
+        if abs(got - (angle - math.pi)) < 1e-9:
+            return Diagnosis(f": the shift by pi is right, but the angle has wound past a turn, so {where}: wrap "
+                             "into [-pi, pi)")
+        return Diagnosis(f": {where}: wrap into [-pi, pi) (Python's % gives a result in [0, 2 pi) for a negative "
+                         "angle too; math.fmod keeps the angle's sign)")
     if abs(abs(got - expected) - math.pi) < 1e-9:
         return Diagnosis(": pi away from the answer: that is the angle from the bottom, wrapped; hanging is pi from "
                          "upright, so shift by pi (angle % 2 pi - pi)")
     return ""
 
 
-def angle_message(call: str, expected: float, got) -> str:
-    message = f"{call} should be {expected:.4f} rad, got {shown(got)}"
+def angle_message(call: str, expected: float, got, raw: int | None = None, offset: int | None = None) -> str:
+    return f"{call} should be {expected:.4f} rad, got {shown(got)}" + angle_note(expected, got, raw, offset)
+
+
+def angle_note(expected: float, got, raw: int | None = None, offset: int | None = None) -> str:
+    """The cause of a wrong angle from the bottom, named from its value (a `Diagnosis`), or "". With the
+    reading and the offset, an offset added rather than subtracted is named too."""
     if is_real(got) and math.isfinite(got):
+        if raw is not None and offset and abs(got - (raw + offset) % 1024 * 2 * math.pi / 1024) < 1e-9:
+            return Diagnosis(": you added the offset; subtract it")
         if abs(got - math.degrees(expected)) < 1e-3:
-            return message + Diagnosis(": that is degrees; the lab uses radians")
-        if abs(got - expected) < 2 * math.pi / 1024 * 2 and got != expected:
-            return message + Diagnosis(": off by a count or two; divide by 1024 (positions per turn), not 1023")
+            return Diagnosis(": that is degrees; the lab uses radians")
+        if got != expected and abs(got - expected * 1024 / 1023) < 1e-9:
+            return Diagnosis(": every angle comes out 1024/1023 too large: divide by 1024 (positions per turn: "
+                             "0..1023 is 1024 of them), not 1023")
         if got < 0:
-            return message + Diagnosis(": negative; wrap the difference into 0..1023 first (the % operator)")
-    return message
+            return Diagnosis(": negative; wrap the difference into 0..1023 first (the % operator)")
+    return ""
 
 
 @to_angle.test(points=2, hint="Subtract the offset, wrap into 0..1023, then scale: 1024 counts = 2 pi rad.")
@@ -178,26 +198,36 @@ def calibrated_counts_scale_to_radians(fn, rng):
                                   (829, 317, math.pi), (600, 100, 500 * 2 * math.pi / 1024)]:
         got = fn(raw, offset)
         expect(is_real(got) and abs(got - expected) < 1e-9,
-               angle_message(f"counts_to_angle({raw}, offset={offset})", expected, got))
+               angle_message(f"counts_to_angle({raw}, offset={offset})", expected, got, raw, offset))
 
 
 @to_angle.test(points=2, hint="A reading just below the offset is just below a full turn, not negative.")
 def readings_below_the_offset_wrap(fn, rng):
+    # the wrap is this test's to score; the scale (radians, 1024 counts a turn) is
+    # calibrated_counts_scale_to_radians': each reading is held to the function's own angle of one count
+    one_count = fn(1, 0)
+    scale = float(one_count) if is_real(one_count) and one_count > 0 else 2 * math.pi / 1024
     for raw, offset in [(316, 317), (0, 317), (100, 900)]:
-        expected = ((raw - offset) % 1024) * 2 * math.pi / 1024
+        counts = (raw - offset) % 1024
+        expected = counts * 2 * math.pi / 1024
         got = fn(raw, offset)
-        ok = is_real(got) and abs(got - expected) < 1e-9
-        if not ok and is_real(got) and abs(got - (raw + offset) % 1024 * 2 * math.pi / 1024) < 1e-9:
+        ok = is_real(got) and abs(got - counts * scale) < 1e-9 * max(1.0, counts * scale)
+        if not ok and is_real(got) and abs(got - (raw + offset) % 1024 * scale) < 1e-9:
             raise Failed(f"counts_to_angle({raw}, offset={offset}) should be {expected:.4f}, got {shown(got)}: "
-                         "you added the offset; subtract it")
+                         "you added the offset; subtract it", hint=False)
         expect(ok, angle_message(f"counts_to_angle({raw}, offset={offset})", expected, got))
+    if abs(scale - 2 * math.pi / 1024) > 1e-12:
+        return (f"the wrap below the offset is right; your angle of one count, {shown(scale)}, is "
+                "calibrated_counts_scale_to_radians' to score")
 
 
-@upright.test(points=2, hint="Upright is half a turn from the bottom; wrap the result into [-pi, pi).")
+@upright.test(points=2, hint="Upright is half a turn from the bottom; wrap the result into [-pi, pi): -pi hanging, "
+                            "never +pi.")
 def upright_is_zero_and_sides_have_signs(fn, rng):
     for angle, expected in [(math.pi, 0.0), (math.pi + 0.1, 0.1), (math.pi - 0.1, -0.1), (0.0, -math.pi),
                             (0.05, -math.pi + 0.05), (2 * math.pi - 0.05, math.pi - 0.05),
-                            (3 * math.pi + 0.1, 0.1), (-math.pi / 2, math.pi / 2), (-5 * math.pi, 0.0)]:
+                            (3 * math.pi + 0.1, 0.1), (-math.pi / 2, math.pi / 2), (-5 * math.pi, 0.0),
+                            (2 * math.pi, -math.pi)]:  # hanging after a turn last: -pi, and +pi is outside
         got = fn(angle)
         ok = is_real(got) and abs(got - expected) < 1e-9
         message = f"angle_from_upright({angle:.3f}) should be {expected:.4f} rad, got {shown(got)}"
@@ -226,7 +256,7 @@ def differences_across_the_seam(fn, rng):
         elif is_real(got) and got == -expected:
             message += ": right size, wrong sign"
         message += wrap_direction_note(new, old, got)
-        expect(got == expected, message)
+        expect(got == expected, message, hint=message.endswith(f"got {shown(got)}"))
 
 
 def wrap_direction_note(new: int, old: int, got) -> str:
@@ -244,8 +274,8 @@ def half_a_turn_keeps_its_sign(fn, rng):
         raise Failed("wrap_delta(10, 5) gave -5: the difference is new - old (this test needs that first)")
     for new, old in [(512, 0), (0, 512)]:
         got = fn(new, old)
-        expect(got == new - old, f"wrap_delta({new}, {old}) should be {new - old} (the firmware keeps exactly "
-               f"half a turn as it is), got {shown(got)}")
+        expect(got == new - old, f"wrap_delta({new}, {old}) should be {new - old}, got {shown(got)}: the firmware "
+               "keeps exactly half a turn as it is (it wraps only |d| > 512, not >= 512)", hint=False)
 
 
 prelab_task("01", ("counts_per_turn", "counts_between_readings",))

@@ -51,15 +51,40 @@ def steady_rotation(fn, rng):
            + velocity_note(got, expected, positions, times))
 
 
+def scaled(got: np.ndarray, expected: np.ndarray) -> float | None:
+    """The factor k > 0, other than 1, with got = k * expected throughout (a units slip, which
+    steady_rotation scores), or None."""
+    nonzero = np.abs(expected) > 1e-12
+    if got.shape != expected.shape or not nonzero.any():
+        return None
+    k = float(got[nonzero][0] / expected[nonzero][0])
+    if k <= 0 or abs(k - 1) < 1e-9 or not np.allclose(got, k * expected, rtol=1e-9, atol=1e-12):
+        return None
+    return k
+
+
+def units_aside(k: float, what: str) -> str:
+    return (f"{what} is right; your values are {k:.6g} times the right ones throughout, a units or scale slip that "
+            "steady_rotation scores")
+
+
 @velocity.test(points=3, hint="Use the wrap-aware difference from lab 01 for every pair of readings.")
 def across_the_seam_both_ways(fn, rng):
+    # the wrap is this test's to score: values that are all the same multiple of the right ones pass here
+    factors = set()
     for positions in ([1000, 1020, 16, 36], [30, 5, 1004, 980]):
         times = [0.0, 25.0, 50.0, 75.0]
         expected = encoder.finite_difference_rev_s(positions, times)
         got = _as_array(fn(positions, times), "velocity_rev_s", 3)
+        k = scaled(got, expected)
+        if k is not None:
+            factors.add(round(k, 9))
+            continue
         expect(np.allclose(got, expected, atol=1e-9), f"velocity_rev_s({positions}, ...) should be "
                f"{np.round(expected, 4).tolist()}, got {np.round(got, 4).tolist()}"
                + velocity_note(got, expected, positions, times))
+    if factors:
+        return units_aside(max(factors), "across the seam, the wrap")
 
 
 @velocity.test(points=1, hint="Intervals need not be equal: use each pair's own time difference.")
@@ -68,6 +93,9 @@ def uneven_intervals(fn, rng):
     positions = 400 + np.cumsum(rng.integers(-40, 41, 8))  # far from the seam: this test is about timing only
     expected = encoder.finite_difference_rev_s(positions, times)
     got = _as_array(fn(positions.tolist(), times.tolist()), "velocity_rev_s", 7)
+    k = scaled(got, expected)  # the units are steady_rotation's to score: this test scores each pair's own interval
+    if k is not None:
+        return units_aside(k, "each pair's own interval")
     expect(np.allclose(got, expected, atol=1e-9), f"with uneven intervals {np.diff(times).tolist()} ms the "
            f"velocities should be {np.round(expected, 3).tolist()}, got {np.round(got, 3).tolist()}"
            + velocity_note(got, expected, positions.tolist(), times.tolist()))
@@ -80,6 +108,11 @@ def mean_of_the_last_window(fn, rng):
     got = _as_array(fn(values, 4), "firmware_mean", 6)
     message = f"firmware_mean({values}, 4) should be {expected.tolist()}, got {np.round(got, 4).tolist()}"
     expect(np.allclose(got, expected), message + mean_note(values, 4, got, expected))
+    short, expected = [2.0, 4.0, 6.0], np.array([0.4, 1.2, 2.4])  # a window longer than the data: zeros throughout
+    got = _as_array(fn(short, 5), "firmware_mean", 3)
+    expect(np.allclose(got, expected), f"firmware_mean({short}, 5) should be {expected.tolist()} (a window longer "
+           f"than the data: every output still divides by 5), got {np.round(got, 4).tolist()}"
+           + mean_note(short, 5, got, expected))
 
 
 def mean_note(values, window: int, got: np.ndarray, expected: np.ndarray) -> str:
@@ -90,20 +123,24 @@ def mean_note(values, window: int, got: np.ndarray, expected: np.ndarray) -> str
                                                                                expected[:window - 1]):
         return Diagnosis(f": the firmware's buffer starts full of zeros, so early outputs divide by {window} too "
                          "(only the first window - 1 values differ)")
-    if np.allclose(got, np.convolve(values, np.ones(window) / window, mode="same")):
+    if len(values) >= window and np.allclose(got, np.convolve(values, np.ones(window) / window, mode="same")):
         return Diagnosis(": np.convolve(mode='same') centres the window and looks ahead; use only past values")
     return ""
 
 
-@mean.test(points=1, hint="Any window length must work, the buffer starting at zeros for each.")
+@mean.test(points=1, hint="Any window length must work: from the window-th output on, each is the mean of the last "
+                          "`window` values.")
 def other_window_lengths(fn, rng):
+    # the window's length is this test's to score, once the buffer is full: the zeros it starts with are
+    # mean_of_the_last_window's
     values = rng.normal(size=12)
     for window in (1, 3):
         padded = np.concatenate([np.zeros(window - 1), values])
         expected = np.convolve(padded, np.ones(window) / window, mode="valid")
         got = _as_array(fn(values.tolist(), window), "firmware_mean", 12)
-        expect(np.allclose(got, expected), f"firmware_mean(..., {window}): expected "
-               f"{np.round(expected[:4], 3).tolist()}..., got {np.round(got[:4], 3).tolist()}..."
+        full = slice(window - 1, None)
+        expect(np.allclose(got[full], expected[full]), f"firmware_mean(..., {window}): from output {window} on "
+               f"expected {np.round(expected[full][:4], 3).tolist()}..., got {np.round(got[full][:4], 3).tolist()}..."
                + mean_note(values, window, got, expected))
 
 
@@ -154,13 +191,27 @@ def quantisation_and_aliasing(fn, rng):
         want_step, want_limit = 1 / 1024 / (period_ms / 1000), 0.5 / (period_ms / 1000)
         message = (f"period_limits({period_ms}) should be ({want_step:.4f}, {want_limit:.2f}) rev/s, "
                    f"got ({step:.4f}, {limit:.2f})")
-        if abs(limit - 2 * want_limit) < 1e-6:
-            message += ": a full turn per period would look like no motion at all; the limit is half a turn"
-        if abs(step - want_step * 2 * math.pi) < 1e-6:
-            message += ": rev/s please, not rad/s"
-        if abs(step - want_step / 1000) < 1e-12 and abs(limit - want_limit / 1000) < 1e-9:
-            message += ": off by a factor of 1000; the period arrives in milliseconds: convert it to seconds"
-        expect(abs(step - want_step) < 1e-9 and abs(limit - want_limit) < 1e-9, message)
+        expect(abs(step - want_step) < 1e-9 and abs(limit - want_limit) < 1e-9,
+               message + limits_note(period_ms, step, limit))
+
+
+def limits_note(period_ms: float, step: float, limit: float) -> str:
+    """The causes of a wrong (quantisation step, aliasing limit) for `period_ms`, named from their values: the
+    period taken in milliseconds, a full turn for the limit, rad/s for the step (one slip or several)."""
+    want_step, want_limit = 1 / 1024 / (period_ms / 1000), 0.5 / (period_ms / 1000)
+
+    def near(got, want):
+        return abs(got - want) < 1e-9 * abs(want)
+
+    causes = []
+    step_in_ms = near(step, want_step / 1000) or near(step, 2 * math.pi * want_step / 1000)
+    if step_in_ms and (near(limit, want_limit / 1000) or near(limit, 2 * want_limit / 1000)):
+        causes.append("off by a factor of 1000; the period arrives in milliseconds: convert it to seconds")
+    if near(limit, 2 * want_limit) or near(limit, 2 * want_limit / 1000):
+        causes.append("a full turn per period would look like no motion at all; the limit is half a turn")
+    if near(step, 2 * math.pi * want_step) or near(step, 2 * math.pi * want_step / 1000):
+        causes.append("rev/s please, not rad/s")
+    return Diagnosis(": " + "; and ".join(causes)) if causes else ""
 
 
 prelab_task("02", ("slowest_rev_s", "fastest_rev_s",))

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from pendkit.grading.core import Diagnosis, Failed, NotGradable, as_number, expect, is_real, task
+from pendkit.grading.core import Diagnosis, Failed, NotGradable, as_number, expect, is_real, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
@@ -53,7 +53,7 @@ def one_crossing_per_period(fn, rng):
     t, angle = _swing(1.18)
     got = as_number(fn(t, angle), "period_from_crossings(t, angle)")
     message = f"for a 1.18 s swing the period should be 1.180 s, got {got:.4f}"
-    expect(abs(got - 1.18) < 1e-3, message + half_period_note(got, 1.18))
+    expect(abs(got - 1.18) < 1e-3, message + (half_period_note(got, 1.18) or count_note(got, t, angle)))
 
 
 def half_period_note(got: float, period_s: float) -> str:
@@ -64,15 +64,72 @@ def half_period_note(got: float, period_s: float) -> str:
     return ""
 
 
-@period.test(points=2, hint="Interpolate between the samples on either side of each crossing.")
+def count_note(got, times_s, angles_rad) -> str:
+    """Words for a period that is the span from the first upward crossing to the last divided by the number of
+    crossings (one too many: n crossings bound n - 1 periods), interpolated or not; or nothing."""
+    if not is_real(got):
+        return ""
+    for interpolated in (True, False):
+        crossings = crossings_by(times_s, angles_rad, interpolate=interpolated)
+        n = len(crossings)
+        if n > 1 and abs(got - (crossings[-1] - crossings[0]) / n) < 1e-9:
+            also = "" if interpolated else "; and interpolate each crossing between the two samples around it"
+            return Diagnosis(f": that is the span from the first upward crossing to the last "
+                             f"({crossings[-1] - crossings[0]:.4f} s) over the number of crossings, {n}; {n} crossings "
+                             f"bound {n - 1} periods, so divide by crossings - 1 (or average the differences between "
+                             f"successive crossings){also}")
+    return ""
+
+
+def counted_aside(got, times_s, angles_rad, rule: str, tested: str):
+    """Text for a test to pass with, when `got` is right but for the count (a half period, or the span over the
+    number of crossings): both are one_crossing_per_period's to score. None otherwise."""
+    crossings = crossings_by(times_s, angles_rad, rule)
+    n = len(crossings)
+    both_ways = np.sort(np.concatenate([crossings, crossings_by(times_s, -np.asarray(angles_rad, float), rule)]))
+    if n > 1 and abs(got - (crossings[-1] - crossings[0]) / n) < 1e-9:
+        slip = f"the span over {n} crossings instead of {n - 1} periods"
+    elif len(both_ways) > 1 and abs(got - float(np.mean(np.diff(both_ways)))) < 1e-6:
+        slip = "half a period: crossings counted in both directions"
+    else:
+        return None
+    return f"{tested}; your period is {slip}, which one_crossing_per_period scores"
+
+
+@period.test(points=1, hint="Interpolate between the samples on either side of each crossing.")
 def interpolated_crossings(fn, rng):
+    # the interpolation is this test's to score: a count slip (one_crossing_per_period's) passes here, named
     t, angle = _swing(1.183, samples=80, dt=0.06, phase=0.77)  # coarse 60 ms samples, like env steps
     got = as_number(fn(t, angle), "period_from_crossings(t, angle)")
-    if abs(got - 1.183 / 2) < 0.05:
-        raise NotGradable("the period comes out as half of it (see one_crossing_per_period): this test checks "
-                          "the interpolation once each period is counted once")
-    expect(abs(got - 1.183) < 2e-3, f"with 60 ms samples the period should still come out as 1.183 s, got "
-           f"{got:.4f}: without interpolation each crossing is only known to within a sample")
+    if abs(got - 1.183) < 2e-3:
+        return None
+    aside = counted_aside(got, t, angle, TASK_RULE, "each crossing is interpolated right")
+    if aside:
+        return aside
+    message = f"with 60 ms samples the period should still come out as 1.183 s, got {got:.4f}"
+    if half_period_note(got, 1.183):
+        raise NotGradable(message + ", about half of it (see one_crossing_per_period): this test checks the "
+                          "interpolation once each period is counted once")
+    if abs(got - period_by(t, angle, interpolate=False)) < 1e-9:
+        message += Diagnosis(": without interpolation each crossing is only known to within a sample")
+    expect(False, message + count_note(got, t, angle))
+
+
+@period.test(points=1, hint="With fewer than two upward crossings there is no period: return nan (float('nan')).")
+def fewer_than_two_crossings(fn, rng):
+    t = np.arange(0.0, 1.0, 0.01)
+    for angle, what in [(0.1 + 0.05 * np.sin(6 * t), "a swing that never crosses 0"),
+                        (t - 0.505, "a log with one upward crossing")]:
+        try:
+            got = fn(t, angle)
+        except (Failed, NotGradable, NotImplementedError):
+            raise
+        except Exception as error:  # noqa: BLE001 - the task says what to do instead
+            raise Failed(f"for {what} period_from_crossings raised {type(error).__name__} ({error}): with fewer than "
+                         "two crossings there is no period; return nan (float('nan')) instead", hint=False) from error
+        expect(is_real(got) and math.isnan(got), f"for {what} period_from_crossings should return nan, got "
+               f"{shown(got)}: with fewer than two crossings there is no period" + Diagnosis("; return nan "
+                                                                                          "(float('nan'))"))
 
 
 COUNT_RAD = 2 * math.pi / 1024  # one encoder count
@@ -174,10 +231,14 @@ def readings_of_exactly_zero(fn, rng):
             raise Failed(f"{said}; period_from_crossings raised {type(error).__name__} ({error}){note}",
                          hint=False) from error
         raise
+    ok = abs(got - 1.2) < 1e-3
+    aside = None if ok else counted_aside(got, t, angle, TASK_RULE,
+                                          "the crossings at readings of exactly 0.0 are found right")
+    if aside:
+        return aside
     if half_period_note(got, 1.2):
         raise NotGradable("the period comes out as half of it (see one_crossing_per_period): this test checks "
                           "readings of exactly 0.0 once each period is counted once")
-    ok = abs(got - 1.2) < 1e-3
     note = "" if ok else zero_readings_note(fn, got, t, angle, 1.2, 1e-3)
     expect(ok, f"{said}, got {got:.4f}{note}", hint=not note)
 
@@ -251,11 +312,25 @@ def start_note(fn, t, command, arm, expected: float) -> str:
                      "changes), not from 0")
 
 
-@slew.test(points=2, hint="Time the arm (not the command) at 10 % and 90 % of the way; it covers 80 % of the "
+def slew_of(fn, t, command, arm, said: str, expected: float) -> float:
+    """The student's slew rate of a log; where it raises, and the same function is right on the log moved to
+    start at 0 rad, a failure naming that (`start_note`); else the error as it is."""
+    try:
+        return as_number(fn(t, command, arm), "slew_rate(t, command, arm)")
+    except (Failed, NotGradable, NotImplementedError):
+        raise
+    except Exception as error:
+        note = start_note(fn, t, command, arm, expected)
+        if note:
+            raise Failed(f"{said}, slew_rate raised {type(error).__name__} ({error})" + note) from error
+        raise
+
+
+@slew.test(points=1, hint="Time the arm (not the command) at 10 % and 90 % of the way; it covers 80 % of the "
                           "step in between.")
 def a_ramp_after_a_lag(fn, rng):
     t, command, arm = servo_ramp(3.0, 0.02, 0.2, 0.8, dt_s=0.005)
-    got = as_number(fn(t, command, arm), "slew_rate(t, command, arm)")
+    got = slew_of(fn, t, command, arm, "for a 3 rad/s ramp from 0.2 to 0.8 rad", 3.0)
     note = slew_note(got, 3.0) or start_note(fn, t, command, arm, 3.0)
     expect(abs(got - 3.0) < 0.01, f"for a 3 rad/s ramp from 0.2 to 0.8 rad, slew_rate should be 3.000 rad/s, got "
                                   f"{got:.4f}" + note)
@@ -263,12 +338,38 @@ def a_ramp_after_a_lag(fn, rng):
 
 @slew.test(points=1, hint="The step can go either way: use its size.")
 def a_step_the_other_way(fn, rng):
+    # the direction is this test's to score: a slew measured from 0 rad (a_ramp_after_a_lag's) passes here, named
     t, command, arm = servo_ramp(2.5, 0.03, 0.3, -0.5, dt_s=0.005)
-    got = as_number(fn(t, command, arm), "slew_rate(t, command, arm)")
+    got = slew_of(fn, t, command, arm, "for a 2.5 rad/s ramp from 0.3 to -0.5 rad", 2.5)
+    if abs(got - 2.5 / 0.8) < 2e-3 * 2.5:
+        return ("the step's direction is handled right; your slew is over the whole step rather than 80 % of it, "
+                "which a_ramp_after_a_lag scores")
+    if abs(got - 2.5) >= 0.01 and not slew_note(got, 2.5):
+        note = start_note(fn, t, command, arm, 2.5)
+        if note:
+            return ("the step's direction is handled right; your slew is measured from 0 rad rather than from the "
+                    "arm's start, which a_ramp_after_a_lag scores" + note)
     expect(abs(got - 2.5) < 0.01, _slew_message("for a 2.5 rad/s ramp from 0.3 to -0.5 rad, slew_rate", got, 2.5))
 
 
-def _slew_without_interpolation(t, command, arm) -> set[float]:
+@slew.test(points=1, hint="A log whose command never changes has no step: raise ValueError saying so.")
+def a_command_that_never_changes(fn, rng):
+    t = np.arange(0.0, 0.5, 0.005)
+    command, arm = np.full_like(t, 0.4), 0.4 + 0.001 * np.sin(40 * t)
+    try:
+        got = fn(t, command, arm)
+    except ValueError:
+        return None
+    except (Failed, NotGradable, NotImplementedError):
+        raise
+    except Exception as error:  # noqa: BLE001 - the task names the exception
+        raise Failed(f"for a log whose command stays at 0.4 rad slew_rate raised {type(error).__name__} ({error}): "
+                     "the task asks for ValueError, saying there is no step to measure", hint=False) from error
+    expect(False, f"for a log whose command stays at 0.4 rad slew_rate returned {shown(got)}"
+           + Diagnosis(": there is no step to measure; raise ValueError saying so"))
+
+
+def slew_without_interpolation(t, command, arm) -> set[float]:
     """What the slew comes to when each crossing is taken at a sample (the first at or past the level, or
     the last before it), without interpolating."""
     k = int(np.argmax(command != command[0]))
@@ -279,19 +380,45 @@ def _slew_without_interpolation(t, command, arm) -> set[float]:
     return {0.8 * step / (b - a) for a, b in (after, before) if b > a}
 
 
+def slew_with_the_wrong_pair(t, command, arm) -> float:
+    """The slew when each crossing is interpolated between the first sample at or past the level and the one
+    after it (rather than the last sample before it and the first at or past it)."""
+    k = int(np.argmax(command != command[0]))
+    progress, times = (arm[k:] - arm[k - 1]) / (command[k] - arm[k - 1]), t[k:]
+
+    def crossing(level):
+        i = int(np.argmax(progress >= level))
+        if i + 1 >= len(progress) or progress[i + 1] == progress[i]:
+            return times[i]
+        return times[i] + (level - progress[i]) * (times[i + 1] - times[i]) / (progress[i + 1] - progress[i])
+
+    return 0.8 * abs(command[k] - arm[k - 1]) / (crossing(0.9) - crossing(0.1))
+
+
+def interpolation_note(got, t, command, arm) -> str:
+    """Words for a slew whose crossings are taken at a sample, or interpolated between the wrong pair of
+    samples, on this log; or nothing."""
+    if not is_real(got):
+        return ""
+    if any(abs(got - plain) < 1e-6 for plain in slew_without_interpolation(t, command, arm)):
+        return Diagnosis(": that is each crossing taken at a sample, without interpolation: interpolate between the "
+                         "two samples around it")
+    if abs(got - slew_with_the_wrong_pair(t, command, arm)) < 1e-6:
+        return Diagnosis(": each crossing is interpolated between the first sample at or past the level and the one "
+                         "after it; interpolate between the two samples around it (the last below the level and the "
+                         "first at or past it)")
+    return ""
+
+
 @slew.test(points=1, hint="Interpolate each crossing between the two samples around it.")
 def coarse_samples(fn, rng):
+    # the interpolation is this test's to score: a sign or an 80 % slip (the other tests') passes here, named
     t, command, arm = servo_ramp(3.3, 0.013, 0.0, 0.7, dt_s=0.02, step_at_s=0.107)
     got = as_number(fn(t, command, arm), "slew_rate(t, command, arm)")
+    if abs(got - 3.3) >= 0.01 and slew_note(got, 3.3):
+        return f"each crossing is interpolated right; your slew{slew_note(got, 3.3)} (a_ramp_after_a_lag scores it)"
     message = f"with 20 ms samples a 3.3 rad/s ramp should still give 3.300 rad/s, got {got:.4f}"
-    if slew_note(got, 3.3):  # the same mistake as on a fine log: named as there, without this test's hint
-        raise NotGradable(message + slew_note(got, 3.3))
-    if any(abs(got - plain) < 1e-6 for plain in _slew_without_interpolation(t, command, arm)):
-        message += Diagnosis(": that is each crossing taken at a sample, without interpolation")
-    else:
-        message += ": with samples this coarse, check how each crossing is located between the two samples " \
-                   "around it (the level minus the earlier sample's progress, over the pair's difference)"
-    expect(abs(got - 3.3) < 0.01, message)
+    expect(abs(got - 3.3) < 0.01, message + interpolation_note(got, t, command, arm))
 
 
 prelab_task("03", ("period_s", "log_decrement",))

@@ -1,0 +1,95 @@
+"""Labs 00-03: each mistake the second walk-through made fails only the tests about it, each naming the real cause
+(never "close" for an answer a turn off, never "without interpolation" for a student who interpolated), and the
+edge cases the text requires (nan, ValueError) are graded."""
+
+import math
+
+import numpy as np
+import pytest
+
+from pendkit.grading import run_task
+from pendkit.grading.core import HIDDEN_MODULES
+
+
+def failed(task_id, fn):
+    results = run_task(task_id, fn, include_hidden=True)
+    return sum(r.points for r in results), {r.name: r.message for r in results if not r.passed}
+
+
+def key(lab):
+    return HIDDEN_MODULES[f"lab{lab}_hidden"]
+
+
+def test_lab00_a_units_slip_costs_the_values_test_only_at_one_precision(all_tests_loaded):
+    points, failures = failed("00.reward", lambda theta, omega: -theta**2 - 0.5 * omega**2)
+    assert points == 1 and list(failures) == ["reward_values"], failures
+    assert "should be -0.5000, got -19.7392: the velocity arrives in rad/s" in failures["reward_values"]
+
+
+@pytest.mark.parametrize("fn, lost, words", [
+    (lambda angle: math.atan2(math.sin(angle - math.pi), math.cos(angle - math.pi)), 3, "the interval is half-open"),
+    (lambda angle: math.fmod(angle, 2 * math.pi) - math.pi, 3, "math.fmod keeps the angle's sign"),
+])
+def test_lab01_a_wrap_slip_is_named_and_never_called_close(all_tests_loaded, fn, lost, words):
+    points, failures = failed("01.angle_from_upright", fn)
+    assert points == 3 - lost and all(words in m for m in failures.values()), failures
+    assert not any("close" in m or "wound several turns" in m for m in failures.values()), failures
+
+
+def test_lab01_dividing_by_1023_costs_the_scale_and_the_range_and_says_so(all_tests_loaded):
+    points, failures = failed("01.counts_to_angle", key("01").counts_over_1023)
+    assert points == 2 and set(failures) == {"calibrated_counts_scale_to_radians", "whole_range"}, failures
+    assert "6.28319 is outside [0, 2 pi)" in failures["whole_range"]
+    assert not any("count or two" in m for m in failures.values())
+
+
+def test_lab01_rejecting_one_magnet_bit_costs_its_own_test(all_tests_loaded):
+    points, failures = failed("01.decode_frame", key("01").decode_rejecting_one_magnet_bit)
+    assert points == 10 and list(failures) == ["one_magnet_bit_alone_is_valid"], failures
+
+
+def test_lab02_a_units_slip_is_not_charged_to_the_seam_or_the_intervals(all_tests_loaded):
+    points, failures = failed("02.velocity_rev_s", key("02").velocity_seconds)
+    assert set(failures) == {"steady_rotation", "matches_the_firmware_on_a_twin_log"}, failures
+    assert all("milliseconds" in m for m in failures.values())
+
+
+def test_lab02_a_window_longer_than_the_data_divides_by_the_window(all_tests_loaded):
+    assert failed("02.firmware_mean", key("02").CORRECT["02.firmware_mean"])[0] == 4
+    points, failures = failed("02.firmware_mean", key("02").mean_without_zero_padding)
+    assert "other_window_lengths" not in failures and "full of zeros" in failures["mean_of_the_last_window"]
+
+
+def test_lab03_an_off_by_one_count_is_named_and_never_blamed_on_interpolation(all_tests_loaded):
+    points, failures = failed("03.period_from_crossings", key("03").period_over_crossings)
+    assert set(failures) == {"one_crossing_per_period", "a_twin_swing"}, failures
+    assert all("divide by crossings - 1" in m for m in failures.values())
+    assert not any("without interpolation" in m or "skipped" in m or "at or below 0" in m for m in failures.values())
+
+
+def test_lab03_the_texts_edge_cases_are_graded(all_tests_loaded):
+    points, failures = failed("03.period_from_crossings", key("03").period_returning_zero)
+    assert points == 4 and list(failures) == ["fewer_than_two_crossings"]
+
+    def slew_of_nothing(t, c, a):
+        return key("03").slew_rate(t, c, a) if np.any(np.asarray(c) != c[0]) else 0.0
+
+    points, failures = failed("03.slew_rate", slew_of_nothing)
+    assert points == 5 and list(failures) == ["a_command_that_never_changes"]
+
+
+def test_lab03_a_slew_from_zero_is_never_blamed_on_the_steps_direction(all_tests_loaded):
+    points, failures = failed("03.slew_rate", lambda t, c, a: key("03").slew_rate(t, c, a, from_zero=True))
+    assert set(failures) == {"a_ramp_after_a_lag", "random_ramps"}, failures
+    assert all("not from 0" in m for m in failures.values()) and "either way" not in " ".join(failures.values())
+
+
+def test_lab03_a_negative_zeta_keeps_the_students_period_in_the_comparison():
+    from types import SimpleNamespace
+
+    from pendkit.labs.free_swing import yours_against_the_kit
+
+    fit = SimpleNamespace(natural_frequency_rad_s=5.289, natural_frequency_se=0.009, damping_ratio=0.073,
+                          damping_ratio_se=0.003, cycles=6)
+    lines = yours_against_the_kit(1.19, -0.0743, fit)
+    assert "period 1.1900 s" in lines[0] and "upside down" in lines[0], lines
