@@ -42,6 +42,8 @@ def notes(true_rev_s, raw, mean, smooth, readings=None) -> list[str]:
                                                                         readings.times_ms) or "")
     lines.append(line)
     if mean is not None:
+        from pendkit.grading.suites.lab02 import LATE, one_step_late
+
         mean, want = np.asarray(mean, float), _reference_mean(raw)
         line = f"your firmware_mean: {rms(mean, true_rev_s):.3f} rev/s rms from the truth"
         if mean.shape == true_rev_s.shape:
@@ -54,6 +56,8 @@ def notes(true_rev_s, raw, mean, smooth, readings=None) -> list[str]:
                      "of zeros (see the plot's first 0.1 s)")
         elif len(wrong) and mean.shape == want.shape and np.allclose(mean[:-1], want[1:]):
             line += "; it runs ahead of the firmware's: it uses values that have not arrived yet"
+        elif len(wrong) and one_step_late(mean, want):
+            line += "; it differs from the firmware's" + LATE
         elif len(wrong):
             line += "; it differs from the firmware's mean of the last 4"
         lines.append(line)

@@ -48,7 +48,7 @@ def a_list_like_an_array(fn, rng):
 prelab_answers("00", {"steps_per_second": 16.666667, "episode_seconds": 30.0}, how={
     "steps_per_second": "a step is 60 ms = 0.06 s, so steps per second = 1 / 0.06 ≈ 16.7 (1/60 takes the ms "
                         "for seconds)",
-    "episode_seconds": "500 steps of 0.06 s each: 500 × 0.06 = 30 s"})
+    "episode_seconds": "500 steps of 0.06 s each: 500 × 0.06 = 30 s (500 × 60 takes the ms for seconds)"})
 
 
 # --- The answer key (tests/grading/test_wrong_answers.py grades each through the tests above): a correct

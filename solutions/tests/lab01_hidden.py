@@ -7,6 +7,7 @@ from pendkit.grading import Failed, expect, outcomes, task
 from pendkit.grading.core import Diagnosis, shown
 from pendkit.grading.prelab import prelab_answers
 from pendkit.grading.suites.lab01 import (
+    alike,
     angle_message,
     angle_note,
     diagnose_position,
@@ -52,7 +53,7 @@ def every_position_round_trips(fn, rng):
     calls = [(encoder.encode_ssi_frame(position),) for position in range(1024)]
     for position, outcome in enumerate(outcomes(fn, calls)):
         if outcome.error is None and outcome.value != position:
-            raise Failed(diagnose_position(calls[position][0], position, outcome.value))
+            raise Failed(diagnose_position(calls[position][0], position, outcome.value, fn))
         expect(outcome.error is None, f"position {position} decoded as {outcome.error!r}")
 
 
@@ -66,10 +67,13 @@ def whole_range(fn, rng):
         got = outcome.value
         expected = float(encoder.counts_to_rad(raw, offset))
         said = angle_message(f"counts_to_angle({raw}, {offset})", expected, got, raw, offset)
-        if not 0 <= got < 2 * math.pi:
-            said = (f"counts_to_angle({raw}, {offset}) = {shown(got)} is outside [0, 2 pi) (it should be "
-                    f"{expected:.4f})" + angle_note(expected, got, raw, offset))
-        expect(0 <= got < 2 * math.pi and abs(got - expected) < 1e-9, said)
+        inside = 0 <= got < 2 * math.pi
+        if not inside:
+            want, value = alike(expected, got)
+            said = (f"counts_to_angle({raw}, {offset}) = {value} is outside [0, 2 pi) (it should be {want})"
+                    + angle_note(expected, got, raw, offset))
+        # the hint (stay in [0, 2 pi)) only for an answer outside it
+        expect(inside and abs(got - expected) < 1e-9, said, hint=None if not inside else False)
 
 
 @wrap.test(points=1, hidden=True, hint="Any step shorter than half a turn must come back exactly.")
@@ -97,9 +101,9 @@ def random_angles_and_the_seam(fn, rng):
         expected = (angle % (2 * math.pi)) - math.pi
         got = outcome.value
         note = upright_note(angle, got) if outcome.error is None else ""
+        want, said = alike(expected, got) if outcome.error is None else (f"{expected:.4f}", shown(outcome.error))
         expect(outcome.error is None and -math.pi <= float(got) < math.pi and abs(float(got) - expected) < 1e-9,
-               f"angle_from_upright({angle:.4f}) should be {expected:.4f} in [-pi, pi), got "
-               f"{shown(outcome.error or got)}" + note)
+               f"angle_from_upright({angle:.4f}) should be {want} in [-pi, pi), got {said}" + note)
 
 
 @wrap.test(points=1, hidden=True, hint="Both sides of the seam, each way round: a jump one count beyond half a "
@@ -209,8 +213,22 @@ def counts_adding_offset(raw, offset):
     return ((raw + offset) % 1024) * 2 * math.pi / 1024
 
 
+def counts_reversed(raw, offset):
+    """The offset minus the reading: the angle runs the other way round."""
+    return ((offset - raw) % 1024) * 2 * math.pi / 1024
+
+
+def decode_low_bits(frame):
+    decode_frame(frame)
+    return frame & 0x3FF
+
+
 def counts_over_1023(raw, offset):
     return ((raw - offset) % 1024) * 2 * math.pi / 1023
+
+
+def counts_mod_1023(raw, offset):
+    return ((raw - offset) % 1023) * 2 * math.pi / 1023
 
 
 def counts_without_wrap(raw, offset):
@@ -248,6 +266,11 @@ MISTAKES = [
     ("01.counts_to_angle", counts_adding_offset, "added the offset"),
     ("01.counts_to_angle", counts_over_1023, "not 1023", {"calibrated_counts_scale_to_radians", "whole_range"}),
     ("01.counts_to_angle", counts_without_wrap, "negative"),
+    ("01.counts_to_angle", counts_reversed, "the angle runs the wrong way: subtract the offset from the reading "
+     "(reading - offset)", {"calibrated_counts_scale_to_radians", "readings_below_the_offset_wrap", "whole_range"}),
+    ("01.counts_to_angle", counts_mod_1023, "% 1023 and / 1023", {"readings_below_the_offset_wrap", "whole_range"}),
+    ("01.decode_frame", decode_low_bits, "the frame's low 10 bits",
+     {"positions_of_clean_frames", "every_position_round_trips"}),
     ("01.angle_from_upright", lambda angle: angle - math.pi, "wrap into [-pi, pi)"),
     ("01.angle_from_upright", lambda angle: angle, "still the angle from the bottom"),
     ("01.angle_from_upright", lambda angle: (angle + math.pi) % (2 * math.pi) - math.pi, "hanging is pi from upright",

@@ -101,6 +101,16 @@ def mean_without_zero_padding(v, w):
     return np.array([v[max(0, k - w + 1): k + 1].mean() for k in range(len(v))])
 
 
+def mean_one_step_late(v, w):
+    """Pads `w` zeros, so each output is the mean of the `w` values before the current one."""
+    padded = np.concatenate([np.zeros(w), np.asarray(v, float)])
+    return np.convolve(padded, np.ones(w) / w, "valid")[:-1]
+
+
+def velocity_old_minus_new(p, t):
+    return -encoder.finite_difference_rev_s(p, t)
+
+
 def mean_centred(v, w):
     return np.convolve(v, np.ones(w) / w, mode="same")
 
@@ -136,6 +146,10 @@ MISTAKES = [
     ("02.firmware_mean", mean_without_zero_padding, "full of zeros",
      {"mean_of_the_last_window", "composes_to_the_firmware_estimate"}),
     ("02.firmware_mean", mean_centred, "looks ahead"),
+    ("02.firmware_mean", mean_one_step_late, "your outputs are one step late: include the current value in the window",
+     {"mean_of_the_last_window", "other_window_lengths", "composes_to_the_firmware_estimate"}),
+    ("02.velocity_rev_s", velocity_old_minus_new, "the sign is flipped: new minus old",
+     {"steady_rotation", "across_the_seam_both_ways", "uneven_intervals", "matches_the_firmware_on_a_twin_log"}),
     ("02.low_pass", lambda v, a: encoder.low_pass(v, 1 - a) if a < 1 else np.asarray(v, float), "1 - alpha"),
     ("02.low_pass", low_pass_swapped, "1 - alpha", {"step_response", "random_signals", "alpha_one_is_identity"}),
     ("02.low_pass", low_pass_from_zero, "started from y = 0", {"step_response", "random_signals"}),

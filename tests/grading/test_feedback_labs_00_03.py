@@ -39,7 +39,7 @@ def test_lab01_a_wrap_slip_is_named_and_never_called_close(all_tests_loaded, fn,
 def test_lab01_dividing_by_1023_costs_the_scale_and_the_range_and_says_so(all_tests_loaded):
     points, failures = failed("01.counts_to_angle", key("01").counts_over_1023)
     assert points == 2 and set(failures) == {"calibrated_counts_scale_to_radians", "whole_range"}, failures
-    assert "6.28319 is outside [0, 2 pi)" in failures["whole_range"]
+    assert "6.2832 is outside [0, 2 pi) (it should be 6.2770)" in failures["whole_range"]
     assert not any("count or two" in m for m in failures.values())
 
 
@@ -93,3 +93,76 @@ def test_lab03_a_negative_zeta_keeps_the_students_period_in_the_comparison():
                           damping_ratio_se=0.003, cycles=6)
     lines = yours_against_the_kit(1.19, -0.0743, fit)
     assert "period 1.1900 s" in lines[0] and "upside down" in lines[0], lines
+
+
+# --- the third walk-through: each new cause named, and never where it is not the cause
+
+MIRRORED = "the angle runs the wrong way: subtract the offset from the reading (reading - offset)"
+LATE = "your outputs are one step late: include the current value in the window"
+SIGN = "the sign is flipped: new minus old"
+LOW_BITS = "the frame's low 10 bits"
+
+
+def test_lab01_a_reversed_subtraction_is_named_and_no_range_problem_is_suggested(all_tests_loaded):
+    points, failures = failed("01.counts_to_angle", key("01").counts_reversed)
+    assert points == 0 and set(failures) == {"calibrated_counts_scale_to_radians", "readings_below_the_offset_wrap",
+                                             "whole_range"}, failures
+    assert all(MIRRORED in m for m in failures.values()), failures
+    assert not any("negative" in m or "[0, 2 pi)" in m or "This test checks" in m for m in failures.values())
+
+
+def test_lab01_expected_and_got_are_printed_alike(all_tests_loaded):
+    points, failures = failed("01.counts_to_angle", key("01").counts_mod_1023)
+    assert "should be 6.27705 rad, got 6.27704: that is % 1023 and / 1023" in failures["whole_range"], failures
+    assert "This test checks" not in failures["readings_below_the_offset_wrap"]  # no "not negative" for 6.27704
+    _, failures = failed("01.counts_to_angle", key("01").counts_reversed)
+    assert "should be 1.5708 rad, got 4.7124" in failures["calibrated_counts_scale_to_radians"], failures
+
+
+def test_lab01_the_low_10_bits_are_never_called_the_whole_frame(all_tests_loaded):
+    _, failures = failed("01.decode_frame", key("01").decode_low_bits)
+    assert failures and all(LOW_BITS in m and "whole frame" not in m for m in failures.values()), failures
+    _, failures = failed("01.decode_frame", key("01").decode_whole_frame)
+    assert failures and all("whole frame" in m and LOW_BITS not in m for m in failures.values()), failures
+
+
+def test_lab02_a_mean_one_step_late_is_named_under_the_plot_and_in_the_sweep(all_tests_loaded):
+    from pendkit.labs.velocity_view import notes, period_sweep, sweep_lines
+    from pendkit.sim.lab_readings import free_swing_readings
+
+    points, failures = failed("02.firmware_mean", key("02").mean_one_step_late)
+    assert points == 0 and all(LATE in m for m in failures.values()), failures
+    readings = free_swing_readings(period_ms=25.0)
+    raw = key("02").CORRECT["02.velocity_rev_s"](readings.raw_counts, readings.times_ms)
+    lines = notes(readings.true_velocity_rev_s[1:], raw, key("02").mean_one_step_late(raw, 4), None, readings)
+    assert LATE in lines[1], lines
+    swept = sweep_lines(period_sweep(key("02").CORRECT["02.velocity_rev_s"], key("02").mean_one_step_late, [25]))
+    assert any("yours part" in line and LATE in line for line in swept), swept
+
+
+def test_lab02_a_velocity_sign_flip_is_named(all_tests_loaded):
+    _, failures = failed("02.velocity_rev_s", key("02").velocity_old_minus_new)
+    assert failures and all(SIGN in m for m in failures.values()), failures
+
+
+def test_lab00_and_lab03_messages_say_what_their_numbers_are(all_tests_loaded):
+    _, failures = failed("00.prelab", lambda: {"steps_per_second": 1 / 60, "episode_seconds": 500 * 60})
+    assert all("takes the ms for seconds" in m for m in failures.values()) and len(failures) == 2, failures
+    _, failures = failed("03.damping_ratio", lambda p: -key("03").CORRECT["03.damping_ratio"](p))
+    assert "got -0.02, off by -200.00% of the right value" in failures["from_peak_amplitudes"], failures
+
+
+@pytest.mark.parametrize("words, whose", [
+    (MIRRORED, {"counts_reversed"}),
+    (LATE, {"mean_one_step_late"}),
+    (SIGN, {"velocity_old_minus_new"}),
+    (LOW_BITS, {"decode_low_bits"}),
+])
+def test_a_new_diagnosis_fires_only_on_its_own_mistake(all_tests_loaded, words, whose):
+    """Every right answer and every other known mistake of labs 00-03 is graded without these words."""
+    answers = [(task_id, fn) for lab in ("00", "01", "02", "03") for task_id, fn in key(lab).CORRECT.items()]
+    answers += [(m[0], m[1]) for lab in ("00", "01", "02", "03") for m in key(lab).MISTAKES
+                if getattr(m[1], "__name__", "") not in whose]
+    said = {(task_id, getattr(fn, "__name__", "?")): m for task_id, fn in answers
+            for m in failed(task_id, fn)[1].values() if words in m}
+    assert not said, said

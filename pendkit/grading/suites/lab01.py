@@ -20,16 +20,42 @@ def _reversed_10_bits(value: int) -> int:
     return int(f"{value:010b}"[::-1], 2)
 
 
-def diagnose_position(frame: int, position: int, got) -> str:
+LOW_BITS = (": that is the frame's low 10 bits (status and parity among them); the position is its top 10 bits "
+            "(15..6), i.e. frame >> 6")
+WHOLE_FRAME = ": that is the whole frame; keep only the 10 position bits (15..6)"
+
+
+def diagnose_position(frame: int, position: int, got, fn=None) -> str:
+    """Why `got` is not the position of `frame`, named from its value. `fn` (the student's function) tells a
+    whole frame from its low 10 bits where the two are the same number (a frame below 1024)."""
     message = f"decode_frame(0x{frame:04X}) should return {position}, got {shown(got)}"
     if got == _reversed_10_bits(position):
         return Diagnosis(message + ": that is the position with its bits reversed; the first bit clocked out "
                                    "(bit 15) is the most significant")
+    if got == frame and got == frame & 0x3FF and fn is not None:
+        return Diagnosis(message + _whole_or_low_bits(fn))
     if got == frame:
-        return Diagnosis(message + ": that is the whole frame; keep only the 10 position bits (15..6)")
-    if got in (frame >> 5, frame >> 7, (frame >> 6) + 1, frame & 0x3FF):
+        return Diagnosis(message + WHOLE_FRAME)
+    if got == frame & 0x3FF:
+        return Diagnosis(message + LOW_BITS)
+    if got in (frame >> 5, frame >> 7, (frame >> 6) + 1):
         return Diagnosis(message + ": the position is bits 15..6, i.e. frame >> 6")
     return message
+
+
+def _whole_or_low_bits(fn) -> str:
+    """For a frame below 1024 (its whole frame and its low 10 bits alike): which of the two `fn` returns for a
+    frame above 1023."""
+    probe = encode_ssi_frame(700)
+    try:
+        got = fn(probe)
+    except Exception:  # noqa: BLE001 - then the value alone is all there is to go on
+        got = None
+    if got == probe & 0x3FF:
+        return LOW_BITS
+    if got == probe:
+        return WHOLE_FRAME
+    return ": that is the frame's bits 9..0 (status and parity among them); keep only the 10 position bits (15..6)"
 
 
 def _rejects(fn, frame: int) -> bool:
@@ -84,7 +110,7 @@ def positions_of_clean_frames(fn, rng):
     for position in (0, 1, 2, 511, 512, 700, 1023, *rng.integers(0, 1024, 5).tolist()):
         frame = encode_ssi_frame(int(position))
         got = fn(frame)
-        expect(got == position, diagnose_position(frame, position, got))
+        expect(got == position, diagnose_position(frame, position, got, fn))
 
 
 @decode.test(points=2, hint="Count the ones in all 16 bits: an odd count means a corrupted frame.")
@@ -172,21 +198,54 @@ def upright_note(angle: float, got) -> str:
     return ""
 
 
-def angle_message(call: str, expected: float, got, raw: int | None = None, offset: int | None = None) -> str:
-    return f"{call} should be {expected:.4f} rad, got {shown(got)}" + angle_note(expected, got, raw, offset)
+def alike(expected: float, got, places: int = 4) -> tuple[str, str]:
+    """`expected` and `got` at the same number of decimals: `places`, or more while the two print alike (a wrong
+    answer never reads as the right one); `got` as `shown` gives it when it is not a finite number."""
+    if not is_real(got) or not math.isfinite(got):
+        return f"{expected:.{places}f}", shown(got)
+    for decimals in range(places, 12):
+        want, said = f"{expected:.{decimals}f}", f"{float(got):.{decimals}f}"
+        if want != said:
+            break
+    return want, said
+
+
+def angle_message(call: str, expected: float, got, raw: int | None = None, offset: int | None = None,
+                  plain: bool = False) -> str:
+    """`call` should be `expected`, got `got`, both to the same decimals, with the cause where `angle_note`
+    names one (`plain`: without it)."""
+    want, said = alike(expected, got)
+    message = f"{call} should be {want} rad, got {said}"
+    return message if plain else message + angle_note(expected, got, raw, offset)
+
+
+MIRRORED = ": the angle runs the wrong way: subtract the offset from the reading (reading - offset)"
+
+
+def is_mirrored(expected: float, got) -> bool:
+    """`got` is a turn minus `expected`: the offset minus the reading, where the reading minus the offset is
+    the angle (0 and half a turn are their own mirror images, so they are never called mirrored)."""
+    mirror = (2 * math.pi - expected) % (2 * math.pi)
+    return is_real(got) and abs(got - expected) > 1e-9 and abs(got - mirror) < 1e-9
 
 
 def angle_note(expected: float, got, raw: int | None = None, offset: int | None = None) -> str:
     """The cause of a wrong angle from the bottom, named from its value (a `Diagnosis`), or "". With the
-    reading and the offset, an offset added rather than subtracted is named too."""
+    reading and the offset, an offset added rather than subtracted, and a turn taken as 1023 counts in the wrap as
+    well as the scale, are named too."""
     if is_real(got) and math.isfinite(got):
         if raw is not None and offset and abs(got - (raw + offset) % 1024 * 2 * math.pi / 1024) < 1e-9:
             return Diagnosis(": you added the offset; subtract it")
+        if is_mirrored(expected, got):
+            return Diagnosis(MIRRORED)
         if abs(got - math.degrees(expected)) < 1e-3:
             return Diagnosis(": that is degrees; the lab uses radians")
         if got != expected and abs(got - expected * 1024 / 1023) < 1e-9:
             return Diagnosis(": every angle comes out 1024/1023 too large: divide by 1024 (positions per turn: "
                              "0..1023 is 1024 of them), not 1023")
+        if raw is not None and abs(got - (raw - (offset or 0)) % 1023 * 2 * math.pi / 1023) < 1e-9:
+            return Diagnosis(": that is % 1023 and / 1023; a turn has 1024 positions (0..1023): wrap with % 1024 "
+                             "and divide by 1024, not 1023")
         if got < 0:
             return Diagnosis(": negative; wrap the difference into 0..1023 first (the % operator)")
     return ""
@@ -212,10 +271,15 @@ def readings_below_the_offset_wrap(fn, rng):
         expected = counts * 2 * math.pi / 1024
         got = fn(raw, offset)
         ok = is_real(got) and abs(got - counts * scale) < 1e-9 * max(1.0, counts * scale)
+        call = f"counts_to_angle({raw}, offset={offset})"
         if not ok and is_real(got) and abs(got - (raw + offset) % 1024 * scale) < 1e-9:
-            raise Failed(f"counts_to_angle({raw}, offset={offset}) should be {expected:.4f}, got {shown(got)}: "
-                         "you added the offset; subtract it", hint=False)
-        expect(ok, angle_message(f"counts_to_angle({raw}, offset={offset})", expected, got))
+            raise Failed(angle_message(call, expected, got, plain=True) + ": you added the offset; subtract it",
+                         hint=False)
+        if not ok and is_real(got) and abs(got - (offset - raw) % 1024 * scale) < 1e-9:
+            raise Failed(angle_message(call, expected, got, plain=True) + MIRRORED, hint=False)
+        # the hint (not negative) only for an answer that is negative, or no number
+        expect(ok, angle_message(call, expected, got, raw, offset),
+               hint=None if not is_real(got) or got < 0 else False)
     if abs(scale - 2 * math.pi / 1024) > 1e-12:
         return (f"the wrap below the offset is right; your angle of one count, {shown(scale)}, is "
                 "calibrated_counts_scale_to_radians' to score")
@@ -230,7 +294,8 @@ def upright_is_zero_and_sides_have_signs(fn, rng):
                             (2 * math.pi, -math.pi)]:  # hanging after a turn last: -pi, and +pi is outside
         got = fn(angle)
         ok = is_real(got) and abs(got - expected) < 1e-9
-        message = f"angle_from_upright({angle:.3f}) should be {expected:.4f} rad, got {shown(got)}"
+        want, said = alike(expected, got)
+        message = f"angle_from_upright({angle:.3f}) should be {want} rad, got {said}"
         expect(ok, message + upright_note(angle, got))
 
 

@@ -29,6 +29,8 @@ def _as_array(got, name: str, length: int) -> np.ndarray:
 
 def velocity_note(got: np.ndarray, expected: np.ndarray, positions, times) -> str:
     """What a velocity that differs from `expected` got wrong, when it is a known mistake."""
+    if np.abs(expected).max(initial=0) > 1e-9 and np.allclose(got, -expected, atol=1e-9):
+        return Diagnosis(": the sign is flipped: new minus old (a count that grows is a positive speed)")
     if np.allclose(got, expected * 2 * math.pi, atol=1e-6):
         return Diagnosis(": these are rad/s; the firmware reports revolutions per second (divide by 2 pi)")
     if np.allclose(got, expected / 1000, atol=1e-9) or np.allclose(got, expected * 1000, atol=1e-6):
@@ -115,9 +117,23 @@ def mean_of_the_last_window(fn, rng):
            + mean_note(short, 5, got, expected))
 
 
+LATE = ": your outputs are one step late: include the current value in the window"
+
+
+def one_step_late(got: np.ndarray, expected: np.ndarray) -> bool:
+    """Each output is the one before it should have been: the window ends a value early (the current one left
+    out)."""
+    return (got.shape == expected.shape and len(got) > 1 and not np.allclose(got, expected)
+            and np.allclose(got[1:], expected[:-1]))
+
+
 def mean_note(values, window: int, got: np.ndarray, expected: np.ndarray) -> str:
-    """Words for the two common mistakes of a mean of the last `window` values, or nothing."""
-    if got.shape != expected.shape or window < 2:
+    """Words for the common mistakes of a mean of the last `window` values, or nothing."""
+    if got.shape != expected.shape:
+        return ""
+    if one_step_late(got, expected):
+        return Diagnosis(LATE)
+    if window < 2:
         return ""
     if np.allclose(got[window - 1:], expected[window - 1:]) and not np.allclose(got[:window - 1],
                                                                                expected[:window - 1]):

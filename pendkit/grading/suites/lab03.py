@@ -250,7 +250,7 @@ def from_peak_amplitudes(fn, rng):
         peaks = 0.5 * np.exp(-delta * np.arange(6))
         got = as_number(fn(peaks), "damping_ratio(peaks)")
         message = (f"peaks decaying by a factor {math.exp(delta):.4f} per cycle mean a damping ratio of {zeta}; "
-                   f"got {got:.6g} ({got / zeta - 1:+.2%})")
+                   f"got {got:.6g}, off by {got / zeta - 1:+.2%} of the right value")
         expect(abs(got - zeta) < 1e-6, message + damping_note(got, zeta))
 
 
