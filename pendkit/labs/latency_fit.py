@@ -1,8 +1,11 @@
-"""Lab 06: the student's latency fit against the samples it came from, in words."""
+"""Lab 06: the student's latency fit against the samples it came from, and their jitter beside numpy's, in
+words."""
 
 from __future__ import annotations
 
 import numpy as np
+
+from pendkit.grading.suites.lab06 import jitter_note, spreads_without_the_log
 
 
 def fit_lines(fitted, samples_ms) -> list[str]:
@@ -32,6 +35,27 @@ def fit_problems(fitted, samples_ms) -> list[str]:
     if abs(spread - float(np.std(np.log(positive)))) < 1e-6 and abs(spread - right_spread) > 1e-6:
         lines.append(f"  your spread ({spread:.2f}) is that of log(sample), not of log(sample - floor): the samples' "
                      f"is {right_spread:.2f}, so your model's tail is too short")
+    elif any(abs(spread - other) < 1e-6 * max(1.0, abs(other)) for other in spreads_without_the_log(samples)):
+        lines.append(f"  your spread ({spread:.2f}) is taken without the log: the lognormal's is the standard "
+                     f"deviation of log(sample - floor), here {right_spread:.2f}: take the log first")
     elif abs(spread - right_spread) > 0.05 * right_spread:
         lines.append(f"  your spread is {spread:.2f}; the samples' (of log(sample - floor)) is {right_spread:.2f}")
+    return lines
+
+
+def jitter_lines(got, step_times_s, nominal_s: float) -> list[str]:
+    """The student's p99 step-period error beside numpy's default percentile on the same steps: a jitter varies
+    from run to run, so only the two side by side show a slip; when they part, its cause if a known one."""
+    errors_ms = np.abs(np.diff(np.asarray(step_times_s, dtype=float)) - nominal_s) * 1000
+    reference = float(np.percentile(errors_ms, 99))
+    try:
+        value = float(got)
+    except (TypeError, ValueError):
+        return [f"p99 step-period error here: yours is {got!r}, not a number of ms; np.percentile's default on "
+                f"these steps gives {reference:.2f} ms"]
+    lines = [f"p99 step-period error here: yours {value:.2f} ms; np.percentile(errors_ms, 99) on these same steps "
+             f"{reference:.2f} ms"]
+    if abs(value - reference) > 1e-6 * max(1.0, reference):
+        note = jitter_note(np.diff(np.asarray(step_times_s, dtype=float)), nominal_s, value)
+        lines.append("  they differ" + (note or ": the check above says how"))
     return lines

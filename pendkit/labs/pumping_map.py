@@ -26,7 +26,8 @@ def direction_grid(direction, w0: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def disagreement_lines(yours: np.ndarray, right: np.ndarray) -> list[str]:
-    """Where the student's rule parts from -sign(alpha' cos(alpha)), below and above the horizontal."""
+    """Where the student's rule parts from -sign(alpha' cos(alpha)), below and above the horizontal; when it parts
+    only where alpha' cos(alpha) = 0 (at rest, exactly horizontal), that convention instead."""
     above = np.abs(ANGLES_RAD) > math.pi / 2 + 1e-9
     below = np.abs(ANGLES_RAD) < math.pi / 2 - 1e-9
     moving = np.abs(RATES_PER_W0) > 1e-9  # at rest and exactly horizontal the lab's +1 is a convention
@@ -34,14 +35,24 @@ def disagreement_lines(yours: np.ndarray, right: np.ndarray) -> list[str]:
     below_share, above_share = wrong[moving][:, below].mean(), wrong[moving][:, above].mean()
     if not wrong.any():
         return ["your pumping_direction matches -sign(alpha' cos(alpha)) everywhere, above the horizontal too"]
-    lines = [f"your pumping_direction differs from -sign(alpha' cos(alpha)) on {100 * below_share:.0f} % of the "
-             f"map below the horizontal and {100 * above_share:.0f} % above it"]
+    if below_share == 0 and above_share == 0:
+        gives = sorted({float(v) for v in yours[wrong]})
+        said = " or ".join(f"{v:+g}" if v else "0" for v in gives)
+        return [f"your pumping_direction follows -sign(alpha' cos(alpha)) wherever the pendulum moves, but gives "
+                f"{said} only where alpha' cos(alpha) = 0 (at rest, or exactly horizontal): the lab asks for +1 "
+                "there, treating |alpha' cos(alpha)| below 1e-9 as 0 (math.cos(pi / 2) is 6e-17)"]
+    lines = [f"your pumping_direction differs from -sign(alpha' cos(alpha)) on {_percent(below_share)} of the "
+             f"map below the horizontal and {_percent(above_share)} above it"]
     if above_share > 0.9 and below_share < 0.1:
         lines.append("  right below the horizontal, flipped above it: there cos(alpha) < 0 and the direction "
                      "reverses (is cos(alpha) missing?)")
     elif below_share > 0.9 and above_share > 0.9:
         lines.append("  flipped everywhere: that brakes the swing; accelerate against alpha' cos(alpha)")
     return lines
+
+
+def _percent(share: float) -> str:
+    return "under 1 %" if 0 < share < 0.005 else f"{100 * share:.0f} %"
 
 
 def plot_direction_map(axes, yours: np.ndarray, right: np.ndarray) -> None:

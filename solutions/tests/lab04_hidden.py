@@ -108,6 +108,11 @@ def upright_matrices_b_without_inverse(model):
     return a, b
 
 
+def upright_matrices_copied(model, **slip):
+    """The kit's own model's matrices whatever the model (numbers copied from a first run), with a slip or not."""
+    return upright_matrices_with(FurutaModel.from_rig(), **slip)
+
+
 CORRECT = {
     "04.upright_matrices": lambda model: tuple(np.asarray(m) for m in (model.linearise("upright").A,
                                                                         model.linearise("upright").B)),
@@ -132,4 +137,7 @@ MISTAKES = [
      {"matches_dlqr", "stabilises_other_weights"}),
     ("04.closed_loop_poles", lambda a, b, k: np.abs(np.linalg.eigvals(np.asarray(a) - np.asarray(b) @ k)),
      "magnitudes"),
+    ("04.upright_matrices", upright_matrices_copied, "read every number from the model", {"follows_the_parameters"}),
+    ("04.upright_matrices", lambda model: upright_matrices_copied(model, coupling_sign=1.0), "do not change with the "
+     "model", {"follows_the_parameters"}),
 ]

@@ -3,9 +3,17 @@
 import math
 
 from pendkit.grading import expect, outcomes, task
-from pendkit.grading.core import Diagnosis, as_number, is_real, shown
+from pendkit.grading.core import as_number, is_real, shown
 from pendkit.grading.prelab import prelab_answers
-from pendkit.grading.suites.lab05 import bounds_pair, catch_note, cost_note, energy_note, pumping_note, rate_note
+from pendkit.grading.suites.lab05 import (
+    bounds_pair,
+    catch_note,
+    cost_note,
+    energy_note,
+    no_push_note,
+    pumping_note,
+    rate_note,
+)
 
 energy = task("05.pendulum_energy", function="pendulum_energy", title="Normalised pendulum energy")
 direction = task("05.pumping_direction", function="pumping_direction", title="Which way to accelerate the arm")
@@ -28,13 +36,15 @@ def all_quadrants(fn, rng):
     calls += [(math.pi / 2, 3.0), (-math.pi / 2, 3.0), (math.pi / 2, -3.0)]  # exactly horizontal: +1 too
     results = outcomes(fn, calls)
     note = pumping_note(calls, [outcome.value for outcome in results])
+    # the +1 convention is named only for a rule right wherever the pendulum moves (else that slip explains it)
+    moving_right = all(outcome.value == (-1 if omega * math.cos(alpha) > 1e-9 else 1)
+                       for (alpha, omega), outcome in zip(calls, results) if abs(omega * math.cos(alpha)) > 1e-9)
     for (alpha, omega), outcome in zip(calls, results):
         expected = -1 if omega * math.cos(alpha) > 1e-9 else 1
         got = outcome.error or outcome.value
         message = f"pumping_direction({alpha:.4f}, {omega}) should be {expected:+d}, got {shown(got)}"
-        if not note and abs(math.cos(alpha)) < 1e-9 and outcome.value == -1:
-            message += Diagnosis(f": exactly horizontal no push adds energy, but math.cos({alpha:.4f}) is "
-                                 f"{math.cos(alpha):.0e}, not 0; treat |alpha' cos(alpha)| below 1e-9 as 0")
+        if moving_right and abs(omega * math.cos(alpha)) < 1e-9 and outcome.error is None and outcome.value != 1:
+            message += no_push_note(alpha, omega, outcome.value)
         expect(outcome.error is None and outcome.value == expected, message + note)
 
 
@@ -82,7 +92,7 @@ def random_thresholds(fn, rng):
         if wrong:
             i = wrong[0]
             expect(False, f"{call}: the {ENTRIES[i]} bounds should be ({want[0][i]:.4f}, {want[1][i]:.4f}), got "
-                          f"({shown(lower[i])}, {shown(upper[i])})" + catch_note(lower, upper, upright, angle))
+                          f"({shown(lower[i])}, {shown(upper[i])})" + catch_note(lower, upper, upright, angle, want))
 
 
 @final_cost.test(points=1, hidden=True, hint="Random states, both uprights; the fifth entry does not count.")
@@ -140,6 +150,18 @@ def next_mode(mode, theta, w, catch=0.8, fall=1.1, check_velocity=True, strict=T
     return mode
 
 
+def catch_set_in_argument_order(upright, angle, velocity, arm, arm_velocity):
+    """The right bounds listed as catch_set's arguments come: pendulum first, then the arm."""
+    lower, upper = catch_set(upright, angle, velocity, arm, arm_velocity)
+    return [lower[i] for i in (1, 0, 3, 2)], [upper[i] for i in (1, 0, 3, 2)]
+
+
+def pumping_direction_by_sign(alpha, w):
+    """-sign(alpha' cos(alpha)) as np.sign gives it: 0 at rest, and exactly horizontal only where cos is 0."""
+    product = w * math.cos(alpha)
+    return -1 if product > 1e-9 else (1 if product < -1e-9 else 0)
+
+
 def pumping_braking_by_the_convention(alpha, w):
     """Flipped everywhere, yet +1 where |alpha' cos(alpha)| < 1e-9 as the lab asks (exactly horizontal too)."""
     product = w * math.cos(alpha)
@@ -178,4 +200,9 @@ MISTAKES = [
     ("05.next_mode", lambda mode, theta, w: next_mode(mode, theta, w, strict=False), "strict", {"on_a_threshold"}),
     ("05.next_mode", lambda mode, theta, w: next_mode(mode, theta, w, wrap=True), "arrives wrapped",
      {"on_a_threshold"}),
+    ("05.catch_set", catch_set_in_argument_order, "in another order", {"box_around_upright", "random_thresholds"}),
+    ("05.pumping_direction", pumping_direction_by_sign, "first push", {"plus_one_where_no_push_adds_energy",
+                                                                       "all_quadrants"}),
+    ("05.pumping_direction", lambda alpha, w: -1 if w * math.cos(alpha) > 0 else 1, "not 0",
+     {"plus_one_where_no_push_adds_energy", "all_quadrants"}),
 ]

@@ -51,12 +51,17 @@ prelab_answers("06", {"round_trip_ms": 40.0, "growth_during_delay": 1.419068}, h
 # answer per task, which gets full marks, and plausible mistakes, each with words its feedback must contain.
 
 
-def fit_latency(samples, subtract_floor=True, spread_above_floor=True):
+def fit_latency(samples, subtract_floor=True, spread_above_floor=True, log=True, guard=True):
     samples = np.asarray(samples, float)
     floor = samples.min()
     above = samples - floor if subtract_floor else samples
     logged = samples - floor if spread_above_floor else samples
-    return floor, float(np.median(above)), float(np.std(np.log(logged[logged > 0])))
+    if not log:  # a relative spread, std / median, with no log taken
+        return floor, float(np.median(above)), float(np.std(samples - floor) / np.median(samples - floor))
+    if guard and not (logged > 0).any():
+        return floor, float(np.median(above)), 0.0
+    with np.errstate(all="ignore"):
+        return floor, float(np.median(above)), float(np.std(np.log(logged[logged > 0])))
 
 
 def nearest_rank_p99(values):
@@ -87,4 +92,7 @@ MISTAKES = [
     ("06.predict_angle", lambda theta, rate, d, w0: theta + rate * d, "left out gravity"),
     ("06.predict_angle", lambda theta, rate, d, w0: theta + rate * d - 0.5 * w0**2 * theta * d**2, "not minus"),
     ("06.predict_angle", lambda theta, rate, d, w0: theta - rate * d + 0.5 * w0**2 * theta * d**2, "velocity term"),
+    ("06.fit_latency", lambda samples: fit_latency(samples, log=False), "take the log first",
+     {"recovers_a_shifted_lognormal"}),
+    ("06.fit_latency", lambda samples: fit_latency(samples, guard=False), "return 0.0 then", {"all_samples_equal"}),
 ]

@@ -62,3 +62,46 @@ def test_a_nearest_rank_percentile_is_named_in_both_tests(all_tests_loaded):
     _, failures = failed("06.period_error_p99_ms", lambda t, n: key.nearest_rank_p99(np.abs(np.diff(t) - n) * 1000))
     assert {f.name for f in failures} == {"percentile_of_absolute_error", "other_periods"}
     assert all("another definition" in f.message and "np.percentile(errors_ms, 99)" in f.message for f in failures)
+
+
+@pytest.mark.parametrize("slip", [{"coupling_sign": 1.0}, {"gravity_sign": -1.0}, {"coupling": False}])
+def test_a_sign_slip_in_the_matrices_is_not_charged_to_the_parameters_test(all_tests_loaded, slip):
+    key = HIDDEN_MODULES["lab04_hidden"]
+    points, failures = failed("04.upright_matrices", lambda model: key.upright_matrices_with(model, **slip))
+    assert points == 1 and {f.name for f in failures} == {"match_the_linearisation", "random_rigs"}, \
+        [(f.name, f.message) for f in failures]
+
+
+@pytest.mark.parametrize("rule, words", [
+    (lambda alpha, w: -int(np.sign(w * math.cos(alpha))), "np.sign"),
+    (lambda alpha, w: -1 if w * math.cos(alpha) > 0 else 1, "treat |alpha' cos(alpha)| below 1e-9 as 0"),
+])
+def test_the_public_check_names_the_plus_one_convention(rule, words):
+    from pendkit.grading import load_lab
+
+    load_lab("05")
+    results = run_task("05.pumping_direction", rule)
+    failures = [r for r in results if not r.passed]
+    assert [f.name for f in failures] == ["plus_one_where_no_push_adds_energy"], [f.message for f in failures]
+    assert words in failures[0].message and "first push" in failures[0].message, failures[0].message
+
+
+def test_a_rule_without_the_cosine_is_not_told_about_the_tolerance(all_tests_loaded):
+    _, failures = failed("05.pumping_direction", lambda alpha, w: -1 if w > 0 else 1)
+    assert "1e-9" not in " ".join(f.message for f in failures), [f.message for f in failures]
+
+
+def test_catch_set_bounds_in_the_arguments_order_are_named(all_tests_loaded):
+    _, failures = failed("05.catch_set", HIDDEN_MODULES["lab05_hidden"].catch_set_in_argument_order)
+    assert {f.name for f in failures} == {"box_around_upright", "random_thresholds"}
+    assert all("in another order" in f.message and "[arm angle, pendulum angle, arm rate, pendulum rate]" in f.message
+               for f in failures)
+
+
+def test_fit_latency_all_equal_samples_is_graded_publicly():
+    from pendkit.grading import load_lab
+
+    load_lab("06")
+    results = run_task("06.fit_latency", lambda samples: (min(samples), 0.0, float("nan")))
+    failed_names = [r.name for r in results if not r.passed]
+    assert "all_samples_equal" in failed_names and "return 0.0 then" in " ".join(r.message for r in results)

@@ -63,7 +63,7 @@ def test_lab04_a_k_on_the_twin_as_the_note_says(wrong, printed, falls):
     gain, largest, _ = design(**wrong)
     assert round(largest, 2) == printed
     env = pendkit.make(action_mode="continuous", fidelity="ideal", filter_coefficient=0.0)
-    worst = worst_deg(env, StateFeedback(gain, env.unwrapped.params), tail=33)
+    worst = worst_deg(env, StateFeedback(gain, env.unwrapped.params), tail=40)  # the plot's last 2.4 s
     assert (worst > 90) if falls else (worst < 0.1), worst
 
 

@@ -20,3 +20,12 @@ def test_a_rule_without_the_cosine_is_named_above_the_horizontal():
 def test_a_braking_rule_is_named():
     braking = direction_grid(lambda angle, rate: 1 if rate * math.cos(angle) > 1e-9 else -1, W0)
     assert "brakes the swing" in " ".join(disagreement_lines(*braking))
+
+
+def test_a_rule_that_slips_only_where_nothing_moves_names_the_convention_not_a_share():
+    for rule, gives in ((lambda angle, rate: -1 if rate * math.cos(angle) > 0 else 1, "gives -1 only"),
+                        (lambda angle, rate: -1 if rate * math.cos(angle) > 1e-9 else
+                         (1 if rate * math.cos(angle) < -1e-9 else 0), "gives 0 only")):
+        lines = disagreement_lines(*direction_grid(rule, W0))
+        assert len(lines) == 1 and gives in lines[0] and "the lab asks for +1 there" in lines[0], lines
+        assert "%" not in lines[0], lines

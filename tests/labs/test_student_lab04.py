@@ -14,7 +14,7 @@ def lqr_gain(A, B, q_diagonal, r):
 
 
 def worst_error_deg(text: str) -> float:
-    return float(re.search(r"worst error in the last 2 s ([\d.]+) deg", text).group(1))
+    return float(re.search(r"worst error in the last 2.4 s ([\d.]+) deg", text).group(1))
 
 
 def test_lab04_the_students_k_balances_the_twin_and_a_wrong_k_drops_it():
@@ -77,3 +77,23 @@ def test_lab04_the_delay_cell_prints_the_parts_a_student_adds_up_and_one_window(
     assert "43.5 ms in all" in printed and "worst error in the last 2.4 s of 7.2 s:" in printed  # ci: 120 steps
     errors = [float(x) for x in re.findall(r"step: +([\d.]+) deg", printed)]
     assert len(errors) == 3 and errors[0] > 170 and errors[1] < 2 and errors[2] >= errors[1], errors
+
+
+NO_COUPLING = HANGING_A.replace("-model.coupling_kg_m2", "0.0").replace("-model.gravity", "model.gravity")
+
+
+def test_lab04_matrices_without_the_coupling_name_dlqr_as_the_cause_in_the_plot_and_the_trial_cell():
+    """Both functions written, no gain from dlqr: the title and the trial cell say so, never "write lqr_gain"."""
+    assert "coupling_kg_m2" not in NO_COUPLING and "-model.gravity" not in NO_COUPLING
+    printed = printed_by_lab("04_lqr.ipynb", "TRY_Q_DIAG, TRY_R_WEIGHT =", {"upright_matrices": NO_COUPLING},
+                             then="print(axis.get_title())")
+    assert "no trial: no K: control.dlqr found no gain for your A and B" in printed, printed
+    assert printed.strip().endswith("(is the coupling through M in them?)") and "write" not in printed, printed
+
+
+def test_lab04_the_trial_cell_refuses_a_zero_r_and_says_why():
+    weights = "TRY_Q_DIAG, TRY_R_WEIGHT = [2.0, 40.0, 0.05, 0.5], "
+    trial = solution_cell(weights).replace(weights + "3.0", weights + "0.0")
+    printed = printed_by_lab("04_lqr.ipynb", weights, then=trial)
+    assert "R must be above 0 and Q's entries 0 or above (R = 0.0" in printed, printed
+    assert printed.count("your trial") == 1, printed  # the lab's own weights' run only

@@ -72,3 +72,23 @@ def test_lab05_a_problem_without_a_solution_prints_the_limits_it_had():
     wrong = printed_by_lab("05_swingup.ipynb", "your_planner(step_model, made)", {"path_limits": OVERSPIN_IN_REV_S})
     assert "found no solution" in wrong and "the pendulum's rate within +-2.00 rad/s" in wrong, wrong
     assert "passes the bottom near 2 w0 = 10.6 rad/s" in wrong and "pendulum [-3.39, -2.89]" in wrong, wrong
+
+
+DIRECTION_BY_SIGN = '''
+def pumping_direction(angle_from_bottom_rad, velocity_rad_s):
+    return -int(np.sign(velocity_rad_s * math.cos(angle_from_bottom_rad)))  # 0 at rest
+'''
+
+
+def test_lab05_a_direction_of_0_is_named_by_the_swing_up_and_the_sweep_with_no_name_error():
+    printed = printed_by_lab("05_swingup.ipynb", "sweep_steps = budget(", {"pumping_direction": DIRECTION_BY_SIGN})
+    assert printed.startswith("no sweep: it runs your swing-up too, and the swing-up stopped on your functions' "
+                              "answer: the pumping direction must be +1 or -1, got 0"), printed
+    assert "return +1" in printed and "write" not in printed, printed
+
+
+def test_lab05_a_direction_of_0_leaves_the_plan_cell_running_beside_the_kits_pumping_law():
+    printed = printed_by_lab("05_swingup.ipynb", "your_planner(step_model, made)",
+                             {"pumping_direction": DIRECTION_BY_SIGN})
+    assert "tracked plan: upright at" in printed, printed
+    assert "the kit's pumping law (yours did not run: the swing-up cell says why): upright at" in printed, printed

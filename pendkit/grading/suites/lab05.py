@@ -44,11 +44,13 @@ def energy_note(alpha: float, omega: float, w0: float, got: float) -> str:
     return ""
 
 
-@direction.test(points=3, hint="de/dt is proportional to -cos(alpha) alpha' phi'': accelerate against "
+MOVING_CASES = [(0.2, 3.0, -1), (0.2, -3.0, 1), (2.8, 3.0, 1), (2.8, -3.0, -1), (-0.5, 1.0, -1), (-2.5, 1.0, 1)]
+
+
+@direction.test(points=2, hint="de/dt is proportional to -cos(alpha) alpha' phi'': accelerate against "
                                "sign(alpha' cos(alpha)).")
 def against_velocity_times_cosine(fn, rng):
-    cases = [(0.2, 3.0, -1), (0.2, -3.0, 1), (2.8, 3.0, 1), (2.8, -3.0, -1), (-0.5, 1.0, -1), (-2.5, 1.0, 1)]
-    for alpha, omega, expected in cases:
+    for alpha, omega, expected in MOVING_CASES:
         got = fn(alpha, omega)
         message = f"pumping_direction({alpha}, {omega}) should be {expected:+d}, got {shown(got)}"
         if got == -expected:
@@ -57,6 +59,35 @@ def against_velocity_times_cosine(fn, rng):
             else:
                 message += Diagnosis(": that takes energy out; accelerate *against* alpha' cos(alpha)")
         expect(got == expected, message)
+
+
+# where alpha' cos(alpha) is 0 the lab asks for +1: hanging still, and its own example exactly horizontal
+NO_PUSH_CASES = (("pumping_direction(0.0, 0.0)", 0.0, 0.0), ("pumping_direction(math.pi / 2, 3.0)", math.pi / 2, 3.0))
+
+
+@direction.test(points=1, hint="Where alpha' cos(alpha) = 0 (at rest, or exactly horizontal) return +1; treat "
+                               "|alpha' cos(alpha)| below 1e-9 as 0.")
+def plus_one_where_no_push_adds_energy(fn, rng):
+    answers = outcomes(fn, [(alpha, omega) for alpha, omega, _ in MOVING_CASES])
+    if any(outcome.error or outcome.value != expected for outcome, (_, _, expected) in zip(answers, MOVING_CASES)):
+        raise NotGradable("pumping_direction does not yet answer as the rule does where the pendulum moves (see "
+                          "against_velocity_times_cosine): this test then checks where alpha' cos(alpha) = 0")
+    for call, alpha, omega in NO_PUSH_CASES:
+        got = fn(alpha, omega)
+        expect(got == 1, f"{call} should be +1, got {shown(got)}" + no_push_note(alpha, omega, got))
+
+
+def no_push_note(alpha: float, omega: float, got) -> str:
+    """Why a rule gave `got`, not the lab's +1, where alpha' cos(alpha) is 0 (at rest or exactly horizontal)."""
+    where = "at rest" if omega == 0 else "exactly horizontal"
+    note = (f": {where} alpha' cos(alpha) = 0 and no push adds energy; the lab asks for +1 there, so that a "
+            "pendulum hanging still gets a first push")
+    if got == 0:
+        note += " (np.sign, or a product's sign, gives 0 there: return +1 instead)"
+    elif omega and got == -1:  # said only of a rule right wherever the pendulum moves: it takes the product
+        note += (f"; math.cos({alpha:.4f}) is {math.cos(alpha):.0e}, not 0, so treat |alpha' cos(alpha)| below "
+                 "1e-9 as 0")
+    return Diagnosis(note)
 
 
 def pumping_note(calls: list[tuple[float, float]], answers: list) -> str:
@@ -167,11 +198,40 @@ def box_around_upright(fn, rng):
         want_lower, want_upper = [-0.9, upright - 0.25, -6.0, -1.5], [0.9, upright + 0.25, 6.0, 1.5]
         message = f"{call} should be ({want_lower}, {want_upper}), got ({lower}, {upper})"
         expect(all(abs(a - b) < 1e-9 for a, b in zip(lower + upper, want_lower + want_upper)),
-               message + catch_note(lower, upper, upright, 0.25))
+               message + catch_note(lower, upper, upright, 0.25, (want_lower, want_upper)))
 
 
-def catch_note(lower: list[float], upper: list[float], upright: float, angle: float) -> str:
-    """The cause of a wrong catch set, named from its bounds (a `Diagnosis`), or ""."""
+CATCH_ORDER = "[arm angle, pendulum angle, arm rate, pendulum rate]"
+
+
+def _reordered(got, want) -> bool:
+    """Whether both lists of `got` hold the bounds of `want`'s, at least one of them in another order."""
+    def same(x, y):
+        return len(x) == len(y) and all(abs(a - b) < 1e-9 for a, b in zip(x, y))
+    return all(same(sorted(g), sorted(w)) for g, w in zip(got, want)) and not all(same(g, w) for g, w in zip(got, want))
+
+
+CATCH_ORDER = "[arm angle, pendulum angle, arm rate, pendulum rate]"
+
+
+def _reordered(got, want) -> bool:
+    """Whether both lists of `got` hold the bounds of `want`'s, at least one of them in another order."""
+    def same(x, y):
+        return len(x) == len(y) and all(abs(a - b) < 1e-9 for a, b in zip(x, y))
+    return all(same(sorted(g), sorted(w)) for g, w in zip(got, want)) and not all(same(g, w) for g, w in zip(got, want))
+
+
+def _same_entries(got: list[float], right: list[float]) -> bool:
+    return sorted(got) != got and all(abs(a - b) < 1e-9 for a, b in zip(sorted(got), sorted(right))) \
+        and any(abs(a - b) > 1e-9 for a, b in zip(got, right)) if len(got) == len(right) else False
+
+
+def catch_note(lower: list[float], upper: list[float], upright: float, angle: float, want=None) -> str:
+    """The cause of a wrong catch set, named from its bounds (and from the right ones, `want` = (lower, upper),
+    when given: entries in another order), a `Diagnosis`, or ""."""
+    if want is not None and _reordered((lower, upper), want):
+        return Diagnosis(f": your bounds are the right ones in another order; each list is {CATCH_ORDER}, the "
+                         "final state's order, not the order of catch_set's arguments")
     if abs(lower[1] + angle) < 1e-9 and abs(upper[1] - angle) < 1e-9:
         return Diagnosis(": the pendulum's box is around 0, which is hanging (the angle is from the bottom); "
                          "centre it on upright_rad")

@@ -57,7 +57,7 @@ def _fit_result(got):
     return tuple(float(x) for x in got)
 
 
-@fit.test(points=3, hint="floor = the smallest sample; median = the median of (sample - floor); spread = the "
+@fit.test(points=2, hint="floor = the smallest sample; median = the median of (sample - floor); spread = the "
                          "standard deviation of log(sample - floor) over the samples above the floor.")
 def recovers_a_shifted_lognormal(fn, rng):
     floor, median, spread = 2.0, 6.0, 0.6
@@ -79,11 +79,42 @@ def median_note(samples, got: float) -> str:
 
 
 def spread_note(samples, got: float) -> str:
-    """Words for a spread taken of log(sample) rather than of log(sample - floor), or nothing."""
+    """Words for a spread taken of log(sample) rather than of log(sample - floor), or without the log at all (a
+    relative spread, std / median or std / mean, or a plain std), or nothing."""
     samples = np.asarray(samples, dtype=float)
     if abs(got - float(np.std(np.log(samples[samples > 0])))) < 1e-6:
         return Diagnosis(": that is the spread of log(sample); subtract the floor first: log(sample - floor)")
+    if any(abs(got - spread) < 1e-6 * max(1.0, abs(spread)) for spread in spreads_without_the_log(samples)):
+        return Diagnosis(": that is a spread without the log (the standard deviation of the samples or of "
+                         "sample - floor, perhaps over their median or mean); the lognormal's spread is the standard "
+                         "deviation of log(sample - floor): take the log first")
     return ""
+
+
+def spreads_without_the_log(samples) -> list[float]:
+    """The spreads a fit that leaves out the log gives: std of the samples or of (sample - floor), alone or over
+    their median or mean, with ddof 0 or 1."""
+    samples = np.asarray(samples, dtype=float)
+    spreads = []
+    for values in (samples, samples - samples.min()):
+        for ddof in (0, 1):
+            std = float(np.std(values, ddof=ddof))
+            spreads += [std] + [std / centre for centre in (float(np.median(values)), float(np.mean(values))) if centre]
+    return spreads
+
+
+@fit.test(points=1, hint="If no sample lies above the floor (all of them equal), return a spread of 0.0.")
+def all_samples_equal(fn, rng):
+    samples = [5.0] * 50  # a latency that never varies
+    got_floor, _, got_spread = _fit_result(fn(samples))
+    expect(got_floor == 5.0, f"fit_latency([5.0] * 50): the floor should be 5.0 ms, the smallest sample, got "
+           f"{got_floor:.3f}")
+    note = ""
+    if math.isnan(got_spread):
+        note = Diagnosis(": no sample lies above the floor, so the spread has nothing to measure (a standard "
+                         "deviation of no values, or 0 / 0, is nan); return 0.0 then, as the lab says")
+    expect(got_spread == 0.0, f"fit_latency([5.0] * 50): the spread should be 0.0 (all samples equal: a latency "
+           f"that never varies), got {got_spread}" + note)
 
 
 @predict.test(points=2, hint="Near upright theta'' = w0^2 theta, so "
