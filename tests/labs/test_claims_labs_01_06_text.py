@@ -9,6 +9,7 @@ from pendkit import encoder
 from pendkit.labs.free_swing import swing_peaks
 from pendkit.labs.velocity_view import ALPHA, notes
 from pendkit.sim.lab_readings import firmware_estimate_error_rev_s, free_swing_readings
+from tests.labs.free_swing_log import logged_free_swing
 
 
 def test_lab01_the_spin_crosses_the_seam_once_near_half_a_second_then_swings_about_one_turn():
@@ -37,21 +38,10 @@ def test_lab02_the_mean_starts_at_a_quarter_and_its_full_buffer_rms_is_the_sweep
 
 def _free_swing(steps):
     import math
-    import tempfile
 
-    import pendkit
     from pendkit.control.sysid import identify_free_swing
-    from pendkit.telemetry.log import readings_from_log
 
-    folder = tempfile.mkdtemp()
-    env = pendkit.make(fidelity="realistic", log_dir=folder)
-    env.reset(seed=0, options={"start": "rest", "pendulum_angle_rad": 0.5})
-    for _ in range(steps):
-        env.step(0)
-    env.close()
-    readings = readings_from_log(f"{folder}/episode-0001.jsonl")
-    times = readings.millis / 1000
-    angles = (encoder.counts_to_rad(readings.position_counts) + math.pi) % (2 * math.pi) - math.pi
+    times, angles, readings = logged_free_swing(steps)
     up = np.nonzero((angles[:-1] < 0) & (angles[1:] >= 0))[0]
     crossings = times[up] - angles[up] * (times[up + 1] - times[up]) / (angles[up + 1] - angles[up])
     peaks = swing_peaks(times, angles)

@@ -4,18 +4,17 @@ thresholds and figures are the run's."""
 
 import math
 import re
-import tempfile
 from pathlib import Path
 
 import nbformat
 import numpy as np
 import pytest
 
-import pendkit
 from pendkit import encoder
 from pendkit.grading import load_lab, run_task
 from pendkit.grading.suites.lab03 import TASK_RULE, floored_swing, period_by
 from pendkit.labs.free_swing import SE_LIMIT, swing_peaks, yours_against_the_kit
+from tests.labs.free_swing_log import logged_free_swing
 from tests.labs.student_loop import printed_by_lab
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -39,19 +38,10 @@ def text_of(notebook_name: str) -> str:
 def swings():
     """The lab's free swing as ci (200 steps) and a classroom (300) log it: times, angles, the kit's fit."""
     from pendkit.control.sysid import identify_free_swing
-    from pendkit.telemetry.log import readings_from_log
 
     logs = {}
     for steps in (200, 300):
-        folder = tempfile.mkdtemp()
-        env = pendkit.make(fidelity="realistic", log_dir=folder)
-        env.reset(seed=0, options={"start": "rest", "pendulum_angle_rad": 0.5})
-        for _ in range(steps):
-            env.step(0)
-        env.close()
-        readings = readings_from_log(str(Path(folder) / "episode-0001.jsonl"))
-        times = readings.millis / 1000
-        angles = (encoder.counts_to_rad(readings.position_counts) + math.pi) % (2 * math.pi) - math.pi
+        times, angles, readings = logged_free_swing(steps)
         logs[steps] = times, angles, identify_free_swing(times, encoder.counts_to_rad(readings.position_counts))
     return logs
 
