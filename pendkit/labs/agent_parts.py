@@ -194,6 +194,22 @@ def train_until_rule(env, parts: StudentParts, max_episodes: int, seed: int = 0,
     return (agent, *outcome) if outcome is not None else (None, None, None)
 
 
+def realistic_run(parts: StudentParts, seed: int = 0, episodes: int = 150, report: Callable[[str], None] = print):
+    """Lab 07's reflection 2: the training cell's run (at most `episodes`, the rule every 10, each check reported)
+    on the realistic twin instead of the ideal one, with a student's pieces; the outcome in one line at the end.
+    Returns what `train_until_rule` returns."""
+    import pendkit
+
+    env = pendkit.make(fidelity="realistic", max_episode_steps=500)
+    agent, returns, solved_at = train_until_rule(env, parts, episodes, seed, report=report)
+    if returns is not None:
+        report(f"realistic twin, seed {seed}: " + (
+            f"a policy that holds (the rule) after {solved_at} episodes" if solved_at else
+            f"no policy that holds in {len(returns)} episodes (mean return of the last 10: "
+            f"{np.mean(returns[-10:]):.0f})"))
+    return agent, returns, solved_at
+
+
 def check_line(episodes: int, verdict) -> str:
     """One check of the rule in words: what the greedy episodes run so far did."""
     if len(verdict.starts) == 1 and not verdict.held:
@@ -235,6 +251,94 @@ def run_or_note(fn: Callable, *args, **kwargs):
         else:
             print(f"not run: {error}")
         return None
+
+
+def kit_epsilon(step: int, start: float, end: float, decay_steps: int) -> float:
+    """The kit's exploration schedule (`DqnAgent.epsilon`) in numpy, as lab 07 asks for it."""
+    return start + min(1.0, step / decay_steps) * (end - start)
+
+
+def kit_huber(errors, delta: float) -> np.ndarray:
+    """The kit's Huber loss (torch's `huber_loss`, elementwise) in numpy, as lab 07 asks for it."""
+    size = np.abs(np.asarray(errors, dtype=float))
+    return np.where(size <= delta, 0.5 * size**2, delta * (size - 0.5 * delta))
+
+
+def kit_td_target(rewards, dones, next_q_online, next_q_target, gamma: float, double: bool) -> np.ndarray:
+    """The kit's (double) DQN target in numpy, as lab 07 asks for it."""
+    rewards, dones = np.asarray(rewards, dtype=float), np.asarray(dones, dtype=float)
+    next_q_online, next_q_target = np.asarray(next_q_online, dtype=float), np.asarray(next_q_target, dtype=float)
+    pick = next_q_online.argmax(axis=1) if double else next_q_target.argmax(axis=1)
+    return rewards + gamma * (1 - dones) * next_q_target[np.arange(len(rewards)), pick]
+
+
+def unlike_the_kit(parts: StudentParts) -> list[str]:
+    """The names of a student's pieces ("epsilon", "td_target", "huber") that give other numbers than the kit's
+    on a few inputs that tell them apart (a piece that raises counts as unlike; a missing one is the kit's)."""
+    rng = np.random.default_rng(7)
+    rewards, dones = rng.normal(size=6), np.array([0.0, 1.0, 0.0, 0.0, 1.0, 0.0])
+    online, target = rng.normal(size=(6, 5)), rng.normal(size=(6, 5))
+    errors = np.linspace(-4.0, 4.0, 17)
+    probes = {"epsilon": (parts.epsilon, kit_epsilon, [(step, 1.0, 0.05, 1000) for step in (0, 250, 999, 1000, 5000)]),
+              "td_target": (parts.td_target, kit_td_target,
+                            [(rewards, dones, online, target, 0.99, double) for double in (True, False)]),
+              "huber": (parts.loss, kit_huber, [(errors, delta) for delta in (1.0, 0.5)])}
+    unlike = []
+    for name, (theirs, kit, calls) in probes.items():
+        if theirs is None:
+            continue
+        try:
+            same = all(np.allclose(np.asarray(theirs(*(np.copy(a) if isinstance(a, np.ndarray) else a for a in call)),
+                                              dtype=float), kit(*call)) for call in calls)
+        except Exception:  # noqa: BLE001 (the student's code: unlike the kit's however it fails)
+            same = False
+        if not same:
+            unlike.append(name)
+    return unlike
+
+
+PIECE_ROLE = {"epsilon": "it decides when the agent explores",
+              "huber": "its slope is the gradient the network follows, so a wrong loss trains the network wrong"}
+
+
+def training_said(returns, myopic, solved_at: int | None, unlike: list[str]) -> str | None:
+    """What lab 07's training cell says under its curves: the cause its student can act on. The contrast (no
+    future in the target) trains with the kit's schedule and loss, so a curve at or below it points at the
+    target only when the student's target is unlike the kit's; with a target like the kit's, a run without a
+    policy points at the piece that is unlike (the loss or the schedule), and with all three like the kit's, at
+    the seed. None when there is nothing to say (a policy that holds, from pieces like the kit's)."""
+    episodes = len(returns)
+    if "td_target" in unlike:
+        said = curve_against_myopic(returns, myopic)
+        if said:
+            return said
+        if solved_at is None:
+            return (f"no policy in {episodes} episodes, and your td_target gives other targets than the kit's: its "
+                    "check above says how")
+        return "a policy that holds, though your td_target gives other targets than the kit's (its check above)"
+    others = [name for name in ("huber", "epsilon") if name in unlike]
+    if others:
+        named = " and ".join(f"your {name} ({PIECE_ROLE[name]})" for name in others)
+        if solved_at is None:
+            return (f"your td_target agrees with the kit's, but {named} gives other numbers than the kit's: "
+                    "its check above says how; the curve with no future used the kit's loss and schedule")
+        return f"a policy that holds, though {named} gives other numbers than the kit's (its check above)"
+    if solved_at is None:
+        return (f"your three pieces agree with the kit's: this seed did not reach a policy that holds in {episodes} "
+                "episodes (seeds vary): try another seed")
+    return None
+
+
+def random_starts_held(env, agent, inputs, count: int, seed: int) -> list[bool]:
+    """Whether each of `count` greedy episodes from the authors' random starts held (the rule's measure), episode
+    k from seed `seed + k`: lab 07 asks the student's verdict about random starts alone."""
+    from pendkit.agents.runs import greedy_episode, judged_episode
+
+    held = []
+    for k in range(count):
+        total, infos = greedy_episode(env, agent, inputs, seed=seed + k, start="random")
+        held += judged_episode([info["angle_from_upright_rad"] for info in infos], env.unwrapped.dt, total).solved
+    return held
 
 
 def curve_against_myopic(returns, myopic, window: int = 10) -> str | None:

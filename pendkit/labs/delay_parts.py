@@ -103,3 +103,50 @@ def policy_with_cell(name: str, env, gru_step: Callable | None = None):
         trunk = policy.agent.q.trunk
         trunk.step = student_gru_cell(gru_step, trunk)
     return policy
+
+
+# Lab 08's Task 4 asked of the sweep file three ways: (what is asked, the episode budget counted or None for the
+# file's whole budget, the threshold). The file's rates are 0 or 1 at its whole budget, so the second and third
+# ways are where a comparison that differs from the task's wording gives another delay: `<=` or `>` at the
+# threshold shows at 1.0 (every seed), and forgetting the other agent shows within 200 episodes, where R-DQN's
+# seeds at 120 ms had not all got there yet.
+ASKED = (("half the seeds (threshold 0.5), whole budget", None, 0.5),
+         ("every seed (threshold 1.0), whole budget", None, 1.0),
+         ("half the seeds, within 200 episodes", 200, 0.5))
+
+
+def rates_within(record: dict, episodes: int | None) -> dict[str, list[float]]:
+    """Per agent, at each delay of a delay-sweep record (`pendkit/data/delay_sweep.json`), the share of seeds that
+    reached the rule within `episodes` episodes (None: within the sweep's own budget)."""
+    rates: dict[str, list[float]] = {}
+    for run in record["runs"]:
+        reached = [n is not None and (episodes is None or n <= episodes) for n in run["episodes"]]
+        rates.setdefault(run["algo"], []).append(sum(reached) / len(reached))
+    return rates
+
+
+def first_break(delays_ms, plain_rates, other_rates, threshold: float = 0.5):
+    """Task 4 as worded: the first delay where plain < threshold <= other, or None."""
+    return next((d for d, p, o in zip(delays_ms, plain_rates, other_rates) if p < threshold <= o), None)
+
+
+def breaking_delay_lines(fn: Callable, record: dict | None = None) -> list[str]:
+    """The student's `breaking_delay` on the sweep file asked three ways (`ASKED`), each beside the answer the
+    task's wording gives, marked where they differ. Raises what `fn` raises."""
+    import json
+
+    from pendkit.agents.results import DATA
+
+    record = record or json.loads((DATA / "delay_sweep.json").read_text())
+    delays, budget = list(record["delays_ms"]), record["max_episodes"]
+    lines = []
+    for asked, episodes, threshold in ASKED:
+        rates = rates_within(record, episodes)
+        label = asked.replace("whole budget", f"{budget} episodes")
+        for other in (name for name in ("dqn+actions", "r-dqn") if name in rates):
+            yours = fn(delays, rates["dqn"], rates[other], threshold)
+            wording = first_break(delays, rates["dqn"], rates[other], threshold)
+            shown = [("None" if value is None else f"{value:g} ms") for value in (yours, wording)]
+            lines.append(f"{label:<46} {other:<12} yours {shown[0]:>7}, as the task words it {shown[1]:>7}"
+                         + ("" if yours == wording else "  <- they differ"))
+    return lines

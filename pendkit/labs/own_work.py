@@ -40,16 +40,16 @@ def own_swing_up_parts(folder: str | Path = "."):
     path = Path(folder) / "05_swingup.ipynb"
     found = functions_from(path, SWING_UP_FUNCTIONS)
     if found is None:
-        return None, f"{path.name} is not beside this notebook (or not finished): the kit's swing-up"
+        return None, f"{path.name} is not beside this notebook (or not finished): using the kit's swing-up"
     try:  # one probe each: a stub raises NotImplementedError, a broken one something else
         float(found["pendulum_energy"](0.1, 0.2, 5.0))
         float(found["pumping_direction"](0.1, 0.2))
         found["next_mode"]("swing", 0.1, 0.2)
     except Exception as error:
         name = type(error).__name__
-        return None, f"your lab 05 functions do not run yet ({name}): the kit's swing-up"
+        return None, f"your lab 05 functions do not run yet ({name}): using the kit's swing-up"
     if not np.isfinite(float(found["pendulum_energy"](math.pi, 0.0, 5.0))):
-        return None, "your lab 05 energy is not finite: the kit's swing-up"
+        return None, "your lab 05 energy is not finite: using the kit's swing-up"
     parts = SwingUpParts(energy=found["pendulum_energy"], direction=found["pumping_direction"],
                          next_mode=found["next_mode"])
-    return parts, f"your swing-up from {path.name} (its energy, direction and hand-over)"
+    return parts, f"using your swing-up from {path.name} (its energy, direction and hand-over)"

@@ -141,4 +141,10 @@ MISTAKES = [
      "random starts alone"),
     ("07.td_target", lambda r, done, online, target, gamma, double: 2 * np.asarray(r, dtype=float)
      - td_target(r, done, online, target, gamma, double), "the sign is wrong"),
+    ("07.huber", lambda e, delta: np.where(np.abs(e) <= delta, 0.5 * np.asarray(e) ** 2,
+                                           delta * (np.asarray(e) - 0.5 * delta)), "needs |e| too",
+     {"quadratic_then_linear", "matches_torch"}),
+    ("07.policy_verdict", lambda held, starts: {"held": sum(map(bool, held)), "episodes": len(held), "solved": len(
+        held) == 10 and list(starts).count("random") >= 5 and sum(map(bool, held)) >= 9}, "5 hanging still too",
+     {"one_lucky_episode_is_not_a_policy"}),
 ]

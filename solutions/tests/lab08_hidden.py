@@ -126,4 +126,6 @@ MISTAKES = [
      "not <="),
     ("08.breaking_delay", lambda d, p, r, t=0.5: next((x for x, a, b in zip(d, p, r) if a < t < b), None), "not >"),
     ("08.augmented_state", shared_buffer_augmented_state(), "shared between calls"),
+    ("08.breaking_delay", lambda d, p, r, t=0.5: next((x for x, a in zip(d, p) if a < t), None),
+     "the other agent (other_rates) also fails"),
 ]

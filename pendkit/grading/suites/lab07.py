@@ -8,9 +8,9 @@ from pendkit.grading.core import Diagnosis, Failed, as_number, expect, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
-schedule = task("07.epsilon", function="epsilon", title="The exploration schedule")
-target = task("07.td_target", function="td_target", title="The (double) DQN target")
-huber = task("07.huber", function="huber", title="The Huber loss")
+schedule = task("07.epsilon", function="epsilon", title="The exploration schedule", hidden_points=1)
+target = task("07.td_target", function="td_target", title="The (double) DQN target", hidden_points=1)
+huber = task("07.huber", function="huber", title="The Huber loss", hidden_points=1)
 
 
 @schedule.test(points=2, hint="Linear from start to end over decay_steps, then constant at end.")
@@ -134,7 +134,10 @@ def huber_note(got, errors, delta: float) -> str:
               (np.where(small, 0.5 * errors**2, delta * (size - delta)), ": the linear part subtracts half of "
                "delta, 0.5 delta, not all of it, so the two pieces meet at |e| = delta"),
               (np.where(errors <= delta, 0.5 * errors**2, delta * (errors - 0.5 * delta)),
-               ": the size of an error is |e|: a large negative error is beyond delta too (use np.abs)")]
+               ": the size of an error is |e|: a large negative error is beyond delta too (use np.abs)"),
+              (np.where(small, 0.5 * errors**2, delta * (errors - 0.5 * delta)),
+               ": the linear part needs |e| too, delta (|e| - 0.5 delta): with e it is negative for e < -delta, "
+               "and a loss is never negative (its slope there pushes Q away from the target)")]
     got = np.asarray(got, dtype=float)
     right = np.where(small, 0.5 * errors**2, delta * (size - 0.5 * delta))
     for wrong, cause in causes:
@@ -148,7 +151,8 @@ prelab_task("07", ("epsilon_halfway", "horizon_steps", "double_target"))
 written("07.reflection", "Reflection", points=3)
 
 
-verdict = task("07.policy_verdict", function="policy_verdict", title="Judging a policy by the kit's rule")
+verdict = task("07.policy_verdict", function="policy_verdict",
+               title="Judging a policy by the kit's rule", hidden_points=1)
 RULE_STARTS = ["rest", "random"] * 5
 
 
@@ -198,3 +202,8 @@ def one_lucky_episode_is_not_a_policy(fn, rng):
     one_kind = _verdict(fn, [True] * 10, ["rest"] * 10, "policy_verdict(10 episodes hanging still, all held)")
     expect(not one_kind["solved"], "10 episodes all from hanging still, all held, should not be solved: the rule "
                                    "takes 5 random starts too (count the starts of each kind)")
+    random_alone = _verdict(fn, [True] * 10, ["random"] * 10, "policy_verdict(10 random starts, all held)")
+    expect(not random_alone["solved"], "10 episodes all from random starts, all held, should not be solved: the rule "
+                                       "takes 5 hanging still too (from random starts alone a policy that never comes "
+                                       "up from hanging still looks solved; count the starts of each kind)",
+           hint=False)

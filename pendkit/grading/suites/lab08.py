@@ -8,10 +8,11 @@ from pendkit.grading.core import Diagnosis, Failed, expect, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
-delayed = task("08.delayed_view", function="delayed_view", title="What a delayed agent sees")
-augmented = task("08.augmented_state", function="augmented_state", title="The augmented state of a delayed rig")
-gru = task("08.gru_step", function="gru_step", title="One step of a GRU cell")
-contrast = task("08.breaking_delay", function="breaking_delay", title="Where plain DQN breaks")
+delayed = task("08.delayed_view", function="delayed_view", title="What a delayed agent sees", hidden_points=1)
+augmented = task("08.augmented_state", function="augmented_state",
+                 title="The augmented state of a delayed rig", hidden_points=1)
+gru = task("08.gru_step", function="gru_step", title="One step of a GRU cell", hidden_points=2)
+contrast = task("08.breaking_delay", function="breaking_delay", title="Where plain DQN breaks", hidden_points=1)
 
 
 def _array(got, name, shape):
@@ -142,20 +143,20 @@ def matches_the_equations(fn, rng):
     expect(np.allclose(got, expected, atol=1e-9), message + gru_note(got, x, h, w_ih, w_hh, b_ih, b_hh))
 
 
-@contrast.test(points=2, hint="The first delay (in the given order) where plain < threshold <= recurrent; "
+@contrast.test(points=2, hint="The first delay (in the given order) where plain < threshold <= other; "
                               "None if there is none.")
 def first_contrast(fn, rng):
     delays = [0, 30, 60, 90, 120]
     plain = [1.0, 0.9, 0.4, 0.0, 0.1]
-    recurrent = [1.0, 0.9, 0.8, 0.3, 0.1]
-    got = fn(delays, plain, recurrent, 0.5)
-    message = f"with plain {plain} and recurrent {recurrent}, expected 60, got {shown(got)}"
+    other = [1.0, 0.9, 0.8, 0.3, 0.1]
+    got = fn(delays, plain, other, 0.5)
+    message = f"with plain_rates {plain} and other_rates {other}, expected 60, got {shown(got)}"
     if got == 90:
         message += ": that is where plain is worst; the question is where it first breaks"
     expect(got == 60, message)
     expect(fn(delays, plain, [0.2] * 5, 0.5) is None,
-           "when the recurrent agent also fails, there is no contrast: return None")
-    expect(fn(delays, [1.0] * 5, recurrent, 0.5) is None, "when plain DQN never breaks, return None")
+           "when the other agent (other_rates) also fails, there is no contrast: return None")
+    expect(fn(delays, [1.0] * 5, other, 0.5) is None, "when plain DQN never breaks, return None")
     # the boundaries: exactly at the threshold, plain has not broken and the other agent holds
     at_threshold = fn([0, 60, 120], [1.0, 0.5, 0.0], [1.0, 0.5, 0.5], 0.5)
     expect(at_threshold == 120, f"plain at exactly the threshold (0.5 at 60 ms) has not broken yet, and the other "

@@ -10,10 +10,12 @@ from pendkit.grading.core import Diagnosis, Failed, as_number, expect, is_real, 
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
-upright = task("09.time_to_upright_s", function="time_to_upright_s", title="Time to upright from a run")
-balance = task("09.balance_error_deg", function="balance_error_deg", title="Balance error once upright")
-watchdog = task("09.should_stop", function="should_stop", title="The safety watchdog")
-matching = task("09.matching_cost", function="matching_cost", title="The trajectory-matching cost")
+upright = task("09.time_to_upright_s", function="time_to_upright_s",
+               title="Time to upright from a run", hidden_points=1)
+balance = task("09.balance_error_deg", function="balance_error_deg",
+               title="Balance error once upright", hidden_points=1)
+watchdog = task("09.should_stop", function="should_stop", title="The safety watchdog", hidden_points=1)
+matching = task("09.matching_cost", function="matching_cost", title="The trajectory-matching cost", hidden_points=1)
 written("09.gap_report", "Sim-to-real report", points=6)
 written("09.safety_checklist", "Safety checklist", points=4)
 

@@ -16,8 +16,9 @@ from pendkit.grading.written import written
 # this module does not need them (start-up).
 
 prelab_task("10", ("round_trip_ms", "readings_per_decision", "heartbeat_ms"))
-model = task("10.pendulum_acceleration", function="pendulum_acceleration", title="The estimate's model")
-chunks = task("10.upload_chunks", function="upload_chunks", title="Upload chunks")
+model = task("10.pendulum_acceleration", function="pendulum_acceleration",
+             title="The estimate's model", hidden_points=1)
+chunks = task("10.upload_chunks", function="upload_chunks", title="Upload chunks", hidden_points=1)
 deploy = task("10.deploy", function="deployed_blob", title="Your controller, judged on a rig")
 written("10.on_device_report", "On-device report", points=4)
 

@@ -1,0 +1,50 @@
+"""Lab 09's runs on a rig in words: what a watchdog stop means when the hold command that follows it finds no
+reading either, and excitation episodes recorded behind a guard (a link that stalls on a busy laptop costs an
+episode's retry, not the cell)."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Iterable
+
+from pendkit.link.driver import RigLinkError
+from pendkit.rig import RigParams
+
+_HOLD_FAILED = re.compile(r" \(the hold command failed too: (\w+)\)$")
+
+
+def stop_said(reason: str, observation_timeout_s: float) -> str:
+    """A guarded run's stop reason for a student. `run_guarded` sends the hold command as one more step, and that
+    step waits for a reading as every step does: when none comes within the link's timeout it raises, and the
+    reason ends "(the hold command failed too: RigLinkError)". Said here as what happened and what holds the rig."""
+    found = _HOLD_FAILED.search(reason)
+    if found is None:
+        return reason
+    hold_ms = RigParams().watchdog_timeout_ms
+    return (f"{reason[:found.start()]}; after the hold command no reading came back within the link's "
+            f"{observation_timeout_s:g} s either ({found.group(1)}), so the laptop cannot see the rig hold, but the "
+            f"rig's own watchdog holds the servo {hold_ms:.0f} ms after the last command it received. A busy laptop "
+            "stalls the virtual rig's link: run the cell again")
+
+
+def record_on_the_rig(env, excitations: Iterable, record: Callable, attempts: int = 2,
+                      report: Callable[[str], None] = print) -> list:
+    """`record(env, excitation, seed=k)` for each excitation episode; an episode whose link stalls (a
+    `RigLinkError`: no reading within the link's timeout) is recorded again, up to `attempts` times, then left out
+    with a line saying so. Raises `RigLinkError` with what to do when no episode could be recorded."""
+    recordings, lost = [], 0
+    for k, excitation in enumerate(excitations):
+        for attempt in range(1, attempts + 1):
+            try:
+                recordings.append(record(env, excitation, seed=k))
+                break
+            except RigLinkError as error:
+                again = attempt < attempts
+                report(f"excitation episode {k + 1}: the link stalled ({error}); "
+                       + ("recording it again (the rig resets itself first)" if again
+                          else f"left out after {attempts} tries: the search uses the other episodes"))
+                lost += not again
+    if not recordings:
+        raise RigLinkError(f"no excitation episode could be recorded: the link stalled in all {lost} (a busy "
+                           "laptop stalls the virtual rig; close other work), then run this cell again")
+    return recordings
