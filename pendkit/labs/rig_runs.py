@@ -1,6 +1,6 @@
 """Lab 09's runs on a rig in words: what a watchdog stop means when the hold command that follows it finds no
-reading either, and excitation episodes recorded behind a guard (a link that stalls on a busy laptop costs an
-episode's retry, not the cell)."""
+reading either, excitation episodes recorded behind a guard (a link that stalls on a busy laptop costs an
+episode's retry, not the cell), and the chart of the gap (every run a row, one that never came up marked so)."""
 
 from __future__ import annotations
 
@@ -48,3 +48,32 @@ def record_on_the_rig(env, excitations: Iterable, record: Callable, attempts: in
         raise RigLinkError(f"no excitation episode could be recorded: the link stalled in all {lost} (a busy "
                            "laptop stalls the virtual rig; close other work), then run this cell again")
     return recordings
+
+
+def gap_chart(results: list[dict]):
+    """The summary chart of lab 09: time to upright and balance error per run (`measured`'s dicts), twins blue,
+    rigs orange. A run that never came up has no bar, so it gets a "never" mark at 0; the y-limits cover every
+    row (matplotlib's own limits stop at the last finite bar, which drops a last row that never came up)."""
+    import matplotlib.pyplot as plt
+
+    names = [r["name"] for r in results]
+    rows = range(len(names))
+    figure, axes = plt.subplots(1, 2, figsize=(10, 3.5), layout="constrained")
+    for axis, key, label in ((axes[0], "upright_s", "time to upright (s)"),
+                             (axes[1], "error_deg", "balance error (deg)")):
+        values = [float("nan") if r[key] is None else r[key] for r in results]
+        colours = ["#0072B2" if "twin" in n else "#E69F00" for n in names]
+        axis.barh(rows, values, color=colours)
+        for row, value, colour in zip(rows, values, colours):
+            if value != value:  # NaN: never upright within the run
+                axis.plot([0.0], [row], marker="x", color=colour, markersize=8, clip_on=False)
+                axis.annotate("never", (0.0, row), xytext=(8, 0), textcoords="offset points", va="center",
+                              color=colour)
+        axis.set_ylim(-0.5, len(names) - 0.5)
+        axis.invert_yaxis()  # the first run at the top, as the table printed them
+        axis.set_xlim(left=0.0)
+        axis.set_xlabel(label + "  (x, never: not upright within the run)")
+    axes[0].set_yticks(list(rows), names)
+    axes[1].set_yticks([])
+    figure.suptitle("the sim-to-real gap, measured with your functions (blue: twin, orange: rig)")
+    return figure

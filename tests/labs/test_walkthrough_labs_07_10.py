@@ -234,6 +234,28 @@ def test_lab09_a_stop_whose_hold_found_no_reading_says_what_holds_the_rig():
     assert "stop_said(run.stop_reason" in source
 
 
+def test_lab09_the_gap_chart_shows_every_run_a_last_one_that_never_came_up_too():
+    """matplotlib's limits stop at the last finite bar: a last run that never came up (NaN) fell off the chart."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from pendkit.labs.rig_runs import gap_chart
+
+    results = [{"name": "swing-up, on the twin", "upright_s": 4.0, "error_deg": 1.3},
+               {"name": "td3-realistic, on its twin", "upright_s": 1.9, "error_deg": 0.8},
+               {"name": "td3-realistic, on the rig", "upright_s": None, "error_deg": None}]
+    figure = gap_chart(results)
+    for axis in figure.axes:
+        low, high = sorted(axis.get_ylim())
+        assert low <= -0.5 and high >= len(results) - 0.5  # every row inside, the last one too
+        assert [(t.get_text(), t.xy[1]) for t in axis.texts] == [("never", 2)]
+    assert [t.get_text() for t in figure.axes[0].get_yticklabels()][-1] == "td3-realistic, on the rig"
+    plt.close(figure)
+    assert any("gap_chart(results)" in c for c in cells("09_deploy.ipynb"))
+
+
 def test_lab09_an_excitation_episode_whose_link_stalls_is_recorded_again_then_left_out():
     from pendkit.labs.rig_runs import record_on_the_rig
     from pendkit.link.driver import RigLinkError
