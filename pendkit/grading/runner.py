@@ -299,7 +299,8 @@ def _is_demo(cell) -> bool:
 
 def _where(index: int, cell) -> str:
     first = next((line.strip() for line in cell.source.splitlines() if line.strip()), "")
-    return f"cell {index + 1} ({first[:50]})" if first else f"cell {index + 1}"
+    shown = first if len(first) <= 50 else first[:50] + "…"  # a cut line says so, never reads as another name
+    return f"cell {index + 1} ({shown})" if first else f"cell {index + 1}"
 
 
 def _grading_values(check_timeout_s: float | None) -> dict[str, str]:

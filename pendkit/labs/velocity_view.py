@@ -21,6 +21,40 @@ def _reference_mean(raw: np.ndarray) -> np.ndarray:
     return np.convolve(padded, np.ones(MEAN_WINDOW) / MEAN_WINDOW, mode="valid")
 
 
+# what each estimate holds one value per: the words for a wrong count (plural, singular)
+ONE_PER = {"velocity_rev_s": ("pairs of readings", "pair"), "firmware_mean": ("velocities", "velocity"),
+           "low_pass": ("velocities", "velocity")}
+
+
+def wrong_length(name: str, values, count: int) -> str:
+    """The sentence for `name`'s answer when it has not one value per item (`count` of them; "" when it has):
+    the plot cell prints it and leaves that answer out rather than stop on matplotlib's shape error."""
+    if np.shape(values) == (count,):
+        return ""
+    of, each = ONE_PER[name]
+    got = f"{len(values)} values" if np.ndim(values) == 1 else f"an array of shape {np.shape(values)}"
+    return (f"{name} returned {got} for the {count} {of}: it should return {count}, one per {each}; "
+            "the plot leaves it out")
+
+
+def drawable(name: str, values, count: int, said: list[str]):
+    """`values` when `name` returned one per item (`count`), else None with `wrong_length`'s sentence in `said`."""
+    if values is None or not (sentence := wrong_length(name, values, count)):
+        return values
+    said.append(sentence)
+    return None
+
+
+def _wrong_length_in_sweep(name: str, values, count: int) -> str:
+    """`wrong_length` in words that hold at every period (the sweep says it once)."""
+    if np.shape(values) == (count,):
+        return ""
+    of, each = ONE_PER[name]
+    extra = len(values) - count if np.ndim(values) == 1 else None
+    got = f"n {'+' if extra > 0 else '-'} {abs(extra)} values" if extra else f"a {np.ndim(values)}-D array"
+    return f"your {name} returns {got} for n {of}, not one per {each}"
+
+
 def notes(true_rev_s, raw, mean, smooth, readings=None) -> list[str]:
     """One line per estimate the student has written: its RMS error against the truth, and where it parts
     from the estimate it should be, with the likely cause. `readings` (the twin's log: raw_counts, times_ms)
@@ -97,16 +131,15 @@ def period_sweep(velocity_fn, mean_fn, periods_ms) -> list[SweepPoint]:
         firmware = firmware_estimate_error_rev_s(float(period_ms))
         true_rev_s = readings.true_velocity_rev_s[1:]
         raw = attempt(velocity_fn, readings.raw_counts, readings.times_ms)
-        mean = None if raw is None else attempt(mean_fn, raw, MEAN_WINDOW)
-        if mean is None:
-            points.append(SweepPoint(float(period_ms), None, firmware))
+        wrong = "" if raw is None else _wrong_length_in_sweep("velocity_rev_s", raw, len(true_rev_s))
+        mean = None if raw is None or wrong else attempt(mean_fn, raw, MEAN_WINDOW)
+        if mean is not None:
+            wrong = _wrong_length_in_sweep("firmware_mean", mean, len(true_rev_s))
+        if mean is None or wrong:
+            points.append(SweepPoint(float(period_ms), None, firmware, wrong))
             continue
         mean = np.asarray(mean, float)
         full = slice(MEAN_WINDOW - 1, None)
-        if mean.shape != true_rev_s.shape:
-            points.append(SweepPoint(float(period_ms), None, firmware, f"your estimate has {len(mean)} values where "
-                                     f"there are {len(true_rev_s)} pairs of readings"))
-            continue
         yours = rms(mean[full], true_rev_s[full])
         note = ""
         if round(yours, 3) != round(firmware, 3):
@@ -138,5 +171,6 @@ def sweep_lines(points: list[SweepPoint]) -> list[str]:
         lines.append(line)
         if point.note and point.note not in said:
             said.add(point.note)
-            lines.append(f"         yours part from the firmware's at {point.note}")
+            lines.append(f"         yours part from the firmware's at {point.note}" if point.yours_rev_s is not None
+                         else f"         yours is left out: {point.note}")
     return lines

@@ -157,6 +157,13 @@ def wrap_delta_wrapping_half_a_turn(new, old):
     return delta
 
 
+def wrap_delta_by_modulo(new, old):
+    delta = (new - old) % 1024
+    if delta > 512:
+        delta -= 1024
+    return delta
+
+
 def decode_lsb_first(frame):
     return int(f"{frame >> 6:010b}"[::-1], 2)
 
@@ -285,5 +292,6 @@ MISTAKES = [
     ("01.wrap_delta", lambda new, old: -wrap_delta(new, old), "wrong sign"),
     ("01.wrap_delta", lambda new, old: (new - old + 512) % 1024 - 512, "exactly half a turn"),
     ("01.wrap_delta", wrap_delta_wrapping_half_a_turn, "exactly half a turn", {"half_a_turn_keeps_its_sign"}),
+    ("01.wrap_delta", wrap_delta_by_modulo, "the modulo turned -512 into +512", {"half_a_turn_keeps_its_sign"}),
     ("01.wrap_delta", lambda new, old: -wrap_delta(new, old), "new - old", {"the_seam_exactly"}),
 ]

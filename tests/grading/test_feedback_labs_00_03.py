@@ -166,3 +166,17 @@ def test_a_new_diagnosis_fires_only_on_its_own_mistake(all_tests_loaded, words, 
     said = {(task_id, getattr(fn, "__name__", "?")): m for task_id, fn in answers
             for m in failed(task_id, fn)[1].values() if words in m}
     assert not said, said
+
+
+# --- the fourth walk-through
+
+def test_lab01_a_modulo_wrap_is_told_the_modulo_not_the_greater_or_equal(all_tests_loaded):
+    points, failures = failed("01.wrap_delta", key("01").wrap_delta_by_modulo)
+    assert points == 6 and list(failures) == ["half_a_turn_keeps_its_sign"], failures
+    message = failures["half_a_turn_keeps_its_sign"]
+    assert "wrap_delta(0, 512) should be -512, got 512: (0 - 512) % 1024 is +512: the modulo turned -512 into +512" \
+        in message and ">= 512" not in message, message
+    _, failures = failed("01.wrap_delta", key("01").wrap_delta_wrapping_half_a_turn)
+    message = failures["half_a_turn_keeps_its_sign"]
+    assert "wrap_delta(512, 0) should be 512, got -512" in message and "not >= 512" in message, message
+    assert "modulo" not in message, message

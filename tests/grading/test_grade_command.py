@@ -12,7 +12,7 @@ import pytest
 from click.testing import CliRunner
 
 from pendkit.cli import main
-from pendkit.grading.runner import DEMO_TAG
+from pendkit.grading.runner import DEMO_TAG, _where
 from tests.system_needs import no_sandbox_args
 
 pytestmark = pytest.mark.expensive  # the full tier (`pytest --full`): a class of broken submissions graded
@@ -132,6 +132,12 @@ def test_a_broken_cell_outside_the_tasks_costs_nothing_but_is_reported(graded, s
     rows, results = graded
     assert results[student]["score"] == FULL
     assert note in results[student]["output"]
+
+
+def test_a_broken_cells_note_marks_a_cut_line_with_an_ellipsis():
+    line = "from pendkit.labs.velocity_view import ALPHA, notes"  # 51 characters
+    assert _where(16, nbformat.v4.new_code_cell(line + "\n\nraw = 1")) == f"cell 17 ({line[:50]}…)"
+    assert _where(2, nbformat.v4.new_code_cell("\n1 / 0")) == "cell 3 (1 / 0)"
 
 
 def test_a_function_that_kills_the_kernel_scores_zero_for_its_task_only(graded):

@@ -18,6 +18,9 @@ def test_lab01_the_spin_crosses_the_seam_once_near_half_a_second_then_swings_abo
     crossings = np.flatnonzero(np.abs(jumps) > 512)
     assert len(crossings) == 1 and 0.4 < readings.times_ms[crossings[0] + 1] / 1000 < 0.6
     assert readings.raw_counts[crossings[0]] > 990 and readings.raw_counts[crossings[0] + 1] < 30
+    # the top (half a turn past hanging's 317: raw 829) comes first, at about 0.33 s; the seam's jump is later
+    rising = slice(0, np.argmax(readings.raw_counts >= 317 + 512) + 1)
+    assert 320 < np.interp(829, readings.raw_counts[rising], readings.times_ms[rising]) < 340
     turns = np.cumsum([encoder.wrap_delta_counts(int(b), int(a)) for a, b in
                        zip(readings.raw_counts[:-1], readings.raw_counts[1:])]) / 1024
     assert turns.max() > 1 and abs(turns[-1] - 1) < 0.2

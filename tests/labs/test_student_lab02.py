@@ -47,6 +47,25 @@ def test_lab02_the_notebooks_sweep_shows_a_velocity_in_the_wrong_unit_and_names_
     part = next(line for line in printed.splitlines() if "yours part" in line)
     assert "differ from" not in part and "differs from" not in part, part  # "part from" says it once
 
+VELOCITY_WITH_A_LEADING_ZERO = '''
+def velocity_rev_s(positions, times_ms):
+    positions = np.asarray(positions, dtype=np.int64)
+    delta = np.diff(positions, prepend=positions[0])  # one value per reading: n + 1 for n pairs
+    delta = np.where(delta > 512, delta - 1024, np.where(delta < -512, delta + 1024, delta))
+    return delta / 1024 * 1000 / 25.0
+'''
+
+
+def test_lab02_a_velocity_of_the_wrong_length_is_named_and_run_all_goes_on():
+    wrong = {"velocity_rev_s": VELOCITY_WITH_A_LEADING_ZERO}
+    plotted = printed_by_lab("02_velocity.ipynb", "drawable(", wrong)
+    assert plotted.startswith("velocity_rev_s returned 161 values for the 160 pairs of readings: it should return "
+                              "160, one per pair; the plot leaves it out"), plotted
+    swept = printed_by_lab("02_velocity.ipynb", "period_sweep(velocity_rev_s", wrong)  # the plot cell ran through
+    said = [line for line in swept.splitlines() if "velocity_rev_s" in line]
+    assert said == ["         yours is left out: your velocity_rev_s returns n + 1 values for n pairs of readings, "
+                    "not one per pair"], swept
+
 
 def test_lab02_single_differences_beat_the_mean_by_its_lag_as_the_note_says():
     readings = free_swing_readings(period_ms=25.0, duration_s=4.0)
