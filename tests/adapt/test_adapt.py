@@ -126,7 +126,7 @@ def test_an_adaptation_session_writes_rig_policy_and_report_within_its_rig_time(
     assert identified != RigParams()  # something was identified
     assert (tmp_path / "policy.pt").exists() and (tmp_path / "identification.png").read_bytes()[:4] == b"\x89PNG"
     saved = json.loads((tmp_path / "report.json").read_text())
-    # rig time as the rig counted it, within 2 episodes of 500 steps (60 s): 2 excitation episodes of 90 steps
+    # rig time as the rig counted it, within 2 episodes of 500 steps (60 s): 2 excitation episodes of 102 steps
     # and `loop_episodes` of the loop's small steps (60 each; none by default), each after the 7 steps that
     # find the pendulum still, no device trials (the default), and, fine-tuned, the one whole episode of 500
     # steps that fits in what is left
