@@ -260,6 +260,14 @@ def load_hidden_source(path: Path, source: bytes) -> None:
     _LOADED_HIDDEN[digest] = HIDDEN_MODULES[path.stem] = module
 
 
+def hidden_module(path: str | Path):
+    """The module loaded from the hidden-test file at `path`, as its content is now (loaded if it was not): unlike
+    `HIDDEN_MODULES`, never another file of the same name loaded later (a copy edited in a grading folder)."""
+    path = Path(path).resolve()
+    load_hidden(path)
+    return _LOADED_HIDDEN[hashlib.sha256(path.read_bytes()).hexdigest()]
+
+
 def run_test(test: TestCase, fn: Callable, time_limit: bool = True) -> TestResult:
     """Run one test; every outcome becomes a result, never an exception. `time_limit=False` when `fn` keeps
     its own deadline (the grader's remote calls). A test that returns text passes with it as its feedback."""

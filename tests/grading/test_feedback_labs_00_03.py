@@ -3,12 +3,15 @@
 edge cases the text requires (nan, ValueError) are graded."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from pendkit.grading import run_task
-from pendkit.grading.core import HIDDEN_MODULES
+from pendkit.grading.core import hidden_module
+
+HIDDEN = Path(__file__).resolve().parents[2] / "solutions" / "tests"
 
 
 def failed(task_id, fn):
@@ -17,7 +20,7 @@ def failed(task_id, fn):
 
 
 def key(lab):
-    return HIDDEN_MODULES[f"lab{lab}_hidden"]
+    return hidden_module(HIDDEN / f"lab{lab}_hidden.py")
 
 
 def test_lab00_a_units_slip_costs_the_values_test_only_at_one_precision(all_tests_loaded):

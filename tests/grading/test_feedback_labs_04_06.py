@@ -3,12 +3,15 @@ pre-lab slip carried on, a threshold taken with <= or a wrapped angle, a braking
 +1 convention, a percentile by another definition)."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from pendkit.grading import run_task
-from pendkit.grading.core import HIDDEN_MODULES
+from pendkit.grading.core import hidden_module
+
+HIDDEN = Path(__file__).resolve().parents[2] / "solutions" / "tests"
 
 
 def failed(task_id, fn):
@@ -37,7 +40,7 @@ def test_a_wrong_second_answer_says_what_the_students_own_first_one_gives(all_te
     ({"wrap": True}, "it arrives wrapped to [-pi, pi)"),
 ])
 def test_a_threshold_slip_costs_the_threshold_test_only_and_is_named(all_tests_loaded, variant, words):
-    key = HIDDEN_MODULES["lab05_hidden"]
+    key = hidden_module(HIDDEN / "lab05_hidden.py")
     points, failures = failed("05.next_mode", lambda mode, theta, w: key.next_mode(mode, theta, w, **variant))
     assert points == 2 and [f.name for f in failures] == ["on_a_threshold"], [f.message for f in failures]
     assert words in failures[0].message and "CATCH_ANGLE_RAD" in failures[0].message
@@ -45,20 +48,21 @@ def test_a_threshold_slip_costs_the_threshold_test_only_and_is_named(all_tests_l
 
 @pytest.mark.parametrize("variant", [{"fall": 0.8}, {"check_velocity": False}])
 def test_a_hand_over_mistake_is_not_blamed_on_the_thresholds(all_tests_loaded, variant):
-    key = HIDDEN_MODULES["lab05_hidden"]
+    key = hidden_module(HIDDEN / "lab05_hidden.py")
     _, failures = failed("05.next_mode", lambda mode, theta, w: key.next_mode(mode, theta, w, **variant))
     assert "on_a_threshold" not in [f.name for f in failures], [f.message for f in failures]
 
 
 def test_a_rule_flipped_everywhere_is_named_though_it_keeps_the_plus_one_convention(all_tests_loaded):
-    _, failures = failed("05.pumping_direction", HIDDEN_MODULES["lab05_hidden"].pumping_braking_by_the_convention)
+    braking = hidden_module(HIDDEN / "lab05_hidden.py").pumping_braking_by_the_convention
+    _, failures = failed("05.pumping_direction", braking)
     hidden = next(f for f in failures if f.name == "all_quadrants")
     assert "flipped in every quadrant" in hidden.message and "above horizontal" not in hidden.message
     assert "checks: check" not in " ".join(f.message for f in failures)
 
 
 def test_a_nearest_rank_percentile_is_named_in_both_tests(all_tests_loaded):
-    key = HIDDEN_MODULES["lab06_hidden"]
+    key = hidden_module(HIDDEN / "lab06_hidden.py")
     _, failures = failed("06.period_error_p99_ms", lambda t, n: key.nearest_rank_p99(np.abs(np.diff(t) - n) * 1000))
     assert {f.name for f in failures} == {"percentile_of_absolute_error", "other_periods"}
     assert all("another definition" in f.message and "np.percentile(errors_ms, 99)" in f.message for f in failures)
@@ -66,7 +70,7 @@ def test_a_nearest_rank_percentile_is_named_in_both_tests(all_tests_loaded):
 
 @pytest.mark.parametrize("slip", [{"coupling_sign": 1.0}, {"gravity_sign": -1.0}, {"coupling": False}])
 def test_a_sign_slip_in_the_matrices_is_not_charged_to_the_parameters_test(all_tests_loaded, slip):
-    key = HIDDEN_MODULES["lab04_hidden"]
+    key = hidden_module(HIDDEN / "lab04_hidden.py")
     points, failures = failed("04.upright_matrices", lambda model: key.upright_matrices_with(model, **slip))
     assert points == 1 and {f.name for f in failures} == {"match_the_linearisation", "random_rigs"}, \
         [(f.name, f.message) for f in failures]
@@ -92,7 +96,7 @@ def test_a_rule_without_the_cosine_is_not_told_about_the_tolerance(all_tests_loa
 
 
 def test_catch_set_bounds_in_the_arguments_order_are_named(all_tests_loaded):
-    _, failures = failed("05.catch_set", HIDDEN_MODULES["lab05_hidden"].catch_set_in_argument_order)
+    _, failures = failed("05.catch_set", hidden_module(HIDDEN / "lab05_hidden.py").catch_set_in_argument_order)
     assert {f.name for f in failures} == {"box_around_upright", "random_thresholds"}
     assert all("in another order" in f.message and "[arm angle, pendulum angle, arm rate, pendulum rate]" in f.message
                for f in failures)

@@ -6,16 +6,15 @@ from pathlib import Path
 import pytest
 
 from pendkit.grading import load_hidden, load_lab, run_task
+from pendkit.grading.core import hidden_module
 
 HIDDEN = Path(__file__).resolve().parents[2] / "solutions" / "tests"
 
 
 def answer_key(lab: str):
-    from pendkit.grading.core import HIDDEN_MODULES
-
     load_lab(lab)
     load_hidden(HIDDEN / f"lab{lab}_hidden.py")
-    return HIDDEN_MODULES[f"lab{lab}_hidden"]
+    return hidden_module(HIDDEN / f"lab{lab}_hidden.py")
 
 
 NAMED = [(task_id, fn, words, each) for lab in ("07", "08", "09", "10")
