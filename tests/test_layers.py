@@ -16,6 +16,7 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[1] / "pendkit"
 LAYERS = (
     ("pendkit", "errors", "env_name", "backend_contract", "gl_backend"),
+    ("checks",),
     ("safe_write",),
     ("rig", "encoder", "features", "wiring", "bom", "network", "timing"),
     ("device",),

@@ -10,9 +10,9 @@ laptop and a classroom rig can do.
 from __future__ import annotations
 
 import dataclasses
-import math
 import numbers
 
+from pendkit.checks import is_finite_number
 from pendkit.errors import ConfigError
 from pendkit.rig import SERVO_PRESETS
 from pendkit.sim.fidelity import FIDELITY_PRESETS, Fidelity
@@ -46,10 +46,6 @@ def is_whole(value) -> bool:
     return isinstance(value, numbers.Integral) and not isinstance(value, bool)
 
 
-def is_number(value) -> bool:
-    return isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
-
-
 def check_whole(name: str, value, bounds: tuple[int, int, str]) -> None:
     low, high, what = bounds
     if not is_whole(value) or not low <= value <= high:
@@ -75,7 +71,7 @@ def check_agent_values(settings) -> None:
             check_hidden(value)
         elif name in AGENT_BOUNDS:
             check_whole(f"agent: {name}", value, AGENT_BOUNDS[name])
-        elif not (isinstance(value, (bool, str)) or is_number(value)):
+        elif not (isinstance(value, (bool, str)) or is_finite_number(value)):
             raise ConfigError(f"agent: {name} = {repr(value)[:60]} is not a finite number, true/false or text")
 
 
@@ -90,7 +86,7 @@ def check_agent_types(config_class, settings: dict) -> None:
         elif isinstance(default, int):
             wrong = not is_whole(value)
         elif isinstance(default, float):
-            wrong = not is_number(value)
+            wrong = not is_finite_number(value)
         else:
             continue
         if wrong:

@@ -3,13 +3,13 @@ with the env's action filter as an extra state. A policy object for the env's co
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import control
 import numpy as np
 
 from pendkit.backend_contract import RigState
+from pendkit.checks import check_fields
 from pendkit.control.model import FurutaModel, filtered_model
 from pendkit.control.observer import DelayedAngleObserver
 from pendkit.errors import ConfigError
@@ -33,9 +33,7 @@ class LqrWeights:
     action: float = 3.0
 
     def __post_init__(self) -> None:
-        for name, value in self.__dict__.items():
-            if not math.isfinite(value) or value < 0:
-                raise ConfigError(f"LQR weight {name} must be finite and >= 0, got {value}")
+        check_fields(self, lambda weight: weight >= 0, ">= 0")
         if self.action <= 0:
             raise ConfigError(f"LQR weight action must be > 0 (R must be positive definite), got {self.action}")
 

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pendkit.backend_contract import RigState
+from pendkit.checks import check_fields, is_finite_number
 from pendkit.control.lqr import LqrBalancer
 from pendkit.errors import ConfigError
 from pendkit.features import angle_from_upright_rad, pendulum_energy
@@ -53,11 +54,10 @@ class SwingUpConfig:
     phase_lead_rad: float | None = 0.0
 
     def __post_init__(self) -> None:
-        for name, value in self.__dict__.items():
-            if name == "phase_lead_rad" and (value is None or (math.isfinite(value) and 0 <= value < math.pi)):
-                continue
-            if not (math.isfinite(value) and value > 0):
-                raise ConfigError(f"SwingUpConfig.{name} must be > 0, got {value}")
+        check_fields(self, lambda setting: setting > 0, "> 0", skip=("phase_lead_rad",))
+        lead = self.phase_lead_rad
+        if lead is not None and not (is_finite_number(lead) and 0 <= lead < math.pi):
+            raise ConfigError(f"SwingUpConfig.phase_lead_rad must be None or in [0, pi), got {lead!r}")
         if self.catch_angle_rad >= self.fall_angle_rad:
             raise ConfigError(f"catch_angle_rad ({self.catch_angle_rad}) must be below fall_angle_rad "
                               f"({self.fall_angle_rad}), or the controller would hand over and back at once")

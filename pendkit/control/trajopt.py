@@ -28,6 +28,7 @@ import control
 import control.optimal as opt
 import numpy as np
 
+from pendkit.checks import check_fields
 from pendkit.control.model import FurutaModel
 from pendkit.errors import ConfigError
 from pendkit.rig import RigParams
@@ -50,9 +51,7 @@ class SwingUpLimits:
     catch_arm_angle_rad: float = 0.9
 
     def __post_init__(self) -> None:
-        for name, value in self.__dict__.items():
-            if not (math.isfinite(value) and value > 0):
-                raise ConfigError(f"SwingUpLimits.{name} must be > 0, got {value}")
+        check_fields(self, lambda limit: limit > 0, "> 0")
         if self.arm_limit_rad > math.pi / 2:
             raise ConfigError(f"arm_limit_rad must be within the servo's range (pi/2), got {self.arm_limit_rad}")
 

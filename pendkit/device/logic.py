@@ -26,6 +26,9 @@ HOLDING_FLAGS = frozenset(("watchdog", "overspin", "stuck_encoder"))
 STUCK_BAD_FRAMES = 8
 STUCK_TRAVEL_COUNTS = 60
 FRAME_ERROR = frozenset(("frame_error",))
+# settings a command sets as decoded: its kind -> the attribute
+SETTING_ATTRIBUTES = {"filter": "device_filter", "watchdog_timeout": "watchdog_timeout_ms",
+                      "overspin_limit": "overspin_limit_rev_s"}
 NO_FLAGS: frozenset[str] = frozenset()
 
 
@@ -107,12 +110,8 @@ class McuLogic:
             self.heartbeat(now_ms)
         elif kind == "encoder_offset":
             self.offset_counts = int(value)
-        elif kind == "filter":
-            self.device_filter = value
-        elif kind == "watchdog_timeout":
-            self.watchdog_timeout_ms = value
-        elif kind == "overspin_limit":
-            self.overspin_limit_rev_s = value
+        elif kind in SETTING_ATTRIBUTES:
+            setattr(self, SETTING_ATTRIBUTES[kind], value)
         elif kind == "velocity_window":  # a shorter mean lags less and is noisier (lab 02)
             self.estimator = FirmwareVelocityEstimator(int(value), self.params.encoder_counts)
         # periods, streaming on/off, modes, status requests belong to the scheduler and the link

@@ -21,6 +21,9 @@ from pendkit.errors import ConfigError
 from pendkit.rig import RigParams
 
 PROTOCOLS = (1, 2)
+# commands that set a flag: kind -> (attribute, value)
+FLAG_COMMANDS = {"stream_on": ("streaming_on", True), "stream_off": ("streaming_on", False),
+                 "observe_once": ("observe_once", True), "status": ("status_requested", True)}
 SCHEDULING = ("stream_on", "stream_off", "observe_once", "streaming_period", "acting_period", "status")
 V1_KINDS = ("action", "target", "encoder_offset", "filter", "stream_on", "stream_off", "observe_once",
             "streaming_period", "acting_period", "continuous_mode", "discrete_mode")
@@ -120,18 +123,12 @@ class DeviceScheduler:
 
     def apply(self, command: DeviceCommand, now_ms: int) -> None:
         kind, value = command.kind, command.value
-        if kind == "stream_on":
-            self.streaming_on = True
-        elif kind == "stream_off":
-            self.streaming_on = False
-        elif kind == "observe_once":
-            self.observe_once = True
+        if kind in FLAG_COMMANDS:
+            setattr(self, *FLAG_COMMANDS[kind])
         elif kind == "streaming_period":
             self.streaming.period_ms = value
         elif kind == "acting_period":
             self.acting.period_ms = value
-        elif kind == "status":
-            self.status_requested = True
         else:
             self.logic.apply(command, now_ms)
 

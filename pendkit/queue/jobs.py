@@ -22,6 +22,7 @@ import zlib
 
 from pendkit.agents.policy_artifact import policy_artifact
 from pendkit.agents.policy_rule import RULE_STARTS
+from pendkit.checks import is_finite_number
 from pendkit.deploy.controllers import CONTROLLER_NAMES
 from pendkit.deploy.learned_blob import learned_policy_blob
 from pendkit.device.controller_blob import BlobError, pack, parse
@@ -116,7 +117,7 @@ def _episodes(options: dict) -> dict:
 
 def _time_limit_s(options: dict, default_s: float) -> float:
     value = options.get("time_limit_s", default_s)
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+    if not is_finite_number(value) \
             or not 10 <= value <= 2 * default_s:
         raise ConfigError(f"time_limit_s must be in [10, {2 * default_s:.0f}] s of the rig's time for this job, "
                           f"got {value!r}")

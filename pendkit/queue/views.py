@@ -14,6 +14,7 @@ import time
 
 import sqlalchemy as sa
 
+from pendkit.checks import is_finite_number
 from pendkit.queue.fair import Waiting, next_job
 from pendkit.queue.store import Job, QueueStore, jobs, results, teams
 
@@ -149,7 +150,7 @@ def _asked(verdict, run) -> int:
 
 
 def _number(value) -> float | None:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if not is_finite_number(value):
         return None
     return float(value)
 

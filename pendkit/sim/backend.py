@@ -11,6 +11,7 @@ import mujoco
 import numpy as np
 
 from pendkit.backend_contract import BackendTiming, RigState, ServoCommand
+from pendkit.checks import is_finite_number
 from pendkit.device.commands import command_body, frame_command
 from pendkit.device.observation import McuObservation, observation_to_state
 from pendkit.device.protocol import format_observation_v1
@@ -101,7 +102,7 @@ class SimBackend:
         if unknown:
             raise ConfigError(f"unknown initial state keys {sorted(unknown)}; expected some of {INITIAL_STATE_KEYS}")
         for key, value in initial.items():
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            if not is_finite_number(value):
                 raise ConfigError(f"initial {key} must be a finite number, got {value!r}")
         rate = initial.get("pendulum_velocity_rad_s", 0.0)
         if abs(rate) > MAX_INITIAL_RATE_RAD_S:

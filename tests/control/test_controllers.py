@@ -34,7 +34,7 @@ def test_lqr_design_is_stable_and_uses_python_control():
 
 
 @pytest.mark.parametrize("weights, words", [
-    ({"pendulum_angle": -1.0}, "pendulum_angle must be finite and >= 0"),
+    ({"pendulum_angle": -1.0}, "LqrWeights.pendulum_angle must be finite and >= 0"),
     ({"action": 0.0}, "action must be > 0"),
     ({"arm_angle": float("nan")}, "arm_angle"),
 ])
