@@ -4,7 +4,8 @@ Shared by the realistic fidelity (which adds latency in memory) and the virtual 
 Commands are delivered as text with an arrival time and go through the device's one command path
 (`DeviceScheduler.receive`) when they arrive; the servo sees its target on 20 ms PWM frames, and every
 streaming tick reads the encoder and hands an observation to `emit`. Between those events the physics
-runs in one call.
+runs in one call. An action, a target or a heartbeat only sets what the next PWM frame carries, so its arrival
+is no such event: it is taken at the next one, in time order with the acting ticks, with the same result.
 """
 
 from __future__ import annotations
@@ -15,12 +16,15 @@ from collections.abc import Callable
 
 import mujoco
 
+from pendkit.device.commands import parse_command
 from pendkit.device.observation import McuObservation
+from pendkit.device.protocol import ProtocolError
 from pendkit.device.scheduler import DeviceScheduler
 from pendkit.encoder import encode_ssi_frame
 from pendkit.rig import RigParams
 
 ENCODER_FAULTS = (None, "stuck", "garbage")
+WAITS_FOR_NEXT_EVENT = frozenset(("action", "target", "heartbeat"))
 
 
 class TwinDevice:
@@ -58,7 +62,7 @@ class TwinDevice:
     def reset(self, servo_counts: int) -> None:
         self.scheduler.reset(servo_counts, 0)
         self.tick = 0
-        self._pending: deque[tuple[float, str | bytes]] = deque()
+        self._pending: deque[tuple[float, object, bool]] = deque()  # (arrival ms, command, stops the physics)
         self._stuck_raw: int | None = None
 
     @property
@@ -71,7 +75,14 @@ class TwinDevice:
 
     def deliver(self, arrival_ms: float, command: str | bytes) -> None:
         """A command's text reaching the device at `arrival_ms` (arrivals must not go back in time)."""
-        self._pending.append((arrival_ms, command))
+        if type(command) is str:
+            try:
+                parsed = parse_command(command)
+                self._pending.append((arrival_ms, parsed, parsed.kind not in WAITS_FOR_NEXT_EVENT))
+                return
+            except ProtocolError:
+                pass  # the device counts it as it arrives
+        self._pending.append((arrival_ms, command, True))
 
     def run(self, ticks: int, emit: Callable[[float, McuObservation], None]) -> None:
         """Advance `ticks` physics ticks, stopping only where the device meets the physics."""
@@ -95,11 +106,16 @@ class TwinDevice:
             if onboard.running:  # the device's own controller reads the encoder on every acting tick
                 due = ceil(acting.next_ms / tick_ms)
                 next_event = min(next_event, due if due > soonest else soonest)
-            if pending:  # a command may change streaming or ask for an observation
-                due = ceil(pending[0][0] / tick_ms)
-                next_event = min(next_event, due if due > soonest else soonest)
+            for arrival_ms, _, stops in pending:  # a command may change streaming or ask for an observation
+                if stops:
+                    due = ceil(arrival_ms / tick_ms)
+                    next_event = min(next_event, due if due > soonest else soonest)
+                    break
             mj_step(model, data, next_event - tick)
             self.tick = tick = next_event
+        # commands after the last event, taken at their arrival ticks as a stop there would have taken them
+        while pending and ceil(pending[0][0] / tick_ms) < end:
+            self._take_commands_and_acting_ticks(ceil(pending[0][0] / tick_ms) * tick_ms)
 
     def handle_events_now(self, emit: Callable[[float, McuObservation], None]) -> None:
         """What the device does at the current tick without stepping the physics: commands that have arrived,
@@ -112,24 +128,29 @@ class TwinDevice:
         at_pwm = (tick - self._pwm_phase_ticks) % self._pwm_ticks == 0
         if (at_pwm or (pending and pending[0][0] <= now_ms) or (onboard.running and acting.next_ms <= now_ms)
                 or (scheduler.streaming_on and scheduler.streaming.next_ms <= now_ms) or scheduler.observe_once):
-            # Acting ticks and command arrivals up to now, in time order (a command before a tick at the same
-            # moment). Commands act on arrival, as in the firmware's message callback.
-            while True:
-                acting_ms = acting.next_ms
-                if pending and pending[0][0] <= now_ms and pending[0][0] <= acting_ms:
-                    arrival_ms, payload = pending.popleft()
-                    scheduler.receive(payload, int(math.ceil(arrival_ms / tick_ms) * tick_ms))
-                elif acting_ms <= now_ms:
-                    acting.next_ms = acting_ms + acting.period_ms  # Schedule.due at its own deadline: never a skip
-                    mcu.acting_tick(int(acting_ms), self._onboard_reading() if onboard.running else None)
-                else:
-                    break
+            self._take_commands_and_acting_ticks(now_ms)
         if at_pwm:
             self._act[0] = self.params.servo_counts_to_rad(mcu.servo_counts)
         # streaming_due has effects only when it says yes: asked only when it may
         if ((scheduler.streaming_on and scheduler.streaming.next_ms <= now_ms) or scheduler.observe_once) \
                 and scheduler.streaming_due(now_ms):
             emit(now_ms, self._read_and_stream())
+
+    def _take_commands_and_acting_ticks(self, now_ms: float) -> None:
+        """Acting ticks and command arrivals up to `now_ms`, in time order (a command before a tick at the same
+        moment). Commands act on arrival, as in the firmware's message callback."""
+        scheduler, pending, mcu, tick_ms = self.scheduler, self._pending, self.mcu, self._tick_ms
+        acting, onboard = scheduler.acting, mcu.onboard
+        while True:
+            acting_ms = acting.next_ms
+            if pending and pending[0][0] <= now_ms and pending[0][0] <= acting_ms:
+                arrival_ms, command, _ = pending.popleft()
+                scheduler.receive(command, int(math.ceil(arrival_ms / tick_ms) * tick_ms))
+            elif acting_ms <= now_ms:
+                acting.next_ms = acting_ms + acting.period_ms  # Schedule.due at its own deadline: never a skip
+                mcu.acting_tick(int(acting_ms), self._onboard_reading() if onboard.running else None)
+            else:
+                break
 
     def raw_encoder_counts(self) -> int:
         counts = self.params.encoder_counts
