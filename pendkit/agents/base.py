@@ -100,6 +100,7 @@ class SequenceConfig(OffPolicyConfig):
     gru_size: int = 32
     burn_in: int = 8
     sequence_length: int = 8
+    buffer_capacity: int = 100_000  # whole episodes' stretches, ten times a step learner's
 
     def __post_init__(self) -> None:
         super().__post_init__()

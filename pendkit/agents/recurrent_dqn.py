@@ -34,7 +34,6 @@ from pendkit.device.blob_parts import NetworkBlob
 class RecurrentDqnConfig(SequenceConfig, EpsilonGreedyConfig):
     """R-DQN settings: the DQN ones plus the GRU's size and the replayed stretch (burn-in + trained steps)."""
 
-    buffer_capacity: int = 100_000
     # 64 stretches x 8 steps every 8 env steps: 64 replayed steps per env step, as DQN's batch. Fewer, larger
     # updates cost a third of the time of 32 x 8 every 4 on a CPU and solved `realistic` sooner (docs/rl.md).
     update_every: int = 8

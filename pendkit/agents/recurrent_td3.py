@@ -26,7 +26,6 @@ from pendkit.device.blob_parts import NetworkBlob
 @dataclass(frozen=True)
 class RecurrentTd3Config(SequenceConfig, ActorCriticConfig):
     batch_size: int = 32
-    buffer_capacity: int = 100_000
     learning_starts: int = 1000
     update_every: int = 2
 
