@@ -11,7 +11,12 @@ from pendkit.grading.suites.lab10 import a_number, as_chunk_list, chunk_problem,
 model = task("10.pendulum_acceleration", function="pendulum_acceleration", title="The estimate's model")
 chunks = task("10.upload_chunks", function="upload_chunks", title="Upload chunks")
 
-prelab_answers("10", {"round_trip_ms": 38.0, "readings_per_decision": 6.0, "heartbeat_ms": 50.0})
+prelab_answers("10", {"round_trip_ms": 38.0, "readings_per_decision": 6.0, "heartbeat_ms": 50.0}, how={
+    "round_trip_ms": "each way the median is the fixed 4 ms plus the lognormal part's 15 ms: 19 ms up (the reading) "
+                     "and 19 ms down (the command), 38 ms in all (one way alone is 19)",
+    "readings_per_decision": "a decision every 60 ms, a reading on every 10 ms acting tick: 60 / 10 = 6",
+    "heartbeat_ms": "with two lost in a row, the heartbeats that arrive are three periods apart (not two): "
+                    "3 x period <= 150 ms, so the period is at most 50 ms"})
 
 
 @model.test(points=1, hidden=True, hint="Any rig (its frequency, damping and coupling), any state.")
@@ -83,6 +88,11 @@ MISTAKES = [
     ("10.pendulum_acceleration", lambda a, w, p, w0, d, k: pendulum_acceleration(a, w, 0.0, w0, d, k), "missing"),
     ("10.pendulum_acceleration", lambda a, w, p, w0, d, k: pendulum_acceleration(a, w, p, w0, d, k)
      + 2 * w0**2 * math.sin(a), "pulls the pendulum down, towards 0"),
+    ("10.pendulum_acceleration", lambda a, w, p, w0, d, k: pendulum_acceleration(a, w, p, w0, 0.0, k),
+     "damping term is missing", {"the_pendulums_row", "random_rigs_and_states"}),
+    ("10.pendulum_acceleration", lambda a, w, p, w0, d, k: pendulum_acceleration(a, w, p, w0, d, k) + w0**2 * math.sin(a),
+     "gravity's term is missing", {"the_pendulums_row", "random_rigs_and_states",
+                                   "still_when_hanging_and_falling_back_near_upright"}),
     ("10.pendulum_acceleration", lambda a, w, p, w0, d, k: pendulum_acceleration(a, w, p, w0, d, k, w0_power=1),
      "not squared", {"the_pendulums_row", "random_rigs_and_states"}),
     ("10.pendulum_acceleration", lambda a, w, p, w0, d, k: pendulum_acceleration(a, w, p, w0, d, k, push_trig=math.sin),

@@ -311,7 +311,7 @@ def test_lab10_says_why_the_measured_latency_is_above_the_backgrounds_and_which_
     assert f"Expect a median of about 22 ms, a little above the background's 4 + 15 = {own:.0f} ms" in text
     assert "medians 21.9-22.4 ms" in text
     assert f"a reading sent {period:.0f} ms after a slow one waits for it" in text
-    assert "(29 ms in one run beside other work)" in text
+    assert "(29 ms in one of the kit's runs beside other work; 21.9-22.3 ms in a student's runs" in text
     assert "latency median 28.9 ms" in flat((ROOT / "docs" / "results" / "labs.md").read_text())
     assert "answer from the background's figures" in text
 
@@ -322,3 +322,15 @@ def test_lab10_guide_says_what_the_cells_do_with_a_wrong_model_and_wrong_chunks(
     assert "reads them as the rig would before sending any" in guide and "are not sent" in guide
     source = next(c for c in cells("10_on_device.ipynb") if "def your_chunks(" in c)
     assert "chunk_problem(chunks, data, start)" in source and "raise DeployError" in source
+
+
+def test_lab10_says_what_its_deploy_runs_showed_and_which_model_errors_its_estimate_shows():
+    from pendkit.grading.suites.lab10 import DAMPING, W0
+
+    deploy_text = flat(cells("10_on_device.ipynb")[19])
+    results = flat((ROOT / "docs" / "results" / "labs.md").read_text())
+    assert "about 3 s in (3.1-3.3 s in eight runs of a student's walk-through" in deploy_text
+    assert "saw its deploy cell come up at 3.1-3.3 s every time" in results
+    assert "14.8 s in one of the kit's runs on a busy laptop" in deploy_text and "from 14.8 s of the 30 s run" in results
+    estimate_text = flat(cells("10_on_device.ipynb")[11])
+    assert f"($d = {DAMPING:.2f}$/s against $\\omega_0^2 = {W0**2:.0f}$/s²)" in estimate_text

@@ -59,6 +59,9 @@ MISTAKES = {  # the cause, and the model with that mistake: (angle, rate, push, 
         lambda a, w, p, w0, d, k: _model(a, w, p, w0, d, k, g_sign=1.0),  # +w0^2 sin (flipping w0 squares away)
     "the damping has the wrong sign (it slows the pendulum)": lambda a, w, p, w0, d, k: _model(a, w, p, w0, d, k,
                                                                                                 d_sign=1.0),
+    "the damping term is missing: - damping * rate (the bearing's drag: small, and it hardly shows in the "
+    "estimate, so this check is where it shows)": lambda a, w, p, w0, d, k: _model(a, w, p, w0, d, k, d_sign=0.0),
+    "gravity's term is missing: -w0^2 sin(angle)": lambda a, w, p, w0, d, k: _model(a, w, p, w0, d, k, g_sign=0.0),
 }
 CASES = [(0.4, 2.0, 10.0), (2.5, -3.0, -20.0), (math.pi - 0.1, 0.5, 5.0), (-1.2, 6.0, 30.0)]
 
@@ -94,7 +97,7 @@ def still_when_hanging_and_falling_back_near_upright(fn, rng):
     expect(abs(got) < 1e-12, f"hanging still, the arm at rest: 0 rad/s^2, got {got}" + model_note(fn))
     upright = a_number(fn(math.pi - 0.01, 0.0, 0.0, W0, DAMPING, COUPLING), "pendulum_acceleration(pi - 0.01, ...)")
     message = f"0.01 rad short of upright (angle pi - 0.01) gravity pulls it back down (negative), got {upright}"
-    if upright > 0:
+    if upright >= 0:
         message += model_note(fn) or Diagnosis(": gravity has the wrong sign (-w0^2 sin(angle), with the angle "
                                                "from hanging)")
     expect(upright < 0, message)
