@@ -4,6 +4,7 @@ import numpy as np
 import torch
 
 from pendkit.grading import expect, task
+from pendkit.grading.core import Diagnosis, as_number
 from pendkit.grading.prelab import prelab_answers
 from pendkit.grading.suites.lab07 import huber_note, target_note, target_note_on_a_telling_batch
 
@@ -18,7 +19,12 @@ def matches_the_kit(fn, rng):
     agent = DqnAgent(2, 2, DqnConfig(epsilon_start=0.8, epsilon_end=0.1, epsilon_decay_steps=300))
     for step in (0, 150, 299, 300, 1000):
         agent.steps = step
-        expect(abs(fn(step, 0.8, 0.1, 300) - agent.epsilon) < 1e-9, f"epsilon at step {step} differs")
+        got = as_number(fn(step, 0.8, 0.1, 300), f"epsilon({step}, 0.8, 0.1, 300)")
+        message = f"epsilon({step}, 0.8, 0.1, 300) should be {agent.epsilon:.4f} as the kit's DQN has it, got {got:.4f}"
+        if 0 < abs(got - agent.epsilon) <= 1.01 * (0.8 - 0.1) / 300:  # one step's worth of the schedule
+            message += Diagnosis(": off by one step; epsilon is `start` at step 0 and reaches `end` at step "
+                                 "decay_steps exactly (fraction = step / decay_steps)")
+        expect(abs(got - agent.epsilon) < 1e-9, message)
 
 
 @huber.test(points=1, hidden=True, hint="Any delta; it must agree with torch's huber_loss.")
@@ -126,7 +132,8 @@ MISTAKES = [
      if double else td_target(r, done, online, target, gamma, double), "roles are swapped"),
     ("07.td_target", lambda r, done, online, target, gamma, double: np.asarray(r) + gamma * (1 - np.asarray(done))
      * np.asarray(target).max(axis=0), "over axis=1, the actions"),
-    ("07.epsilon", lambda step, start, end, decay: start + (end - start) * min(1.0, (step + 1) / decay), "off by one"),
+    ("07.epsilon", lambda step, start, end, decay: start + (end - start) * min(1.0, (step + 1) / decay), "off by one",
+     {"linear_then_flat", "matches_the_kit"}),
     ("07.huber", lambda e, delta: np.where(np.abs(e) <= delta, np.asarray(e) ** 2, delta * (np.abs(e) - 0.5 * delta)),
      "half the square"),
     ("07.policy_verdict", lambda held, starts: {"held": sum(map(bool, held)), "episodes": len(held),

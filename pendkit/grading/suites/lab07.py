@@ -21,8 +21,8 @@ def linear_then_flat(fn, rng):
         if step == 5000 and got < 0.05:
             message += ": stop at the end value; do not keep decreasing"
         elif 0 < abs(got - expected) <= 1.01 * (1.0 - 0.05) / 1000:  # one step's worth of the schedule
-            message += (": off by one step; epsilon is `start` at step 0 and reaches `end` at step "
-                        "decay_steps exactly (fraction = step / decay_steps)")
+            message += Diagnosis(": off by one step; epsilon is `start` at step 0 and reaches `end` at step "
+                                 "decay_steps exactly (fraction = step / decay_steps)")
         expect(abs(got - expected) < 1e-9, message)
 
 
