@@ -129,6 +129,17 @@ class NetworkPath:
         self.impairment, self.rng = impairment, rng
         self._last_command_ms = self._last_observation_ms = 0.0
 
+    @property
+    def impairment(self) -> NetworkImpairment:
+        return self._impairment
+
+    @impairment.setter
+    def impairment(self, impairment: NetworkImpairment) -> None:
+        # read for every message the realistic twin sends (several a step): the models taken once
+        self._impairment = impairment
+        self._command_latency, self._observation_latency = impairment.latency, impairment.observation_latency_model
+        self._command_loss_pct, self._observation_loss_pct = impairment.command_loss_pct, impairment.observation_loss_pct
+
     def restart(self, rng: np.random.Generator | None = None) -> None:
         """A new episode: order starts afresh (and the stream, when given)."""
         self.rng = rng if rng is not None else self.rng
@@ -139,18 +150,19 @@ class NetworkPath:
 
     def command_arrival_ms(self, sent_ms: float) -> float | None:
         """When a command sent at `sent_ms` reaches the device; None when it is lost."""
-        impairment = self.impairment
-        if impairment.command_loss_pct and self._lost(impairment.command_loss_pct):
+        if self._command_loss_pct and self._lost(self._command_loss_pct):
             return None
-        self._last_command_ms = max(sent_ms + impairment.latency.sample_ms(self.rng), self._last_command_ms)
+        arrival_ms = sent_ms + self._command_latency.sample_ms(self.rng)
+        if arrival_ms > self._last_command_ms:
+            self._last_command_ms = arrival_ms
         return self._last_command_ms
 
     def observation_delivery_ms(self, sent_ms: float) -> float | None:
         """When a reading published at `sent_ms` reaches the host; None when it is lost."""
-        impairment = self.impairment
-        if impairment.observation_loss_pct and self._lost(impairment.observation_loss_pct):
+        if self._observation_loss_pct and self._lost(self._observation_loss_pct):
             return None
-        delay_ms = impairment.observation_latency_model.sample_ms(self.rng)
-        self._last_observation_ms = max(sent_ms + delay_ms, self._last_observation_ms)
+        delivery_ms = sent_ms + self._observation_latency.sample_ms(self.rng)
+        if delivery_ms > self._last_observation_ms:
+            self._last_observation_ms = delivery_ms
         return self._last_observation_ms
 

@@ -134,7 +134,10 @@ class TwinDevice:
         # streaming_due has effects only when it says yes: asked only when it may
         if ((scheduler.streaming_on and scheduler.streaming.next_ms <= now_ms) or scheduler.observe_once) \
                 and scheduler.streaming_due(now_ms):
-            emit(now_ms, self._read_and_stream())
+            if self.encoder_fault is None:  # the common case, without a call
+                emit(now_ms, mcu.streaming_tick(self.raw_encoder_counts(), int(now_ms)))
+            else:
+                emit(now_ms, self._read_and_stream())
 
     def _take_commands_and_acting_ticks(self, now_ms: float) -> None:
         """Acting ticks and command arrivals up to `now_ms`, in time order (a command before a tick at the same
