@@ -72,8 +72,9 @@ def gap_chart(results: list[dict]):
         axis.set_ylim(-0.5, len(names) - 0.5)
         axis.invert_yaxis()  # the first run at the top, as the table printed them
         axis.set_xlim(left=0.0)
-        axis.set_xlabel(label + "  (x, never: not upright within the run)")
+        axis.set_xlabel(label)
     axes[0].set_yticks(list(rows), names)
     axes[1].set_yticks([])
-    figure.suptitle("the sim-to-real gap, measured with your functions (blue: twin, orange: rig)")
+    figure.suptitle("the sim-to-real gap, measured with your functions (blue: twin, orange: rig; x, never: not "
+                    "upright within the run)")
     return figure

@@ -228,8 +228,17 @@ def test_lab09_quotes_the_rig_runs_as_docs_results_records_them():
             f"{busy:.3f}, on a busy laptop)") in text
     right = [float(g) / n for g, n in zip(rows["identified twin's gap, the right cost"], nominal)]
     no_wrap = [float(g) / n for g, n in zip(rows["the same recordings, a cost without the wrap"], nominal)]
-    assert f"twin had {min(right):.2f} to {max(right):.2f} of the nominal twin's gap" in text
-    assert f"recordings, {min(no_wrap):.2f} to {max(no_wrap):.2f} of it" in text
+    assert f"twin had {min(right):.2f} to {max(right):.2f} of the nominal twin's gap in the kit's five latest runs" in text
+    assert f"a cost that forgot the wrap {min(no_wrap):.2f} to {max(no_wrap):.2f} (the kit's five)" in text
+    # the third walk-through's four full runs: three with the right cost, one without the wrap
+    third = re.search(r"identified twins' gaps ([\d.]+), ([\d.]+) and ([\d.]+) rad\^2 against nominal twins' "
+                      r"([\d.]+), ([\d.]+) and ([\d.]+) \(", results).groups()
+    walked_right = [float(g) / float(n) for g, n in zip(third[:3], third[3:])]
+    walked_wrong = float(re.search(r"in the fourth: ([\d.]+) against ([\d.]+)", results).group(1)) / float(
+        re.search(r"in the fourth: ([\d.]+) against ([\d.]+)", results).group(2))
+    assert (f"and {min(walked_right):.2f} to {max(walked_right):.2f} in a walk-through's three" in text
+            and f"and {walked_wrong:.2f} (the walk-through's one)" in text)
+    assert min(walked_right) < walked_wrong < max(walked_right) or walked_wrong < max(right)  # "the ranges overlap"
     assert "right cost's twin at 0.07 to 0.10 of it and two costs without the wrap at 0.26 and 0.50" in results
     assert min(right) <= 0.07 and max(right) >= 0.10 and min(no_wrap) <= 0.26 and max(no_wrap) >= 0.50
     identified = [up_and_return(c)[0] for c in rows["identified in 6 episodes, rig"]]

@@ -34,6 +34,8 @@ def matching_cost(simulated_rad, recorded_rad):
 IDENTIFY_AGAIN_WITH_THE_SIGNED_COST = SIGNED_COST + '''
 signed = identify(recordings, pendkit.RigParams(), max_evaluations=evaluations, cost=your_cost)
 print(f"signed cost: gap of {kit_cost(signed.params, signed.latency_ms, recordings):.4f} rad^2")
+no_wrap = [float(np.mean((simulate(pendkit.RigParams(), 10.0, r) - np.asarray(r.pendulum_rad)) ** 2)) for r in recordings]
+print(f"a cost without the wrap on the nominal twin: {np.mean(no_wrap):.4f} rad^2")
 '''
 
 
@@ -49,6 +51,12 @@ def test_lab09_the_students_cost_identifies_a_twin_that_follows_the_rig_and_a_si
     text = printed_by_lab("09_deploy.ipynb", "your_cost(params, latency_ms", then=IDENTIFY_AGAIN_WITH_THE_SIGNED_COST)
     right, signed = gaps_to_nominal(text)
     assert right < 0.75 and signed > right + 0.2, text  # the nominal twin is 1.0
+    # what tells a cost right or wrong in every run: the student's cost beside the kit's on the nominal twin
+    yours, kits = re.search(r"your matching_cost on the nominal twin: ([\d.]+) rad\^2 \(the kit's: ([\d.]+)\)",
+                            text).groups()
+    assert abs(float(yours) - float(kits)) <= 0.05 * float(kits), text  # "within a few percent"
+    no_wrap = float(re.search(r"a cost without the wrap on the nominal twin: ([\d.]+) rad\^2", text).group(1))
+    assert no_wrap > 100 * float(kits), text  # "hundreds of times the kit's"
 
 
 def test_lab09_the_deployed_policies_come_up_on_their_twins_and_seldom_on_a_twin_of_the_rig():

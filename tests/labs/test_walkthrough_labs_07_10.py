@@ -334,3 +334,21 @@ def test_lab10_says_what_its_deploy_runs_showed_and_which_model_errors_its_estim
     assert "14.8 s in one of the kit's runs on a busy laptop" in deploy_text and "from 14.8 s of the 30 s run" in results
     estimate_text = flat(cells("10_on_device.ipynb")[11])
     assert f"($d = {DAMPING:.2f}$/s against $\\omega_0^2 = {W0**2:.0f}$/s²)" in estimate_text
+
+
+def test_lab09_the_gap_charts_labels_do_not_run_into_each_other():
+    """A walk-through saw the two x labels run together: each names its axis alone, the "never" key sits above."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from pendkit.labs.rig_runs import gap_chart
+
+    figure = gap_chart([{"name": "swing-up, on the rig", "upright_s": None, "error_deg": None}])
+    figure.canvas.draw()
+    renderer = figure.canvas.get_renderer()
+    left, right = (axis.xaxis.label.get_window_extent(renderer) for axis in figure.axes)
+    assert left.x1 < right.x0, (left, right)
+    assert "never: not upright within the run" in figure.get_suptitle()
+    plt.close(figure)
