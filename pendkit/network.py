@@ -119,6 +119,9 @@ def median_latency_ms(latency: LatencyModel) -> float:
     return latency.floor_ms + latency.median_ms
 
 
+COMMANDS, READINGS = 0, 1  # the two ways through a path
+
+
 class NetworkPath:
     """Messages both ways through `impairment`, in the device's clock (ms): each one lost (QoS 0) or
     delivered after its latency, never before one sent earlier the same way (TCP keeps order). One random
@@ -127,7 +130,7 @@ class NetworkPath:
 
     def __init__(self, impairment: NetworkImpairment, rng: np.random.Generator) -> None:
         self.impairment, self.rng = impairment, rng
-        self._last_command_ms = self._last_observation_ms = 0.0
+        self._last_ms = [0.0, 0.0]  # the latest arrival each way (COMMANDS, READINGS)
 
     @property
     def impairment(self) -> NetworkImpairment:
@@ -135,34 +138,33 @@ class NetworkPath:
 
     @impairment.setter
     def impairment(self, impairment: NetworkImpairment) -> None:
-        # read for every message the realistic twin sends (several a step): the models taken once
+        # read for every message the realistic twin sends (several a step): each way's model taken once
         self._impairment = impairment
-        self._command_latency, self._observation_latency = impairment.latency, impairment.observation_latency_model
-        self._command_loss_pct, self._observation_loss_pct = impairment.command_loss_pct, impairment.observation_loss_pct
+        self._latency = (impairment.latency, impairment.observation_latency_model)
+        self._loss_pct = (impairment.command_loss_pct, impairment.observation_loss_pct)
 
     def restart(self, rng: np.random.Generator | None = None) -> None:
         """A new episode: order starts afresh (and the stream, when given)."""
         self.rng = rng if rng is not None else self.rng
-        self._last_command_ms = self._last_observation_ms = 0.0
+        self._last_ms = [0.0, 0.0]
 
     def _lost(self, loss_pct: float) -> bool:
         return loss_pct > 0 and self.rng.random() * 100 < loss_pct
 
+    def _arrival_ms(self, way: int, sent_ms: float) -> float | None:
+        loss_pct = self._loss_pct[way]
+        if loss_pct and self._lost(loss_pct):
+            return None
+        arrival_ms, last_ms = sent_ms + self._latency[way].sample_ms(self.rng), self._last_ms
+        if arrival_ms > last_ms[way]:
+            last_ms[way] = arrival_ms
+        return last_ms[way]
+
     def command_arrival_ms(self, sent_ms: float) -> float | None:
         """When a command sent at `sent_ms` reaches the device; None when it is lost."""
-        if self._command_loss_pct and self._lost(self._command_loss_pct):
-            return None
-        arrival_ms = sent_ms + self._command_latency.sample_ms(self.rng)
-        if arrival_ms > self._last_command_ms:
-            self._last_command_ms = arrival_ms
-        return self._last_command_ms
+        return self._arrival_ms(COMMANDS, sent_ms)
 
     def observation_delivery_ms(self, sent_ms: float) -> float | None:
         """When a reading published at `sent_ms` reaches the host; None when it is lost."""
-        if self._observation_loss_pct and self._lost(self._observation_loss_pct):
-            return None
-        delivery_ms = sent_ms + self._observation_latency.sample_ms(self.rng)
-        if delivery_ms > self._last_observation_ms:
-            self._last_observation_ms = delivery_ms
-        return self._last_observation_ms
+        return self._arrival_ms(READINGS, sent_ms)
 
