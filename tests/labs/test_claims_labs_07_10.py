@@ -179,7 +179,7 @@ def test_lab10_note_quotes_the_estimates_error_as_the_cell_measures_it():
     note = flat(cells("10_on_device.ipynb")[23])
     right = rms(lambda a, w, p, w0, d, k: reference(a, w, p, w0, d, k))
     assert f"({right:.2f} rad/s RMS with the right model" in note
-    listed = [cause for cause in MISTAKES if "damping" not in cause and "is missing" not in cause]
+    listed = [cause for cause in MISTAKES if "damping" not in cause and "is missing" not in cause and "lacks" not in cause]
     wrong = [rms(MISTAKES[cause]) for cause in listed] + [rms(lambda *args: 0.0)]
     assert f"; {min(wrong):.2f}-{max(wrong):.2f} with the arm's push" in note, wrong
     assert min(wrong) > 1.3 * right  # the cell says so for each
@@ -189,7 +189,10 @@ def test_lab10_note_quotes_the_estimates_error_as_the_cell_measures_it():
     assert f"nor a missing damping term, {missing:.2f}, the bearing's damping being small" in note
     assert missing < 1.3 * right  # so the cell does not say so: the check cell names it
     no_gravity = rms(MISTAKES["gravity's term is missing: -w0^2 sin(angle)"])
-    assert f"gravity left out reads {no_gravity:.2f}, just below that line" in note and no_gravity < 1.3 * right
+    no_cos = rms(next(model for cause, model in MISTAKES.items() if "lacks its cos(angle)" in cause))
+    assert (f"gravity left out reads {no_gravity:.2f} and a push without its cos(angle) {no_cos:.2f}, just below "
+            "that line") in note
+    assert max(no_gravity, no_cos) < 1.3 * right
     assert math.isfinite(flipped)
 
 

@@ -62,6 +62,9 @@ MISTAKES = {  # the cause, and the model with that mistake: (angle, rate, push, 
     "the damping term is missing: - damping * rate (the bearing's drag: small, and it hardly shows in the "
     "estimate, so this check is where it shows)": lambda a, w, p, w0, d, k: _model(a, w, p, w0, d, k, d_sign=0.0),
     "gravity's term is missing: -w0^2 sin(angle)": lambda a, w, p, w0, d, k: _model(a, w, p, w0, d, k, g_sign=0.0),
+    "the arm's push lacks its cos(angle): - coupling cos(angle) * arm acceleration (the pivot is pushed "
+    "sideways, fully only when the pendulum hangs)": lambda a, w, p, w0, d, k: _model(a, w, p, w0, d, k,
+                                                                                     push=lambda angle: 1.0),
 }
 CASES = [(0.4, 2.0, 10.0), (2.5, -3.0, -20.0), (math.pi - 0.1, 0.5, 5.0), (-1.2, 6.0, 30.0)]
 
