@@ -179,7 +179,8 @@ def test_lab10_note_quotes_the_estimates_error_as_the_cell_measures_it():
     note = flat(cells("10_on_device.ipynb")[23])
     right = rms(lambda a, w, p, w0, d, k: reference(a, w, p, w0, d, k))
     assert f"({right:.2f} rad/s RMS with the right model" in note
-    listed = [cause for cause in MISTAKES if "damping" not in cause and "is missing" not in cause and "lacks" not in cause]
+    listed = [cause for cause in MISTAKES
+              if "damping" not in cause and "is missing" not in cause and "lacks" not in cause]
     wrong = [rms(MISTAKES[cause]) for cause in listed] + [rms(lambda *args: 0.0)]
     assert f"; {min(wrong):.2f}-{max(wrong):.2f} with the arm's push" in note, wrong
     assert min(wrong) > 1.3 * right  # the cell says so for each
@@ -231,7 +232,8 @@ def test_lab09_quotes_the_rig_runs_as_docs_results_records_them():
             f"{busy:.3f}, on a busy laptop)") in text
     right = [float(g) / n for g, n in zip(rows["identified twin's gap, the right cost"], nominal)]
     no_wrap = [float(g) / n for g, n in zip(rows["the same recordings, a cost without the wrap"], nominal)]
-    assert f"twin had {min(right):.2f} to {max(right):.2f} of the nominal twin's gap in the kit's five latest runs" in text
+    assert (f"twin had {min(right):.2f} to {max(right):.2f} of the nominal twin's gap in the kit's five latest "
+            "runs") in text
     assert f"a cost that forgot the wrap {min(no_wrap):.2f} to {max(no_wrap):.2f} (the kit's five)" in text
     # the third walk-through's four full runs: three with the right cost, one without the wrap
     third = re.search(r"identified twins' gaps ([\d.]+), ([\d.]+) and ([\d.]+) rad\^2 against nominal twins' "
