@@ -331,7 +331,10 @@ def test_lab10_says_what_its_deploy_runs_showed_and_which_model_errors_its_estim
 
     deploy_text = flat(cells("10_on_device.ipynb")[19])
     results = flat((ROOT / "docs" / "results" / "labs.md").read_text())
-    assert "up for good at 3.1-3.3 s in 13 of 14 runs of two students' walk-throughs" in deploy_text
+    assert "up for good at 3.1-3.3 s in 20 of 21 runs of three students' walk-throughs" in deploy_text
+    assert "saw it up for good at 3.1-3.3 s in all seven" in results  # 8 + 5 + 7 at 3.1-3.3 s, one at 2.3 s
+    assert "within 2 to 20 degrees of the top at about 1.8 s" in deploy_text
+    assert "within 13-20 degrees of upright at 1.7-1.9 s" in results and "12.7, 12.7 and 2.1 degrees" in results
     assert "saw its deploy cell come up at 3.1-3.3 s every time" in results
     assert "up for good at 3.1-3.3 s in five and at 2.3 s in one" in results
     assert "14.8 s in one of the kit's runs on a busy laptop" in deploy_text
