@@ -34,7 +34,8 @@ def matching_cost(simulated_rad, recorded_rad):
 IDENTIFY_AGAIN_WITH_THE_SIGNED_COST = SIGNED_COST + '''
 signed = identify(recordings, pendkit.RigParams(), max_evaluations=evaluations, cost=your_cost)
 print(f"signed cost: gap of {kit_cost(signed.params, signed.latency_ms, recordings):.4f} rad^2")
-no_wrap = [float(np.mean((simulate(pendkit.RigParams(), 10.0, r) - np.asarray(r.pendulum_rad)) ** 2)) for r in recordings]
+no_wrap = [float(np.mean((simulate(pendkit.RigParams(), 10.0, r) - np.asarray(r.pendulum_rad)) ** 2))
+           for r in recordings]
 print(f"a cost without the wrap on the nominal twin: {np.mean(no_wrap):.4f} rad^2")
 '''
 
