@@ -371,3 +371,14 @@ def test_lab07_says_how_long_a_run_with_a_wrong_piece_takes():
     times = [float(t) for t in re.findall(wrong_pieces, results)]
     assert len(times) == 2
     assert "109 to 132 s in a walk-through at load 3.4-4.3" in text and (min(times), max(times)) == (109.1, 132.5)
+
+
+def test_lab08_says_what_r_dqn_adds_and_which_sweep_is_which():
+    text = flat(cells("08_gru_rdqn.ipynb")[19])
+    results = flat((ROOT / "docs" / "results" / "labs.md").read_text())
+    assert "about a minute more for seed 0: 59 s and 140 episodes in a walk-through at load 1.6-1.7" in text
+    assert "with only R-DQN in its `AGENTS`, at 59.0 s (140 episodes, seed 0, load 1.6-1.7)" in results
+    assert "several minutes" not in text
+    assert "(the file's own range; the cell below prints it)" in flat(cells("08_gru_rdqn.ipynb")[21])
+    assert 'print(f"delays in the sweep: {sweep.delays_ms} ms")' in cells("08_gru_rdqn.ipynb")[25]
+    assert "This is another sweep than the one the training cell's text quotes" in flat(cells("08_gru_rdqn.ipynb")[24])
