@@ -24,6 +24,7 @@ class DelaySweep:
     seeds: int
     command: str
     solved_rule: str
+    max_episodes: int  # a run's budget: a seed not solved within it counts as not solved
 
 
 def delay_sweep(path: str | Path | None = None) -> DelaySweep:
@@ -38,4 +39,4 @@ def delay_sweep(path: str | Path | None = None) -> DelaySweep:
     for algo, values in rates.items():
         if len(values) != len(delays):
             raise ValueError(f"{algo} has {len(values)} sweep points for {len(delays)} delays in the file")
-    return DelaySweep(delays, rates, seeds, record["command"], record["solved_rule"])
+    return DelaySweep(delays, rates, seeds, record["command"], record["solved_rule"], int(record["max_episodes"]))

@@ -386,5 +386,18 @@ def test_lab08_says_what_r_dqn_adds_and_which_sweep_is_which():
     assert "with only R-DQN in its `AGENTS`, at 59.0 s (140 episodes, seed 0, load 1.6-1.7)" in results
     assert "several minutes" not in text
     assert "(the file's own range; the cell below prints it)" in flat(cells("08_gru_rdqn.ipynb")[21])
-    assert 'print(f"delays in the sweep: {sweep.delays_ms} ms")' in cells("08_gru_rdqn.ipynb")[25]
     assert "This is another sweep than the one the training cell's text quotes" in flat(cells("08_gru_rdqn.ipynb")[24])
+    assert "the cell below prints beside the delays" in flat(cells("08_gru_rdqn.ipynb")[24])
+
+
+def test_lab08_the_sweep_cell_prints_its_delays_seeds_and_episode_budget():
+    from pendkit.agents.results import delay_sweep
+
+    sweep = delay_sweep()
+    assert sweep.max_episodes == 300 and sweep.seeds == 3  # the file lab 08 reads (lab08-delay.yaml)
+    source = cells("08_gru_rdqn.ipynb")[25]
+    namespace = {}
+    line = next(line for line in source.splitlines() if line.startswith('print(f"delays in the sweep'))
+    continuation = source.splitlines()[source.splitlines().index(line) + 1]
+    exec(line + "\n" + continuation, {"sweep": sweep, "print": lambda text: namespace.update(text=text)})
+    assert namespace["text"] == f"delays in the sweep: {sweep.delays_ms} ms; 3 seeds at each, at most 300 episodes a run"
