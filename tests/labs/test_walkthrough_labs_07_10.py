@@ -400,4 +400,5 @@ def test_lab08_the_sweep_cell_prints_its_delays_seeds_and_episode_budget():
     line = next(line for line in source.splitlines() if line.startswith('print(f"delays in the sweep'))
     continuation = source.splitlines()[source.splitlines().index(line) + 1]
     exec(line + "\n" + continuation, {"sweep": sweep, "print": lambda text: namespace.update(text=text)})
-    assert namespace["text"] == f"delays in the sweep: {sweep.delays_ms} ms; 3 seeds at each, at most 300 episodes a run"
+    expected = f"delays in the sweep: {sweep.delays_ms} ms; 3 seeds at each, at most 300 episodes a run"
+    assert namespace["text"] == expected
