@@ -106,11 +106,11 @@ def first_upright_entry(angles, dt):
     return None if final_upright_start(angles, dt) is None else float(inside[0] * dt)
 
 
-def balance_error_deg(angles, dt, rms=True, whole_run=False):
+def balance_error_deg(angles, dt, rms=True, whole_run=False, early=0):
     start = final_upright_start(angles, dt)
     if start is None:
         return None
-    tail = np.asarray(angles, dtype=float)[0 if whole_run else int(round(start / dt)):]
+    tail = np.asarray(angles, dtype=float)[0 if whole_run else max(int(round(start / dt)) - early, 0):]
     return float(np.degrees(np.sqrt(np.mean(tail**2)) if rms else np.mean(tail)))
 
 
@@ -140,6 +140,8 @@ MISTAKES = [
      else round(final_upright_start(a, dt) / dt), "step index"),
     ("09.balance_error_deg", lambda a, dt: balance_error_deg(a, dt, rms=False), "mean"),
     ("09.balance_error_deg", lambda a, dt: balance_error_deg(a, dt, whole_run=True), "over the whole run",
+     {"rms_over_the_final_run", "random_balance_tails"}),
+    ("09.balance_error_deg", lambda a, dt: balance_error_deg(a, dt, early=1), "starts one step early",
      {"rms_over_the_final_run", "random_balance_tails"}),
     ("09.matching_cost", lambda sim, rec: CORRECT["09.matching_cost"](sim, rec) ** 0.5, "leave out the square root",
      {"a_mean_of_squares", "gaps_either_way_add_up", "the_wrap_at_the_bottom", "random_swings"}),

@@ -402,3 +402,12 @@ def test_lab08_the_sweep_cell_prints_its_delays_seeds_and_episode_budget():
     exec(line + "\n" + continuation, {"sweep": sweep, "print": lambda text: namespace.update(text=text)})
     expected = f"delays in the sweep: {sweep.delays_ms} ms; 3 seeds at each, at most 300 episodes a run"
     assert namespace["text"] == expected
+
+
+def test_lab09_says_what_a_short_stall_does_to_the_gap():
+    text = flat(cells("09_deploy.ipynb")[26])
+    results = flat((ROOT / "docs" / "results" / "labs.md").read_text())
+    assert "nominal twin's gap reads higher (0.059 in one walk-through run at load 3.6)" in text
+    assert "and at 0.0589 in one (load 3.6), whose third excitation episode's trace was flat in stretches" in results
+    assert "moves take about 1.4 times as long" in flat(cells("09_deploy.ipynb")[1]) and "40 %" not in flat(
+        " ".join(cells("09_deploy.ipynb")))

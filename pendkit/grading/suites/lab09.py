@@ -87,7 +87,10 @@ def balance_note(got, angles_rad, start: int) -> str:
               (np.degrees(np.mean(np.abs(tail))), ": that is the mean of |angle|; square, average, then take the root"),
               (np.sqrt(np.mean(tail**2)), ": that is in radians; the lab wants degrees"),
               (np.degrees(np.sqrt(np.mean(tail[1:] ** 2))), ": the stretch starts one step late; it begins at the "
-               "first step of the final upright stretch")]
+               "first step of the final upright stretch"),
+              (np.degrees(np.sqrt(np.mean(angles[start - 1:] ** 2))) if start > 0 else math.nan,
+               ": the stretch starts one step early, at the last step outside 0.3 rad; if balance_error_deg finds "
+               "it with your time_to_upright_s, mend that one (its own test says how) and this follows")]
     for wrong, cause in causes:
         if abs(float(got) - wrong) < 1e-6 * max(1.0, abs(wrong)) and abs(wrong - right) > 1e-9:
             return Diagnosis(cause)
