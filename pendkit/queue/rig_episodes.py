@@ -23,6 +23,11 @@ from pendkit.rig import RigParams
 # then; a bang-bang spinner sits at its end stops 85% of the time and spins past the limit in bursts.
 SAFETY_WINDOW_S = 5.0
 SAFETY_SHARE = {"overspin": 0.2, "arm_limit": 0.6}
+# While the device runs its own controller the host's heartbeat only says the host is still there: a runner's pause
+# (the twin's judging in the same process, a busy machine) must not hold the servo mid-swing, while a host gone for
+# a second still stops the rig. The host-driven reset keeps the rig's own watchdog (RigParams.watchdog_timeout_ms).
+ONBOARD_WATCHDOG_S = 1.0
+WATCHDOG_MAX_MS = 5000  # the protocol's longest watchdog (`w`)
 SAFETY_SAID = {"overspin": "the rig's over-spin stop held the servo (the pendulum spun faster than the device allows)",
                "arm_limit": "the controller drove the arm against its end stops"}
 
@@ -62,6 +67,12 @@ class _SafetyShare:
                 raise JobStopped(f"{SAFETY_SAID[name]} {share:.0%} of {SAFETY_WINDOW_S:g} s: stopped, the servo holds")
 
 
+def watchdog_command(wall_s: float, speed: float) -> str:
+    """The `w` command giving a rig `speed` times faster than real time a watchdog of `wall_s` of this host's
+    time (its own time runs `speed` times faster), within the protocol's 50..5000 ms."""
+    return f"w{min(WATCHDOG_MAX_MS, max(50, round(wall_s * 1000.0 * speed)))}"
+
+
 def start_controller(session, check: Callable[[], None], attempts: int = 20) -> None:
     """`k1` until the rig says its controller runs."""
     for _ in range(attempts):
@@ -79,19 +90,23 @@ def device_episode(session, params: RigParams, steps: int, step_s: float, speed:
     is unfit, `JobStopped` when the controller keeps a safety stop busy."""
     reset_s = reset_rig(session, params, speed, check)
     watch, hold, link = RigWatch(session.link, speed), _SafetyShare(), session.link
-    start_controller(session, check)
-    first_ms = link.newest.received.observation.millis
-    deadline = time.monotonic()
-    for _ in range(steps):
-        deadline += step_s / speed
-        session.command("h")
-        time.sleep(max(0.0, deadline - time.monotonic()))
-        check()
-        watch.check()
-        observation = link.newest.received.observation
-        into.append(Sample((observation.millis - first_ms) / 1000.0,
-                           angle_from_upright_rad(observation.position_counts, params.encoder_counts),
-                           observation.servo_counts, observation.flags))
-        hold.update(observation.millis, observation.flags)
-    session.command("k0")
+    session.command(watchdog_command(ONBOARD_WATCHDOG_S, speed))
+    try:
+        start_controller(session, check)
+        first_ms = link.newest.received.observation.millis
+        deadline = time.monotonic()
+        for _ in range(steps):
+            deadline += step_s / speed
+            session.command("h")
+            time.sleep(max(0.0, deadline - time.monotonic()))
+            check()
+            watch.check()
+            observation = link.newest.received.observation
+            into.append(Sample((observation.millis - first_ms) / 1000.0,
+                               angle_from_upright_rad(observation.position_counts, params.encoder_counts),
+                               observation.servo_counts, observation.flags))
+            hold.update(observation.millis, observation.flags)
+        session.command("k0")
+    finally:
+        session.command(watchdog_command(params.watchdog_timeout_ms / 1000.0, speed))
     return reset_s

@@ -33,7 +33,7 @@ from pendkit.link.rig_backend import is_servo_counts_range
 from pendkit.queue import job_results
 from pendkit.queue import store as tables
 from pendkit.queue.fair import Waiting, fits
-from pendkit.queue.rig_episodes import Sample, device_episode
+from pendkit.queue.rig_episodes import Sample, device_episode, watchdog_command
 from pendkit.queue.rig_reset import JobCancelled, JobStopped, RigFault, RigWatch, RunnerStopping
 from pendkit.rig import RigParams
 
@@ -43,7 +43,6 @@ CHECK_EVERY_S = 0.5  # the rigs' heartbeats and the running jobs' cancels go to 
 STALE_AFTER_S = 30.0  # a busy rig not heard from this long: its runner died, its job goes back
 STALE_CHECK_EVERY_S = 5.0
 SPEED_RANGE = (0.1, 100.0)  # a virtual rig's time per wall second, as its status reports it
-WATCHDOG_MAX_MS = 5000  # the protocol's longest watchdog (`w`)
 TWIN_PENDING = "being judged on the twin"  # a result's twin figure until it is there
 
 
@@ -178,8 +177,7 @@ class QueueRunner:
         if rig.speed > 1:
             # a virtual rig K times faster than real time: its watchdog K times longer in its own time, the same
             # wall time a real rig's gives this host (a busy machine's pause must not drop the pendulum)
-            watchdog_ms = min(WATCHDOG_MAX_MS, round(rig.params.watchdog_timeout_ms * rig.speed))
-            rig.session.command(f"w{watchdog_ms}")
+            rig.session.command(watchdog_command(rig.params.watchdog_timeout_ms / 1000.0, rig.speed))
         servo = "?" if rig.servo_range is None else f"{rig.servo_range[0]}..{rig.servo_range[1]}"
         self.say(f"{rig.name}: serving (servo {servo} counts, {rig.speed:g}x)")
 
