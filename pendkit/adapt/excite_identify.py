@@ -15,7 +15,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from pendkit.adapt.excitation import Recording, schedule
+from pendkit.adapt.excitation import ADAPT_FREE_STEPS, Recording, schedule
 from pendkit.adapt.identify import Identification, identify_best, refine_servo
 from pendkit.adapt.progress import work_bar
 from pendkit.adapt.recording_checks import record_checked
@@ -57,7 +57,7 @@ def excite_and_identify(rig, config, deadline: float, say: Callable[[str], None]
     """Record, identify, and record more while the fit is uncertain; the identification's searches end by
     `deadline` (a `time.time()`). `tolerance`: the matching cost's tolerance of the spread (None: the spread
     is still measured, at 1.0, to decide the excitation's length, and not returned)."""
-    plan = schedule(config.excitation_episodes)
+    plan = schedule(config.excitation_episodes, free_steps=ADAPT_FREE_STEPS)
     first = min(config.min_excitation_episodes, config.excitation_episodes)
     with work_bar("(a) excitation", first, "episode") as bar:
         jumps, prior, logs = record_checked(rig, plan[:first], config.seed, on_episode=bar.advance)

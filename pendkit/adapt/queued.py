@@ -11,7 +11,7 @@ import math
 import time
 from collections.abc import Callable
 
-from pendkit.adapt.excitation import EXCITATION_STREAM, Excitation, Recording, schedule
+from pendkit.adapt.excitation import ADAPT_FREE_STEPS, EXCITATION_STREAM, Excitation, Recording, schedule
 from pendkit.adapt.recording_checks import check_recordings
 from pendkit.adapt.replay import trace_from_log
 from pendkit.errors import RecordingError
@@ -31,7 +31,7 @@ def record_excitation(session, params: RigParams, speed: float, spec: dict, chec
     link.log = log = ScaledLog(speed)
     try:
         excitation_stream(session, streamed, on=True)
-        for excitation in schedule(spec["episodes"], spec["loop_episodes"]):
+        for excitation in schedule(spec["episodes"], spec["loop_episodes"], ADAPT_FREE_STEPS):
             samples: list[Sample] = []
             runs.append(samples)
             recordings.append(excitation_episode(session, excitation, streamed, speed, check, log, samples))

@@ -28,7 +28,7 @@ from pendkit.rig import RigParams
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), required=True)
 @click.option("--episodes", type=click.IntRange(1, 100), default=10, show_default=True,
               help="The rig's time adaptation may use, in episodes of 500 steps (30 s each: 10 is 5 minutes): "
-                   "excitation (3 to 6 short ones, 20 to 40 s, as many as the recordings need), device trials if "
+                   "excitation (3 to 6 short ones, 18 to 35 s, as many as the recordings need), device trials if "
                    "asked for, fine-tuning (--fine-tune) in the whole episodes left.")
 @click.option("--fine-tune/--no-fine-tune", default=False, show_default=True,
               help="Fine-tune the policy on the rig in what the budget leaves; without: the excitation alone "

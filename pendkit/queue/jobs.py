@@ -42,10 +42,10 @@ RULE_EPISODES = len(RULE_STARTS)  # the kit's rule judges 10 episodes
 MAX_EPISODES = 20
 EPISODE_STEPS_RANGE = (SOLVED_TAIL_STEPS + 50, 2000)  # the rule judges the last 200 steps: room to come up first
 MAX_UPLOAD_BYTES = 256 * 1024  # refused before parsing; the device itself takes at most 64 KB
-EXCITATION_EPISODES, MAX_EXCITATION_EPISODES = 6, 20  # `pendkit adapt`'s most, about 37 s of the rig
-# control steps of an excitation episode and of a loop episode (pendkit.adapt.excitation, a layer above: a test
-# holds them equal)
-EXCITATION_STEPS, LOOP_EXCITATION_STEPS = 12 + 90, 40 + 20
+EXCITATION_EPISODES, MAX_EXCITATION_EPISODES = 6, 20  # `pendkit adapt`'s most, about 35 s of the rig
+# control steps of `pendkit adapt`'s excitation episode and of a loop episode (pendkit.adapt.excitation, a layer
+# above: a test holds them equal)
+EXCITATION_STEPS, LOOP_EXCITATION_STEPS = 12 + 78, 40 + 20
 RESET_LIMIT_S = 60.0  # rig seconds a reset between episodes may take (pendkit.queue.rig_reset)
 START_ALLOWANCE_S = 60.0  # rig seconds for the upload and the first status
 SERVO_RANGE_SLACK_RAD = 1e-4  # a blob's float32 servo range against the rig's

@@ -10,7 +10,7 @@ import pytest
 
 import pendkit
 from pendkit.adapt.excitation import (
-    FREE_STEPS,
+    ADAPT_FREE_STEPS,
     LOOP_DRIVE_STEPS,
     LOOP_FREE_STEPS,
     REST_STEPS,
@@ -126,14 +126,14 @@ def test_an_adaptation_session_writes_rig_policy_and_report_within_its_rig_time(
     assert identified != RigParams()  # something was identified
     assert (tmp_path / "policy.pt").exists() and (tmp_path / "identification.png").read_bytes()[:4] == b"\x89PNG"
     saved = json.loads((tmp_path / "report.json").read_text())
-    # rig time as the rig counted it, within 2 episodes of 500 steps (60 s): 2 excitation episodes of 102 steps
+    # rig time as the rig counted it, within 2 episodes of 500 steps (60 s): 2 excitation episodes of 90 steps
     # and `loop_episodes` of the loop's small steps (60 each; none by default), each after the 7 steps that
     # find the pendulum still, no device trials (the default), and, fine-tuned, the one whole episode of 500
     # steps that fits in what is left
     assert saved["rig_s_trials"] == 0.0 and saved["device_trials"] == []
     loop_steps = LOOP_DRIVE_STEPS + LOOP_FREE_STEPS
-    expected_steps = 2 * (REST_STEPS - 1 + 12 + FREE_STEPS) + config.loop_episodes * (REST_STEPS - 1 + loop_steps) + \
-        (500 if fine_tune else 0)
+    jump_steps = REST_STEPS - 1 + 12 + ADAPT_FREE_STEPS
+    expected_steps = 2 * jump_steps + config.loop_episodes * (REST_STEPS - 1 + loop_steps) + (500 if fine_tune else 0)
     assert saved["rig_s_adaptation"] == pytest.approx(expected_steps * 0.06)
     assert saved["rig_s_adaptation"] <= saved["rig_s_budget"] == pytest.approx(2 * 500 * 0.06)
     assert saved["rig_s_total"] > saved["rig_s_adaptation"]  # the evaluation came after, on the same rig

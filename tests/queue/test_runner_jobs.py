@@ -8,7 +8,7 @@ import zlib
 
 import pytest
 
-from pendkit.adapt.excitation import LOOP_DRIVE_STEPS, LOOP_FREE_STEPS, Excitation
+from pendkit.adapt.excitation import ADAPT_FREE_STEPS, LOOP_DRIVE_STEPS, LOOP_FREE_STEPS, Excitation
 from pendkit.deploy.swingup_design import design_swing_up
 from pendkit.device.controller_blob import pack, parse
 from pendkit.errors import ConfigError
@@ -98,7 +98,7 @@ def test_a_shipped_device_policy_becomes_its_blob():
 def test_an_excitation_job_records_adapts_episodes():
     spec, payload, servo = make_job("excitation", {}, None)
     assert payload is None and servo is None and spec["episodes"] == 6  # pendkit adapt's six
-    jump = Excitation(2, 0.9)
+    jump = Excitation(2, 0.9, free_steps=ADAPT_FREE_STEPS)
     assert EXCITATION_STEPS == jump.drive_steps + jump.free_steps  # the queue's copy of adapt's numbers
     assert LOOP_EXCITATION_STEPS == LOOP_DRIVE_STEPS + LOOP_FREE_STEPS
 
