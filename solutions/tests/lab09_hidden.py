@@ -30,7 +30,7 @@ def final_run_start(angles) -> int | None:
     return None if start is None else int(start)
 
 
-@upright.test(points=1, hidden=True, hint="Check it on random swing-ups, with any step time.")
+@upright.test(points=1, hidden=True, hint="Random swing-ups, with any step time.")
 def random_swing_ups(fn, rng):
     for _ in range(6):
         angles, dt = random_run(rng, settles=bool(rng.integers(0, 2))), float(rng.choice([0.02, 0.05, 0.06]))
@@ -41,7 +41,7 @@ def random_swing_ups(fn, rng):
         expect(ok, f"a random run of {len(angles)} steps at {dt} s: expected {shown(expected)}, got {shown(got)}")
 
 
-@balance.test(points=1, hidden=True, hint="Check it on random swing-ups.")
+@balance.test(points=1, hidden=True, hint="Random swing-ups.")
 def random_balance_tails(fn, rng):
     for _ in range(6):
         angles = random_run(rng, settles=bool(rng.integers(0, 2)))
@@ -70,7 +70,7 @@ def at_the_limits(fn, rng):
                f"got {shown(got)}")
 
 
-@matching.test(points=1, hidden=True, hint="Check it on random swings that cross the wrap, of any length.")
+@matching.test(points=1, hidden=True, hint="Random swings that cross the wrap, of any length.")
 def random_swings(fn, rng):
     for _ in range(6):
         n = int(rng.integers(5, 200))

@@ -198,8 +198,9 @@ def test_lab10_note_quotes_the_estimates_error_as_the_cell_measures_it():
 
 
 def test_lab09_quotes_the_rig_runs_as_docs_results_records_them():
-    """The rig's real-time runs are not rerun by a test (a busy machine decides them): lab 09's text quotes the
-    five runs docs/results/labs.md records, with the walk-through's runs where the text says so."""
+    """The rig's real-time runs are not rerun by a test (a busy machine decides them): lab 09's student text says
+    in words what every run docs/results/labs.md records supports (the kit's five and the walk-throughs'), so
+    a new run does not fall outside a quoted range; the instructor note quotes the kit's five."""
     text = " ".join(flat(c) for c in cells("09_deploy.ipynb"))
     results = flat((ROOT / "docs" / "results" / "labs.md").read_text())
     rows = {row[0]: row[1:] for row in results_table("| lab 09 line | run 1 |")}
@@ -211,61 +212,41 @@ def test_lab09_quotes_the_rig_runs_as_docs_results_records_them():
     ideal = [up_and_return(c) for c in rows["swing-up + LQR, on the rig"]]
     redesigned = [up_and_return(c) for name in ("re-identified, delay-aware, rig", "identified in 6 episodes, rig")
                   for c in rows[name]]
+    # the design for the ideal twin: never up in the kit's five, nor in the walk-through that counted its returns
     assert all(up is None for up, _, _ in ideal)
+    assert "the design for the ideal twin returned -1611.0 to -1794.3 and never came up" in results
+    assert "the design for the ideal twin has not come up in any recorded run" in text
+    # a redesigned one: about half the runs (the kit's 6 of 10, a walk-through's 4 of 8), early and late
     came = [up for up, _, _ in redesigned if up is not None]
-    assert f"{len(came)} of the {len(redesigned)} redesigned runs did, at {min(came):.1f} to {max(came):.1f} s" in text
+    assert 0.3 <= len(came) / len(redesigned) <= 0.7
+    assert "the redesigned runs came up in 4 of 8, at 2.70-17.28 s" in results
+    assert min(came) < 8 and max(came) > 16
+    assert "a redesigned one comes up in about half the runs, at any time in the run, and usually returns more" in text
     kept = [total for _, total, stopped in redesigned if not stopped]
     ideal_returns = [total for _, total, _ in ideal]
-    assert max(ideal_returns) < min(kept)  # "every redesigned run returned more", each run's against its own
-    assert (f"(in the kit's five runs -{-max(kept):.0f} to -{-min(kept):.0f}, against -{-max(ideal_returns):.0f} "
-            f"to -{-min(ideal_returns):.0f};") in text
-    assert "a walk-through saw them come up as early as 2.8 s" in text and "redesigned runs come up at 2.82" in results
-    # the identification's gaps, as fractions of the nominal twin's (the walk-through's runs beside the kit's)
+    assert max(ideal_returns) < min(kept)  # usually: every one of the kit's five, all but one in a walk-through
+    assert "returned -1693.6 against that run's ideal-twin design's -1611.0" in results
+    assert (f"they came up in {len(came)} of {len(redesigned)} runs in the kit's latest five (at {min(came):.1f} to "
+            f"{max(came):.1f} s of 24 s; walk-throughs saw them from 2.7 s)") in text
+    # the identification: the nominal twin's gap about 0.03; a right cost well under half; the ranges overlap
     nominal = [float(x) for x in rows["nominal twin's gap (rad^2)"]]
-    walked = [float(x) for x in re.search(r"nominal twin's gap at ([\d., and]+) rad\^2", results).group(1)
-              .replace(" and", ",").split(", ")]
-    busy = float(re.search(r"second walk-through \(one full run on a busy box[^)]*\) ?saw the nominal twin's gap at "
-                           r"([\d.]+) rad\^2", results).group(1))
-    seen = nominal + walked + [busy]
-    assert busy == max(seen)  # "the most ... on a busy laptop"
-    assert (f"(about {min(seen):.2f} to {max(seen):.2f} rad^2 in the kit's runs and two walk-throughs', the most, "
-            f"{busy:.3f}, on a busy laptop)") in text
+    assert all(0.025 <= n <= 0.036 for n in nominal) and "The nominal twin's is about 0.03 rad^2" in text
     right = [float(g) / n for g, n in zip(rows["identified twin's gap, the right cost"], nominal)]
     no_wrap = [float(g) / n for g, n in zip(rows["the same recordings, a cost without the wrap"], nominal)]
-    assert (f"twin had {min(right):.2f} to {max(right):.2f} of the nominal twin's gap in the kit's five latest "
-            "runs") in text
-    assert f"a cost that forgot the wrap {min(no_wrap):.2f} to {max(no_wrap):.2f} (the kit's five)" in text
-    # the third walk-through's four full runs: three with the right cost, one without the wrap
-    third = re.search(r"identified twins' gaps ([\d.]+), ([\d.]+) and ([\d.]+) rad\^2 against nominal twins' "
-                      r"([\d.]+), ([\d.]+) and ([\d.]+) \(", results).groups()
-    walked_right = [float(g) / float(n) for g, n in zip(third[:3], third[3:])]
-    walked_wrong = [float(re.search(r"in the fourth: ([\d.]+) against ([\d.]+)", results).group(1)) / float(
-        re.search(r"in the fourth: ([\d.]+) against ([\d.]+)", results).group(2))]
-    fourth = re.search(r"right cost in three, at fractions ([\d.]+), ([\d.]+) and ([\d.]+) of the nominal twin's gap "
-                       r"\(the first [\d.]+ against [\d.]+ rad\^2\), and without the wrap in the fourth, at ([\d.]+) "
-                       r"of it", results).groups()
-    walked_right += [float(f) for f in fourth[:3]]
-    walked_wrong.append(float(fourth[3]))
-    assert (f"and {min(walked_right):.2f} to {max(walked_right):.2f} in two walk-throughs' six" in text
-            and f"and {min(walked_wrong):.2f} and {max(walked_wrong):.2f} (the walk-throughs' two)" in text)
-    assert min(walked_wrong) < max(walked_right)  # "the two ranges overlap"
-    # the rig runs' returns: a redesign usually returns more than the ideal-twin design, not always
-    assert "usually returns more than the design for the ideal twin, some by little, and now and then less" in text
-    assert ("design for the ideal twin returned -1611.0 to -1794.3" in results and "as much as -227.7" in results
-            and "returned -1693.6 against that run's ideal-twin design's -1611.0" in results)
-    assert "right cost's twin at 0.07 to 0.10 of it and two costs without the wrap at 0.26 and 0.50" in results
-    assert min(right) <= 0.07 and max(right) >= 0.10 and min(no_wrap) <= 0.26 and max(no_wrap) >= 0.50
-    identified = [up_and_return(c)[0] for c in rows["identified in 6 episodes, rig"]]
-    assert f"With the right cost it came up in {sum(u is not None for u in identified)} of the kit's five runs" in text
-    assert "identified design come up in 1 of 3 runs with the right cost and 0 of 2 without the wrap" in results
-    # td3-realistic on the rig: the earlier 20 runs, the walk-through's 5 and these 5
+    assert max(right) < 0.5 and "right-cost fractions of 0.31 (0.0094 against 0.0301)" in results
+    assert min(no_wrap) < 0.31  # a cost without the wrap below a right cost's recorded fraction: they overlap
+    assert "A right cost usually brings it well under half" in text and "alone does not tell the two apart" in text
+    # a stall: twice the same walk-through's other runs
+    assert "at 0.0275-0.0299 rad^2 in four runs and at 0.0589 in one (load 3.6)" in results
+    assert 1.8 < 0.0589 / 0.0299 and "(twice as high in one recorded run)" in text
+    # td3-realistic on the rig: the earlier 20 runs, the walk-through's 5 and the kit's five
     td3 = [up_and_return(c)[0] for c in rows["td3-realistic, on the rig"]]
     assert "4 of 20 in all" in results
     assert "`td3-realistic` come up on the rig in 2 of 5 (6.66 s and 20.16 s)" in results
     total_up, total = 4 + 2 + sum(u is not None for u in td3), 20 + 5 + len(td3)
     assert f"came up on the rig in {total_up} of {total} runs in all, at 2.8 to 20.2 s" in results
-    assert f"in {total_up} of {total} runs of this cell's sequence" in text and "(at 2.8 to 20.2 s;" in text
-    assert "2.82 s" in results and "20.16 s" in results
+    assert 0.1 <= total_up / total <= 0.3 and "`td3-realistic` comes up in about one run in five" in text
+    assert f"came up in {total_up} of {total} runs of the cell's sequence (at 2.8 to 20.2 s;" in text
     # the excitation's rig time (the note: 50 to 56 s, with the earlier runs' 55 and 56 s)
     rig_s = [int(c.split()[0]) for c in rows["excitation: rig time; the identification cell"]]
     cell_s = [int(c.split("; ")[1].split()[0]) for c in rows["excitation: rig time; the identification cell"]]

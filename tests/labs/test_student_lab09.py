@@ -59,7 +59,7 @@ def test_lab09_the_students_cost_identifies_a_twin_that_follows_the_rig_and_a_si
                             text).groups()
     assert abs(float(yours) - float(kits)) <= 0.05 * float(kits), text  # "within a few percent"
     no_wrap = float(re.search(r"a cost without the wrap on the nominal twin: ([\d.]+) rad\^2", text).group(1))
-    assert no_wrap > 500 * float(kits), text  # "about a thousand times the kit's"
+    assert no_wrap > 500 * float(kits), text  # "roughly a thousand times the kit's or more" (1250-1640 recorded)
 
 
 def test_lab09_the_deployed_policies_come_up_on_their_twins_and_seldom_on_a_twin_of_the_rig():

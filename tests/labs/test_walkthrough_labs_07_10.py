@@ -407,15 +407,19 @@ def test_lab08_the_sweep_cell_prints_its_delays_seeds_and_episode_budget():
 def test_lab09_says_what_a_short_stall_does_to_the_gap():
     text = flat(cells("09_deploy.ipynb")[26])
     results = flat((ROOT / "docs" / "results" / "labs.md").read_text())
-    assert "nominal twin's gap reads higher (0.059 in one walk-through run at load 3.6)" in text
+    assert "the nominal twin's gap reads higher (twice as high in one recorded run)" in text
+    assert "If yours is above 0.045 rad^2, run the cell again" in text
     assert "and at 0.0589 in one (load 3.6), whose third excitation episode's trace was flat in stretches" in results
     assert "moves take about 1.4 times as long" in flat(cells("09_deploy.ipynb")[1]) and "40 %" not in flat(
         " ".join(cells("09_deploy.ipynb")))
 
 
-def test_lab09_says_its_ranges_are_the_runs_so_far_with_the_latest_outside_them():
-    text = flat(cells("09_deploy.ipynb")[26])
-    results = flat((ROOT / "docs" / "results" / "labs.md").read_text())
-    assert "yours may fall a little outside them either way (a later walk-through read a nominal gap of 0.023" in text
-    assert "read nominal gaps of 0.0301 and 0.0229 rad^2 and right-cost fractions of 0.31 (0.0094 against 0.0301)" \
-        in results and round(0.0094 / 0.0301, 2) == 0.31
+def test_lab09_tells_a_student_what_to_expect_in_words_not_other_runs_ranges():
+    """Seven walk-throughs each read a figure just outside some range the text quoted from earlier runs: the
+    student's text says what to expect in words that every recorded run supports, and leaves the runs
+    themselves to docs/results/labs.md and the instructor note."""
+    notebook = cells("09_deploy.ipynb")
+    student = " ".join(flat(c) for c in notebook if "### Instructor note" not in c)
+    for quoted in ("walk-through", "kit's five", "kit's latest five", "runs so far", "in the kit's runs"):
+        assert quoted not in student, quoted
+    assert "Every recorded run is in docs/results/labs.md" in student
