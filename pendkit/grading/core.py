@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from pendkit.errors import ConfigError, PendkitError
+from pendkit.grading.kit_helpers import kits_helpers_in
 from pendkit.grading.timeouts import CheckTimeout, call_with_timeout
 
 DEFAULT_TIMEOUT_S = 10.0
@@ -164,6 +165,9 @@ class Task:
     title: str
     tests: list[TestCase] = field(default_factory=list)
     hidden_points: float | None = None  # what the hidden tests add, as the public suite states it to `check`
+    # earlier tasks' functions this one may call, by name: the kit's own while it is tested
+    # (`pendkit.grading.kit_helpers`), so one slip costs one task
+    kit_helpers: dict[str, str] = field(default_factory=dict)
 
     def test(self, points: float, hint: str = "", timeout_s: float = DEFAULT_TIMEOUT_S, hidden: bool = False):
         """Decorator declaring a test of this task."""
@@ -185,11 +189,13 @@ class Task:
 TASKS: dict[str, Task] = {}
 
 
-def task(task_id: str, function: str, title: str, hidden_points: float | None = None) -> Task:
+def task(task_id: str, function: str, title: str, hidden_points: float | None = None,
+         kit_helpers: dict[str, str] | None = None) -> Task:
     """Declare (or fetch) a graded task. Ids are "NN.name": NN is the lab. `hidden_points`: the points its
-    hidden tests add, which `check` names beside the public score."""
+    hidden tests add, which `check` names beside the public score; `kit_helpers`: the earlier tasks' functions
+    it may call ({name: "pendkit.module:name"}), the kit's own while it is tested."""
     if task_id not in TASKS:
-        TASKS[task_id] = Task(task_id, function, title)
+        TASKS[task_id] = Task(task_id, function, title, kit_helpers=dict(kit_helpers or {}))
     if hidden_points is not None:
         TASKS[task_id].hidden_points = hidden_points
     return TASKS[task_id]
@@ -302,7 +308,8 @@ def run_task(task_id: str, fn: Any, include_hidden: bool = False) -> list[TestRe
     if not callable(fn):
         message = f"expected the function {current.function}, got {type(fn).__name__}"
         return [_failed(t, message, with_hint=False) for t in tests]
-    return [run_test(t, fn) for t in tests]
+    with kits_helpers_in(getattr(fn, "__globals__", None), current.kit_helpers):
+        return [run_test(t, fn) for t in tests]
 
 
 def _task_after_loading(task_id: str) -> Task:

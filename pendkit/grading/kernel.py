@@ -15,6 +15,7 @@ import sys
 from typing import Any
 
 from pendkit.grading import channel, wire
+from pendkit.grading.kit_helpers import kits_helpers_in
 
 
 def serve_socket(path: str) -> None:
@@ -37,7 +38,9 @@ def serve_call(request: str) -> str:
         candidates = [key for key, value in namespace.items() if callable(value) and not key.startswith("_")]
         close = difflib.get_close_matches(name, candidates, n=1, cutoff=0.6)
         return wire.dumps({"found": False, "close": close[0] if close else None})
-    return wire.dumps({"found": True, "close": None, "outcomes": [_call(fn, list(args)) for args in spec["calls"]]})
+    with kits_helpers_in(namespace, spec.get("kit_helpers")):  # the earlier tasks' functions: the kit's own
+        outcomes = [_call(fn, list(args)) for args in spec["calls"]]
+    return wire.dumps({"found": True, "close": None, "outcomes": outcomes})
 
 
 def _call(fn, args: list) -> dict[str, Any]:

@@ -97,8 +97,9 @@ class KernelSession:
     def _timeout(self) -> CheckTimeout:
         return CheckTimeout(f"took longer than {self.limit_s:g} s")
 
-    def call(self, name: str, calls: list[tuple]) -> dict:
-        request = wire.dumps({"function": name, "calls": [list(args) for args in calls]}, allow_kit=True)
+    def call(self, name: str, calls: list[tuple], kit_helpers: dict[str, str] | None = None) -> dict:
+        request = wire.dumps({"function": name, "calls": [list(args) for args in calls],
+                              "kit_helpers": dict(kit_helpers or {})}, allow_kit=True)
         text = self._over_socket(request) if self.channel_dir is not None else self._over_execute(request)
         if text.count("{") > MAX_REPLY_VALUES:
             raise StudentError("an oversized answer", f"the answer held over {MAX_REPLY_VALUES} values, more than "
@@ -250,8 +251,8 @@ def _shell_reply(kc, msg_id: str, timeout_s: float) -> dict | None:
 class RemoteFunction:
     """Called like the student's function; runs it in their kernel (see the module docstring)."""
 
-    def __init__(self, session: KernelSession, name: str) -> None:
-        self.session, self.__name__ = session, name
+    def __init__(self, session: KernelSession, name: str, kit_helpers: dict[str, str] | None = None) -> None:
+        self.session, self.__name__, self.kit_helpers = session, name, kit_helpers
 
     def __call__(self, *args):
         outcome = self.many([args])[0]
@@ -261,7 +262,7 @@ class RemoteFunction:
 
     def many(self, calls: list[tuple]) -> list[Outcome]:
         """Every call in one round trip; each outcome is checked for changed inputs."""
-        answer = self.session.call(self.__name__, calls)
+        answer = self.session.call(self.__name__, calls, self.kit_helpers)
         if not answer.get("found"):
             close = answer.get("close")
             hint = f" (found `{close}`: keep the name `{self.__name__}`)" if close else ""

@@ -254,7 +254,7 @@ class _Run:
     def _grade_task(self, session: KernelSession, task_id: str) -> None:
         """Every test runs here, in the grader; only the student's function runs in their kernel."""
         task = TASKS[task_id]
-        fn = RemoteFunction(session, task.function)
+        fn = RemoteFunction(session, task.function, task.kit_helpers)
         results: list[TestResult] = []
         for test in task.tests:
             remaining = self.deadline - time.monotonic()

@@ -12,8 +12,8 @@ from pendkit.grading.written import written
 
 upright = task("09.time_to_upright_s", function="time_to_upright_s",
                title="Time to upright from a run", hidden_points=1)
-balance = task("09.balance_error_deg", function="balance_error_deg",
-               title="Balance error once upright", hidden_points=1)
+balance = task("09.balance_error_deg", function="balance_error_deg", title="Balance error once upright",
+               hidden_points=1, kit_helpers={"time_to_upright_s": "pendkit.features:time_to_upright_s"})
 watchdog = task("09.should_stop", function="should_stop", title="The safety watchdog", hidden_points=1)
 matching = task("09.matching_cost", function="matching_cost", title="The trajectory-matching cost", hidden_points=1)
 written("09.gap_report", "Sim-to-real report", points=6)
@@ -89,8 +89,8 @@ def balance_note(got, angles_rad, start: int) -> str:
               (np.degrees(np.sqrt(np.mean(tail[1:] ** 2))), ": the stretch starts one step late; it begins at the "
                "first step of the final upright stretch"),
               (np.degrees(np.sqrt(np.mean(angles[start - 1:] ** 2))) if start > 0 else math.nan,
-               ": the stretch starts one step early, at the last step outside 0.3 rad; if balance_error_deg finds "
-               "it with your time_to_upright_s, mend that one (its own test says how) and this follows")]
+               ": the stretch starts one step early, at the last step outside 0.3 rad (this test runs your "
+               "balance_error_deg with the kit's time_to_upright_s, so the slip is in balance_error_deg itself)")]
     for wrong, cause in causes:
         if abs(float(got) - wrong) < 1e-6 * max(1.0, abs(wrong)) and abs(wrong - right) > 1e-9:
             return Diagnosis(cause)
