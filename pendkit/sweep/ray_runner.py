@@ -21,6 +21,7 @@ from pendkit.sweep.spec import SweepSpec, Trial
 from pendkit.sweep.trial import RESULT, run_trial
 
 SPEC_COPY = "spec.json"
+STARTS = 2  # a local Ray's start-ups before giving up (a laptop busy with other work can miss Ray's 30 s)
 
 
 def ray_or_exit():
@@ -66,8 +67,16 @@ def start_ray(address: str | None = None, num_cpus: int | None = None, say=print
     # get a few percent of a core; here they are the work, so they run at the driver's own priority. A
     # cluster's nodes keep what `ray start` gave them (RAY_worker_niceness=0 there does the same).
     local = {"num_cpus": num_cpus, "_system_config": {"worker_niceness": 0}} if address is None else {}
-    ray.init(address=address or "local", **local, include_dashboard=False, log_to_driver=False,
-             configure_logging=True, logging_level="ERROR", ignore_reinit_error=True)
+    for attempt in range(1, STARTS + 1):
+        try:
+            ray.init(address=address or "local", **local, include_dashboard=False, log_to_driver=False,
+                     configure_logging=True, logging_level="ERROR", ignore_reinit_error=True)
+            break
+        except Exception as error:  # Ray raises a bare Exception when its node misses its fixed 30 s to start
+            if address is not None or attempt == STARTS or "timed out during startup" not in str(error):
+                raise
+            say("Ray's local node did not start within Ray's 30 s (a busy machine): starting it once more")
+            ray.shutdown()
     ray_start_s = time.perf_counter() - started
     nodes = [n for n in ray.nodes() if n.get("Alive")]
     say(f"Ray up in {ray_start_s:.1f} s: {len(nodes)} node(s), {ray.cluster_resources().get('CPU', 0):g} CPUs")
