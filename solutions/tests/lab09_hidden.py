@@ -6,7 +6,7 @@ import numpy as np
 
 from pendkit.episode import time_to_upright_s
 from pendkit.grading import expect, task
-from pendkit.grading.core import Diagnosis, shown
+from pendkit.grading.core import Diagnosis, is_real, shown
 from pendkit.grading.prelab import prelab_answers
 from pendkit.grading.suites.lab09 import ARM_LIMIT_RAD, SPIN_LIMIT_RAD_S, STALE_AFTER_S, balance_note, cost_note
 
@@ -38,7 +38,13 @@ def random_swing_ups(fn, rng):
         got = fn(angles, dt)
         expected = None if start is None else start * dt
         ok = got is None if expected is None else got is not None and abs(got - expected) < 1e-9
-        expect(ok, f"a random run of {len(angles)} steps at {dt} s: expected {shown(expected)}, got {shown(got)}")
+        said = ""
+        if not ok and expected is not None and got is not None and is_real(got):
+            steps = round((float(got) - expected) / dt, 6)
+            said = {-1.0: Diagnosis(": one step early, at the last step outside 0.3 rad"),
+                    1.0: Diagnosis(": one step late, the stretch's second step")}.get(steps, "")
+        expect(ok, f"a random run of {len(angles)} steps at {dt} s: expected {shown(expected)}, got {shown(got)}"
+               + said)
 
 
 @balance.test(points=1, hidden=True, hint="Random swing-ups.")
@@ -138,6 +144,9 @@ MISTAKES = [
     ("09.time_to_upright_s", lambda a, dt: final_upright_start(np.abs(np.maximum(a, 0.0)), dt), "compare |angle|"),
     ("09.time_to_upright_s", lambda a, dt: None if final_upright_start(a, dt) is None
      else round(final_upright_start(a, dt) / dt), "step index"),
+    ("09.time_to_upright_s", lambda a, dt: None if final_upright_start(a, dt) is None
+     else max(final_upright_start(a, dt) - dt, 0.0), "one step early",
+     {"random_swing_ups", "the_final_upright_run"}),
     ("09.balance_error_deg", lambda a, dt: balance_error_deg(a, dt, rms=False), "mean"),
     ("09.balance_error_deg", lambda a, dt: balance_error_deg(a, dt, whole_run=True), "over the whole run",
      {"rms_over_the_final_run", "random_balance_tails"}),

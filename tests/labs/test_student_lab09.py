@@ -34,6 +34,7 @@ def matching_cost(simulated_rad, recorded_rad):
 IDENTIFY_AGAIN_WITH_THE_SIGNED_COST = SIGNED_COST + '''
 signed = identify(recordings, pendkit.RigParams(), max_evaluations=evaluations, cost=your_cost)
 print(f"signed cost: gap of {kit_cost(signed.params, signed.latency_ms, recordings):.4f} rad^2")
+print(f"the signed cost on the nominal twin: {your_cost(pendkit.RigParams(), 10.0, recordings):.4f} rad^2")
 no_wrap = [float(np.mean((simulate(pendkit.RigParams(), 10.0, r) - np.asarray(r.pendulum_rad)) ** 2))
            for r in recordings]
 print(f"a cost without the wrap on the nominal twin: {np.mean(no_wrap):.4f} rad^2")
@@ -48,18 +49,21 @@ def gaps_to_nominal(text: str) -> tuple[float, float]:
     return float(found) / float(nominal), float(signed) / float(nominal)
 
 
-def test_lab09_the_students_cost_identifies_a_twin_that_follows_the_rig_and_a_signed_one_does_not():
+def test_lab09_the_students_cost_identifies_a_twin_that_follows_the_rig_and_a_signed_one_is_told_apart():
     text = printed_by_lab("09_deploy.ipynb", "your_cost(params, latency_ms", then=IDENTIFY_AGAIN_WITH_THE_SIGNED_COST)
     right, signed = gaps_to_nominal(text)
-    # the nominal twin is 1.0; a search's result varies from run to run (lab 09's text quotes right costs at 0.03
-    # to 0.31 of it), so the signed cost's twin is only asked to follow the rig less closely than the right one's
-    assert right < 0.75 and signed > right, text
+    # the nominal twin is 1.0: the right cost's twin follows the rig more closely. Which wrong cost's twin follows
+    # it less, one search's fraction does not tell (lab 09's text: the fractions overlap; a signed cost's twin
+    # came out closer than the right one's once, on a loaded machine): the cost beside the kit's does, below
+    assert right < 0.75, text
     # what tells a cost right or wrong in every run: the student's cost beside the kit's on the nominal twin
     yours, kits = re.search(r"your matching_cost on the nominal twin: ([\d.]+) rad\^2 \(the kit's: ([\d.]+)\)",
                             text).groups()
     assert abs(float(yours) - float(kits)) <= 0.05 * float(kits), text  # "within a few percent"
     no_wrap = float(re.search(r"a cost without the wrap on the nominal twin: ([\d.]+) rad\^2", text).group(1))
-    assert no_wrap > 500 * float(kits), text  # "roughly a thousand times the kit's or more" (1250-1640 recorded)
+    assert no_wrap > 500 * float(kits), text  # "hundreds to thousands of times" (615-1640 recorded)
+    signed_on_nominal = float(re.search(r"the signed cost on the nominal twin: (-?[\d.]+) rad\^2", text).group(1))
+    assert abs(signed_on_nominal - float(kits)) > 0.5 * float(kits), text  # the gaps cancel: far from the kit's
 
 
 def test_lab09_the_deployed_policies_come_up_on_their_twins_and_seldom_on_a_twin_of_the_rig():
