@@ -15,6 +15,7 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from pendkit.device.commands import INTEGER_SETTINGS
 from pendkit.queue.rig_reset import JobStopped, RigWatch, reset_rig
 from pendkit.rig import RigParams
 
@@ -27,7 +28,7 @@ SAFETY_SHARE = {"overspin": 0.2, "arm_limit": 0.6}
 # (the twin's judging in the same process, a busy machine) must not hold the servo mid-swing, while a host gone for
 # a second still stops the rig. The host-driven reset keeps the rig's own watchdog (RigParams.watchdog_timeout_ms).
 ONBOARD_WATCHDOG_S = 1.0
-WATCHDOG_MAX_MS = 5000  # the protocol's longest watchdog (`w`)
+_, WATCHDOG_MIN_MS, WATCHDOG_MAX_MS = INTEGER_SETTINGS["w"]  # the protocol's own range for `w`
 SAFETY_SAID = {"overspin": "the rig's over-spin stop held the servo (the pendulum spun faster than the device allows)",
                "arm_limit": "the controller drove the arm against its end stops"}
 
@@ -69,8 +70,8 @@ class _SafetyShare:
 
 def watchdog_command(wall_s: float, speed: float) -> str:
     """The `w` command giving a rig `speed` times faster than real time a watchdog of `wall_s` of this host's
-    time (its own time runs `speed` times faster), within the protocol's 50..5000 ms."""
-    return f"w{min(WATCHDOG_MAX_MS, max(50, round(wall_s * 1000.0 * speed)))}"
+    time (its own time runs `speed` times faster), within the protocol's range."""
+    return f"w{min(WATCHDOG_MAX_MS, max(WATCHDOG_MIN_MS, round(wall_s * 1000.0 * speed)))}"
 
 
 def start_controller(session, check: Callable[[], None], attempts: int = 20) -> None:
