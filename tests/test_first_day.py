@@ -97,6 +97,9 @@ def test_the_first_day_runs_as_written(room, tmp_path):
                 # ten rigs' physics in one process on a 2-core machine running other tests beside this one can
                 # starve a rig for half a second, which the env rightly stops on; once more, as a team would
                 result = subprocess.run(words, cwd=where, env=env, capture_output=True, text=True, timeout=600)
+            if where is team and result.stdout.strip().endswith(("solved=0/1", "median_upright_s=-")):
+                # one real-time episode is not the kit's verdict (ten are): the page says to run a miss again
+                result = subprocess.run(words, cwd=where, env=env, capture_output=True, text=True, timeout=600)
             assert result.returncode == 0, f"`{line}` failed:\n{result.stdout}\n{result.stderr}"
             outputs[words[3]] = result.stdout
     finally:
