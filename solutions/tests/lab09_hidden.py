@@ -147,6 +147,9 @@ MISTAKES = [
     ("09.time_to_upright_s", lambda a, dt: None if final_upright_start(a, dt) is None
      else max(final_upright_start(a, dt) - dt, 0.0), "one step early",
      {"random_swing_ups", "the_final_upright_run"}),
+    ("09.time_to_upright_s", lambda a, dt: None if final_upright_start(a, dt) is None
+     else final_upright_start(a, dt) + dt, "one step late", {"random_swing_ups", "the_final_upright_run",
+                                                             "never_or_always"}),
     ("09.balance_error_deg", lambda a, dt: balance_error_deg(a, dt, rms=False), "mean"),
     ("09.balance_error_deg", lambda a, dt: balance_error_deg(a, dt, whole_run=True), "over the whole run",
      {"rms_over_the_final_run", "random_balance_tails"}),

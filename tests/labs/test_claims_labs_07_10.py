@@ -232,7 +232,7 @@ def test_lab09_quotes_the_rig_runs_as_docs_results_records_them():
     assert "returned -1693.6 against that run's ideal-twin design's -1611.0" in results
     assert (f"they came up in {len(came)} of {len(redesigned)} runs in the kit's latest five (at {min(came):.1f} to "
             f"{max(came):.1f} s of 24 s; walk-throughs saw them from 2.7 s)") in text
-    # the identification: the nominal twin's gap about 0.03; a right cost well under half; the ranges overlap
+    # the identification: the nominal twin's gap about 0.03; a right cost under half; the ranges overlap
     nominal = [float(x) for x in rows["nominal twin's gap (rad^2)"]]
     assert all(0.025 <= n <= 0.036 for n in nominal) and "twin's (the figure's *prior*) is about 0.03 rad^2" in text
     # the identified values move from run to run (the eighth walk-through's runs), the gap fraction less
@@ -244,7 +244,7 @@ def test_lab09_quotes_the_rig_runs_as_docs_results_records_them():
     no_wrap = [float(g) / n for g, n in zip(rows["the same recordings, a cost without the wrap"], nominal)]
     assert max(right) < 0.5 and "right-cost fractions of 0.31 (0.0094 against 0.0301)" in results
     assert min(no_wrap) < 0.31  # a cost without the wrap below a right cost's recorded fraction: they overlap
-    assert "A right cost usually brings it well under half" in text and "alone does not tell the two apart" in text
+    assert "cost usually brings it under half" in text and "alone does not tell the two apart" in text
     # a stall: twice the same walk-through's other runs
     assert "at 0.0275-0.0299 rad^2 in four runs and at 0.0589 in one (load 3.6)" in results
     assert 1.8 < 0.0589 / 0.0299 and "(twice as high in one recorded run)" in text

@@ -55,14 +55,17 @@ def the_final_upright_run(fn, rng):
     expect(got is not None and abs(got - 0.30) < 1e-9, message)
 
 
-@upright.test(points=1, hint="Not upright at the end means no time to upright: return None.")
+@upright.test(points=1, hint="Upright from the first step is 0 s; not upright at the end is no time at all: None.")
 def never_or_always(fn, rng):
     angles, dt = run_of([180, 150, 90, 30, 10, 40])
     got = fn(angles, dt)
     expect(got is None, f"a run that ends 40 deg from upright has no time to upright (None), got {shown(got)}")
     angles, dt = run_of([3, 2, 1, 0])
     got = _optional_number(fn(angles, dt), "time_to_upright_s")
-    expect(got is not None and abs(got) < 1e-9, f"a run upright from the start is upright at 0 s, got {shown(got)}")
+    message = f"a run upright from the start is upright at 0 s, got {shown(got)}"
+    if got is not None and abs(got - dt) < 1e-9:
+        message += Diagnosis(": one step late; the first step (at 0 s) is already inside 0.3 rad")
+    expect(got is not None and abs(got) < 1e-9, message)
 
 
 @balance.test(points=2, hint="RMS over the final upright run only, in degrees.")
