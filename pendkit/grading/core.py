@@ -115,6 +115,11 @@ def outcomes(fn: Callable, calls: list[tuple]) -> list[Outcome]:
     return results
 
 
+def raised_name(error: BaseException) -> str:
+    """The name a student knows an exception by: their own class's, also when it came back from their kernel."""
+    return getattr(error, "shown_as", type(error).__name__)
+
+
 def is_real(value) -> bool:
     """Any real number a student may return: int, float, numpy scalars (not bool)."""
     return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
@@ -297,7 +302,7 @@ def run_test(test: TestCase, fn: Callable, time_limit: bool = True) -> TestResul
     except NotGradable as error:
         return _failed(test, str(error), with_hint=False)
     except Exception as error:
-        return _failed(test, f"raised {getattr(error, 'shown_as', type(error).__name__)}: {error}")
+        return _failed(test, f"raised {raised_name(error)}: {error}")
     return TestResult(test.name, test.points, test.points, True, said if isinstance(said, str) else "", test.hidden)
 
 

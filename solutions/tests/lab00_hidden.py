@@ -5,7 +5,7 @@ import math
 import numpy as np
 
 from pendkit.grading import Failed, expect, task
-from pendkit.grading.core import Diagnosis, is_real, shown
+from pendkit.grading.core import Diagnosis, is_real, raised_name, shown
 from pendkit.grading.prelab import prelab_answers
 from pendkit.grading.suites.lab00 import to_4
 
@@ -37,7 +37,7 @@ def a_list_like_an_array(fn, rng):
     try:
         got = fn(angles)
     except (TypeError, ValueError) as error:
-        raise Failed(f"upright_fraction({angles}) raised {type(error).__name__} ({error}): the angles may come as a "
+        raise Failed(f"upright_fraction({angles}) raised {raised_name(error)} ({error}): the angles may come as a "
                      "list; np.asarray(angles) turns it into an array first", hint=False) from error
     want = fn(np.asarray(angles))
     expect(is_real(got) and is_real(want) and abs(got - want) < 1e-12,

@@ -5,7 +5,7 @@ import math
 import numpy as np
 
 from pendkit.grading import Failed, expect, task
-from pendkit.grading.core import is_real, shown
+from pendkit.grading.core import is_real, raised_name, shown
 from pendkit.grading.prelab import prelab_answers
 from pendkit.grading.suites.lab03 import (
     count_note,
@@ -50,7 +50,7 @@ def a_twin_swing(fn, rng):
     except Exception as error:  # noqa: BLE001 - named when the 0.0 readings explain it, else shown as it is
         note = zero_readings_note(fn, None, times, angles, expected, 0.01)
         if note:
-            raise Failed(f"{said}; period_from_crossings raised {type(error).__name__} ({error}){note}",
+            raise Failed(f"{said}; period_from_crossings raised {raised_name(error)} ({error}){note}",
                          hint=False) from error
         raise
     ok = is_real(got) and abs(got - expected) < 0.01

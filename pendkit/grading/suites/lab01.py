@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 from pendkit.encoder import encode_ssi_frame
-from pendkit.grading.core import Diagnosis, Failed, NotGradable, expect, is_real, shown, task
+from pendkit.grading.core import Diagnosis, Failed, NotGradable, expect, is_real, raised_name, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
@@ -66,7 +66,7 @@ def _rejects(fn, frame: int) -> bool:
     except NotImplementedError:
         raise
     except Exception as error:
-        raise Failed(f"decode_frame(0x{frame:04X}) raised {type(error).__name__}; a bad frame should raise "
+        raise Failed(f"decode_frame(0x{frame:04X}) raised {raised_name(error)}; a bad frame should raise "
                      "ValueError") from error
     return False
 

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from pendkit.grading.core import Diagnosis, Failed, NotGradable, as_number, expect, is_real, shown, task
+from pendkit.grading.core import Diagnosis, Failed, NotGradable, as_number, expect, is_real, raised_name, shown, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
@@ -125,7 +125,7 @@ def fewer_than_two_crossings(fn, rng):
         except (Failed, NotGradable, NotImplementedError):
             raise
         except Exception as error:  # noqa: BLE001 - the task says what to do instead
-            raise Failed(f"for {what} period_from_crossings raised {type(error).__name__} ({error}): with fewer than "
+            raise Failed(f"for {what} period_from_crossings raised {raised_name(error)} ({error}): with fewer than "
                          "two crossings there is no period; return nan (float('nan')) instead", hint=False) from error
         expect(is_real(got) and math.isnan(got), f"for {what} period_from_crossings should return nan, got "
                f"{shown(got)}: with fewer than two crossings there is no period" + Diagnosis("; return nan "
@@ -228,7 +228,7 @@ def readings_of_exactly_zero(fn, rng):
     except Exception as error:  # noqa: BLE001 - named below when the 0.0 readings explain it, else shown as it is
         note = zero_readings_note(fn, None, t, angle, 1.2, 1e-3)
         if note:
-            raise Failed(f"{said}; period_from_crossings raised {type(error).__name__} ({error}){note}",
+            raise Failed(f"{said}; period_from_crossings raised {raised_name(error)} ({error}){note}",
                          hint=False) from error
         raise
     ok = abs(got - 1.2) < 1e-3
@@ -322,7 +322,7 @@ def slew_of(fn, t, command, arm, said: str, expected: float) -> float:
     except Exception as error:
         note = start_note(fn, t, command, arm, expected)
         if note:
-            raise Failed(f"{said}, slew_rate raised {type(error).__name__} ({error})" + note) from error
+            raise Failed(f"{said}, slew_rate raised {raised_name(error)} ({error})" + note) from error
         raise
 
 
@@ -363,7 +363,7 @@ def a_command_that_never_changes(fn, rng):
     except (Failed, NotGradable, NotImplementedError):
         raise
     except Exception as error:  # noqa: BLE001 - the task names the exception
-        raise Failed(f"for a log whose command stays at 0.4 rad slew_rate raised {type(error).__name__} ({error}): "
+        raise Failed(f"for a log whose command stays at 0.4 rad slew_rate raised {raised_name(error)} ({error}): "
                      "the task asks for ValueError, saying there is no step to measure", hint=False) from error
     expect(False, f"for a log whose command stays at 0.4 rad slew_rate returned {shown(got)}"
            + Diagnosis(": there is no step to measure; raise ValueError saying so"))

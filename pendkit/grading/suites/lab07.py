@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pendkit.grading.core import Diagnosis, Failed, as_number, expect, task
+from pendkit.grading.core import Diagnosis, Failed, as_number, expect, raised_name, task
 from pendkit.grading.prelab import prelab_task
 from pendkit.grading.written import written
 
@@ -45,7 +45,7 @@ def _along_the_actions(fn, *arguments):
         return fn(*arguments)
     except (IndexError, ValueError) as error:
         if "shape" in str(error) or "broadcast" in str(error):
-            raise Failed(f"td_target raised {type(error).__name__}: {error}; {AXIS_HINT}") from None
+            raise Failed(f"td_target raised {raised_name(error)}: {error}; {AXIS_HINT}") from None
         raise
 
 
