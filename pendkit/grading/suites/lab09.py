@@ -38,7 +38,7 @@ def the_final_upright_run(fn, rng):
     got = _optional_number(fn(angles, dt), "time_to_upright_s(angles, 0.06)")
     message = f"upright for good from step 5 (0.30 s), got {shown(got)}"
     if got is not None and abs(got - 0.18) < 1e-9:
-        message += ": the pendulum left the upright band again at step 4; only the final run counts"
+        message += Diagnosis(": the pendulum left the upright band again at step 4; only the final run counts")
     elif got is not None and abs(got - 5) < 1e-9:
         message += ": that is a step index; multiply by the step time"
     elif got is not None and abs(got - 0.24) < 1e-9:
