@@ -241,7 +241,17 @@ def test_lab09_quotes_the_rig_runs_as_docs_results_records_them():
     assert ("the servo's speed 0.280 to 0.389 s/60 deg, the latency 19.7 to 34.8 ms and the stall torque 9.96 to "
             "25.58 kg cm, while the identified twin's gap stayed within 0.05 to 0.13") in results
     assert 25.58 / 9.96 > 1.5 and 34.8 / 19.7 > 1.5  # "by half or more between two runs"
-    assert "any of which can change by half or more between two runs while the gap fraction hardly moves" in text
+    assert "error; a servo that never strains against its load hardly shows its torque) by half or more, while the gap fraction hardly moves" in text
+    assert 0.389 / 0.280 > 4 / 3 and "the servo's speed can move by a third or more" in text
+    # the pendulum's: the twelfth walk-through's two right runs
+    assert "its pendulum's frequency read 5.283 and 5.377 rad/s" in results and 5.377 / 5.283 < 1.05
+    assert "Between two runs the pendulum's values stay within a few percent" in text
+    # the Task 4 design over many starts: the study's five identifications
+    counts = [int(row[-1]) for row in results_table("| run | identified servo (s/60 deg) |")]
+    assert sorted(counts) == [0, 2, 2, 4, 4] and "it came up from 0, 2, 2, 4 and 4 of 6" in text
+    assert 2 <= sum(counts) / len(counts) < 3 and "about as often as the re-identified design's 2 on average" in text
+    # Task 4 reads the servo no closer than the step fit, in the recorded runs
+    assert "not always closer (recorded runs read it at 0.28 to 0.39 s/60 deg)" in text
     assert "the identified damping ratio read 0.78 and 0.19, the full-torque error 4.33 and 8.80 deg" in results
     assert 0.78 / 0.19 > 1.5 and 8.80 / 4.33 > 1.5 and "its latency, stall torque, damping ratio and" in text
     # the step fit's error is named against the virtual rig's own servo, the preset the lab's rig is made of
