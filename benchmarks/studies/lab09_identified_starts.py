@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 import pendkit
-from pendkit.adapt.excitation import Excitation, record, schedule
+from pendkit.adapt.excitation import record, schedule
 from pendkit.adapt.identify import identify
 from pendkit.adapt.routes import identified_twin
 from pendkit.control.swingup import SwingUpController
