@@ -241,7 +241,8 @@ def test_lab09_quotes_the_rig_runs_as_docs_results_records_them():
     assert ("the servo's speed 0.280 to 0.389 s/60 deg, the latency 19.7 to 34.8 ms and the stall torque 9.96 to "
             "25.58 kg cm, while the identified twin's gap stayed within 0.05 to 0.13") in results
     assert 25.58 / 9.96 > 1.5 and 34.8 / 19.7 > 1.5  # "by half or more between two runs"
-    assert "error; a servo that never strains against its load hardly shows its torque) by half or more, while the gap fraction hardly moves" in text
+    assert ("error; a servo that never strains against its load hardly shows its torque) by half or more, while the "
+            "gap fraction hardly moves") in text
     assert 0.389 / 0.280 > 4 / 3 and "the servo's speed can move by a third or more" in text
     # the pendulum's: the twelfth walk-through's two right runs
     assert "its pendulum's frequency read 5.283 and 5.377 rad/s" in results and 5.377 / 5.283 < 1.05
