@@ -37,8 +37,9 @@ def plot_identification(recordings: list[Recording], identification: Identificat
     shown = recordings[:SHOWN]
     figure = Figure(figsize=(9, 2.2 * len(shown)), layout="constrained")
     axes = np.atleast_1d(figure.subplots(len(shown), 1))
-    for axis, recording in zip(axes, shown):
+    for number, (axis, recording) in enumerate(zip(axes, shown), start=1):
         t, rig, prior, found = matched_traces(recording, identification)
+        axis.set_title(f"episode {number} of {len(recordings)}", loc="left", fontsize=9)
         degrees = lambda angles: np.degrees(wrapped_rad(angles))  # noqa: E731
         axis.plot(t, degrees(rig), color="black", lw=2, label="rig (encoder)")
         axis.plot(t, degrees(prior), color=PALETTE["limit"], lw=1, linestyle="--", label="prior twin")
@@ -49,8 +50,9 @@ def plot_identification(recordings: list[Recording], identification: Identificat
     figure.suptitle(f"Excitation episodes: matching cost {identification.prior_cost:.3f} (prior) -> "
                     f"{identification.cost:.3f} (identified)")
     path = Path(path)
-    alt = (f"Pendulum angle of {len(shown)} excitation episodes on the rig, with the prior and the identified "
-           f"twins given the same actions; the identified twin follows the rig more closely.")
+    alt = (f"Pendulum angle of the first {len(shown)} of {len(recordings)} excitation episodes on the rig, with "
+           "the prior and the identified twins given the same actions; the identified twin follows the rig more "
+           "closely.")
     with replacing(path, binary=True) as handle:  # never through a link planted there
         figure.savefig(handle, format="png", dpi=90, metadata={"Description": alt})
     return path

@@ -9,6 +9,7 @@ from pathlib import Path
 import nbformat
 import numpy as np
 
+from pendkit.adapt.plots import SHOWN
 from pendkit.rig import RigParams
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -247,6 +248,8 @@ def test_lab09_quotes_the_rig_runs_as_docs_results_records_them():
     # the pendulum's: the twelfth walk-through's two right runs
     assert "its pendulum's frequency read 5.283 and 5.377 rad/s" in results and 5.377 / 5.283 < 1.05
     assert "Between two runs the pendulum's values stay within a few percent" in text
+    # the identification figure: the first SHOWN episodes, each titled "episode k of N"
+    assert SHOWN == 3 and "the figure shows the first three recorded swings" in text
     # the Task 4 design over many starts: the study's five identifications
     counts = [int(row[-1]) for row in results_table("| run | identified servo (s/60 deg) |")]
     assert sorted(counts) == [0, 2, 2, 4, 4] and "it came up from 0, 2, 2, 4 and 4 of 6" in text
