@@ -51,7 +51,7 @@ def record_on_the_rig(env, excitations: Iterable, record: Callable, attempts: in
 
 
 def gap_chart(results: list[dict]):
-    """The summary chart of lab 09: time to upright and balance error per run (`measured`'s dicts), twins blue,
+    """The summary chart of lab 09: time to upright, balance error and return per run (`measured`'s dicts), twins blue,
     rigs orange. A run not upright for its last 2 s (never up, or up too late to hold) has no bar, so it gets a
     "not held" mark at 0 ("stopped" when the watchdog ended it: `measured`'s "stopped"); the y-limits cover every
     row (matplotlib's own limits stop at the last finite bar, which drops a last row that never came up)."""
@@ -59,23 +59,29 @@ def gap_chart(results: list[dict]):
 
     names = [r["name"] for r in results]
     rows = range(len(names))
-    figure, axes = plt.subplots(1, 2, figsize=(10, 3.5), layout="constrained")
+    figure, axes = plt.subplots(1, 3, figsize=(13, 3.5), layout="constrained")
     for axis, key, label in ((axes[0], "upright_s", "time to upright (s)"),
-                             (axes[1], "error_deg", "balance error (deg)")):
-        values = [float("nan") if r[key] is None else r[key] for r in results]
+                             (axes[1], "error_deg", "balance error (deg)"),
+                             (axes[2], "return", "return (the whole run; higher is better)")):
+        values = [float("nan") if r[key] is None or (key == "return" and r.get("stopped")) else r[key]
+                  for r in results]
         colours = ["#0072B2" if "twin" in n else "#E69F00" for n in names]
         axis.barh(rows, values, color=colours)
         for row, value, colour, result in zip(rows, values, colours, results):
-            if value != value:  # NaN: not upright for the run's last 2 s
+            if value != value:  # NaN: not upright for the run's last 2 s (a return: stopped, so not comparable)
                 axis.plot([0.0], [row], marker="x", color=colour, markersize=8, clip_on=False)
                 axis.annotate("stopped" if result.get("stopped") else "not held", (0.0, row), xytext=(8, 0),
                               textcoords="offset points", va="center", color=colour)
         axis.set_ylim(-0.5, len(names) - 0.5)
         axis.invert_yaxis()  # the first run at the top, as the table printed them
-        axis.set_xlim(left=0.0)
+        if key == "return":  # returns are negative: bars to the left of 0
+            axis.set_xlim(right=0.0)
+        else:
+            axis.set_xlim(left=0.0)
         axis.set_xlabel(label)
     axes[0].set_yticks(list(rows), names)
     axes[1].set_yticks([])
+    axes[2].set_yticks([])
     figure.suptitle("the sim-to-real gap, measured with your functions (blue: twin, orange: rig; x: not upright "
                     "for the run's last 2 s, or stopped by the watchdog)")
     return figure

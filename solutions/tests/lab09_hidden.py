@@ -51,8 +51,18 @@ def random_swing_ups(fn, rng):
                + said)
 
 
-@balance.test(points=1, hidden=True, hint="Random swing-ups.")
+@balance.test(points=1, hidden=True, hint="Random swing-ups, and one whose upright stretch starts at 0.66 s.")
 def random_balance_tails(fn, rng):
+    # the stretch from step 11: 0.66 / 0.06 is 10.999... in floats, so int() of the time lands a step early
+    angles = np.radians([180, 150, 100, 60, 30, 25, 40, 20, 25, 35, 18, 4, -3, 4, -2, 3])
+    expected = float(np.degrees(np.sqrt(np.mean(angles[11:] ** 2))))
+    got = fn(angles, 0.06)
+    note = balance_note(got, angles, 11)
+    if got is not None and is_real(got) and abs(float(got) - np.degrees(np.sqrt(np.mean(angles[10:] ** 2)))) < 1e-6:
+        note = Diagnosis(": the stretch starts one step early, at step 10 (if you turned the time into a step with "
+                         "int(): 0.66 / 0.06 is 10.999... in floats, so round() it)")
+    expect(got is not None and abs(got - expected) < 1e-6,
+           f"a run upright from step 11 (0.66 s at 0.06 s): expected {shown(expected)}, got {shown(got)}" + note)
     for _ in range(6):
         angles = random_run(rng, settles=bool(rng.integers(0, 2)))
         start = final_run_start(angles)
@@ -116,11 +126,12 @@ def first_upright_entry(angles, dt):
     return None if final_upright_start(angles, dt) is None else float(inside[0] * dt)
 
 
-def balance_error_deg(angles, dt, rms=True, whole_run=False, early=0):
+def balance_error_deg(angles, dt, rms=True, whole_run=False, early=0, by_int=False):
     start = final_upright_start(angles, dt)
     if start is None:
         return None
-    tail = np.asarray(angles, dtype=float)[0 if whole_run else max(int(round(start / dt)) - early, 0):]
+    step = int(start / dt) if by_int else int(round(start / dt))
+    tail = np.asarray(angles, dtype=float)[0 if whole_run else max(step - early, 0):]
     return float(np.degrees(np.sqrt(np.mean(tail**2)) if rms else np.mean(tail)))
 
 
@@ -160,6 +171,8 @@ MISTAKES = [
      {"rms_over_the_final_run", "random_balance_tails"}),
     ("09.balance_error_deg", lambda a, dt: balance_error_deg(a, dt, early=1), "starts one step early",
      {"rms_over_the_final_run", "random_balance_tails"}),
+    ("09.balance_error_deg", lambda a, dt: balance_error_deg(a, dt, by_int=True), "round() it",
+     {"random_balance_tails"}),
     ("09.matching_cost", lambda sim, rec: CORRECT["09.matching_cost"](sim, rec) ** 0.5, "leave out the square root",
      {"a_mean_of_squares", "gaps_either_way_add_up", "the_wrap_at_the_bottom", "random_swings"}),
     ("09.matching_cost", lambda sim, rec: float(np.mean(np.abs((np.asarray(sim) - rec + np.pi) % (2 * np.pi) - np.pi))),

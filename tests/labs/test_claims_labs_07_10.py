@@ -255,7 +255,11 @@ def test_lab09_quotes_the_rig_runs_as_docs_results_records_them():
     assert sorted(counts) == [0, 2, 2, 4, 4] and "it came up from 0, 2, 2, 4 and 4 of 6" in text
     assert 2 <= sum(counts) / len(counts) < 3 and "about as often as the re-identified design's 2 on average" in text
     # Task 4 reads the servo no closer than the step fit, in the recorded runs
-    assert "not always closer (recorded runs read it at 0.28 to 0.39 s/60 deg)" in text
+    assert "read the servo at 0.188, 0.320, 0.287 and 0.390 s/60 deg" in results and "0.2845 and 0.3135" in results
+    assert "not always closer (recorded runs read it from 0.19 to 0.39 s/60 deg)" in text
+    walked = [3, 1, 5, 3, 1, 3]  # the thirteenth and fourteenth walk-throughs' Task 4 designs, of 6
+    assert "designs came up from 3 and 1 of 6" in results and "designs up from 5, 3, 1 and 3 of 6" in results
+    assert (min(walked), max(walked)) == (1, 5) and "students' runs on the virtual rig saw anything from 1 to 5" in text
     assert "the identified damping ratio read 0.78 and 0.19, the full-torque error 4.33 and 8.80 deg" in results
     assert 0.78 / 0.19 > 1.5 and 8.80 / 4.33 > 1.5 and "its latency, stall torque, damping ratio and" in text
     # the step fit's error is named against the virtual rig's own servo, the preset the lab's rig is made of

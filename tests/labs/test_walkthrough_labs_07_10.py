@@ -244,16 +244,22 @@ def test_lab09_the_gap_chart_shows_every_run_a_last_one_that_never_came_up_too()
 
     from pendkit.labs.rig_runs import gap_chart
 
-    results = [{"name": "swing-up, on the twin", "upright_s": 4.0, "error_deg": 1.3},
-               {"name": "swing-up, on the rig", "upright_s": None, "error_deg": None, "stopped": True},
-               {"name": "td3-realistic, on its twin", "upright_s": 1.9, "error_deg": 0.8},
-               {"name": "td3-realistic, on the rig", "upright_s": None, "error_deg": None}]
+    results = [{"name": "swing-up, on the twin", "upright_s": 4.0, "error_deg": 1.3, "return": -180.0},
+               {"name": "swing-up, on the rig", "upright_s": None, "error_deg": None, "return": -400.0,
+                "stopped": True},
+               {"name": "td3-realistic, on its twin", "upright_s": 1.9, "error_deg": 0.8, "return": -120.0},
+               {"name": "td3-realistic, on the rig", "upright_s": None, "error_deg": None, "return": -1600.0}]
     figure = gap_chart(results)
+    times, errors, returns = figure.axes
     for axis in figure.axes:
         low, high = sorted(axis.get_ylim())
         assert low <= -0.5 and high >= len(results) - 0.5  # every row inside, the last one too
-        # a run the watchdog stopped is told from one that ran its length without holding (its return is partial)
+    for axis in (times, errors):  # a run the watchdog stopped is told from one that ran its length without holding
         assert [(t.get_text(), t.xy[1]) for t in axis.texts] == [("stopped", 1), ("not held", 3)]
+    # the returns of whole runs, to compare as lab 09's text asks; a stopped run's (partial) has no bar
+    assert [(t.get_text(), t.xy[1]) for t in returns.texts] == [("stopped", 1)]
+    assert [round(bar.get_width()) for bar in returns.patches if bar.get_width() == bar.get_width()] == \
+        [-180, -120, -1600]
     assert [t.get_text() for t in figure.axes[0].get_yticklabels()][-1] == "td3-realistic, on the rig"
     plt.close(figure)
     assert any("gap_chart(results)" in c for c in cells("09_deploy.ipynb"))
@@ -363,11 +369,12 @@ def test_lab09_the_gap_charts_labels_do_not_run_into_each_other():
 
     from pendkit.labs.rig_runs import gap_chart
 
-    figure = gap_chart([{"name": "swing-up, on the rig", "upright_s": None, "error_deg": None}])
+    figure = gap_chart([{"name": "swing-up, on the rig", "upright_s": None, "error_deg": None, "return": -900.0}])
     figure.canvas.draw()
     renderer = figure.canvas.get_renderer()
-    left, right = (axis.xaxis.label.get_window_extent(renderer) for axis in figure.axes)
-    assert left.x1 < right.x0, (left, right)
+    labels = [axis.xaxis.label.get_window_extent(renderer) for axis in figure.axes]
+    for left, right in zip(labels, labels[1:]):
+        assert left.x1 < right.x0, (left, right)
     assert "x: not upright for the run's last 2 s, or stopped by the watchdog" in figure.get_suptitle()
     plt.close(figure)
 
