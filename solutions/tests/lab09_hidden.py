@@ -43,8 +43,7 @@ def random_swing_ups(fn, rng):
             steps = round((float(got) - expected) / dt, 6)
             said = {-1.0: Diagnosis(": one step early, at the last step outside 0.3 rad"),
                     1.0: Diagnosis(": one step late, the stretch's second step")}.get(steps, "")
-            entered = np.nonzero(np.abs(angles) < 0.3)[0]
-            if not said and abs(float(got) - entered[0] * dt) < 1e-9:
+            if not said and abs(float(got) - first_upright_entry(angles, dt)) < 1e-9:
                 said = Diagnosis(": that is the first step inside 0.3 rad, but the pendulum left the band again "
                                  "after it; only the final run counts")
         expect(ok, f"a random run of {len(angles)} steps at {dt} s: expected {shown(expected)}, got {shown(got)}"
