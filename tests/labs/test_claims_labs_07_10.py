@@ -234,10 +234,22 @@ def test_lab09_quotes_the_rig_runs_as_docs_results_records_them():
     assert 'marks it "stopped". Its return covers only the run before the stop, so leave it out' in text
     assert "returned -1693.6 against that run's ideal-twin design's -1611.0" in results
     assert (f"they came up in {len(came)} of {len(redesigned)} runs in the kit's latest five (at {min(came):.1f} to "
-            f"{max(came):.1f} s of 24 s; walk-throughs saw them from 2.7 s)") in text
+            f"{max(came):.1f} s of 24 s; walk-throughs saw them from 2.6 s)") in text
+    assert "saw the re-identified design come up on the rig at 6.06, 2.64 and 2.70 s" in results
     # the identification: the nominal twin's gap about 0.03; a right cost under half; the ranges overlap
     nominal = [float(x) for x in rows["nominal twin's gap (rad^2)"]]
     assert all(0.025 <= n <= 0.036 for n in nominal) and "twin's (the figure's *prior*) is about 0.03 rad^2" in text
+    # the watchdog's hold after the drop and its reading's age (the fifteenth walk-through's runs)
+    assert "held the rig 0.36, 0.30, 0.36 and 0.36 s after the drop on readings 0.352, 0.307, - and 0.357 s old" \
+        in results
+    gaps = [held - age for held, age in ((0.36, 0.352), (0.30, 0.307), (0.36, 0.357))]
+    assert max(map(abs, gaps)) < 0.05 and min(gaps) < 0 < max(gaps)
+    assert "The two agree to a few hundredths of a second, either one the larger" in text
+    walked_nominal = [0.0404, 0.0283, 0.0338, 0.0288]  # the fifteenth walk-through's four runs
+    assert "the nominal twin's gap 0.0404, 0.0283, 0.0338 and 0.0288 rad^2" in results
+    recorded = nominal + walked_nominal
+    assert f"(the figure's *prior*) is about 0.03 rad^2 ({min(recorded):.3f} to {max(recorded):.3f} in recorded runs)" \
+        in text and max(recorded) < 0.045  # under the re-run threshold the text gives
     # the identified values move from run to run (the eighth walk-through's runs), the gap fraction less
     assert ("the servo's speed 0.280 to 0.389 s/60 deg, the latency 19.7 to 34.8 ms and the stall torque 9.96 to "
             "25.58 kg cm, while the identified twin's gap stayed within 0.05 to 0.13") in results
@@ -256,10 +268,14 @@ def test_lab09_quotes_the_rig_runs_as_docs_results_records_them():
     assert 2 <= sum(counts) / len(counts) < 3 and "about as often as the re-identified design's 2 on average" in text
     # Task 4 reads the servo no closer than the step fit, in the recorded runs
     assert "read the servo at 0.188, 0.320, 0.287 and 0.390 s/60 deg" in results and "0.2845 and 0.3135" in results
-    assert "not always closer (recorded runs read it from 0.19 to 0.39 s/60 deg)" in text
-    walked = [3, 1, 5, 3, 1, 3]  # the thirteenth and fourteenth walk-throughs' Task 4 designs, of 6
+    assert "0.392, 0.353, 0.329 and 0.230 s/60 deg" in results  # the fifteenth walk-through's
+    speeds = [0.188, 0.320, 0.287, 0.390, 0.392, 0.353, 0.329, 0.230]
+    assert f"not always closer (recorded runs read it from about {min(speeds):.1f} to {max(speeds):.1f} s/60 deg)" in text
+    # the thirteenth, fourteenth and fifteenth walk-throughs' Task 4 designs, of 6
+    walked = [3, 1, 5, 3, 1, 3, 2, 0, 6, 0]
     assert "designs came up from 3 and 1 of 6" in results and "designs up from 5, 3, 1 and 3 of 6" in results
-    assert (min(walked), max(walked)) == (1, 5) and "students' runs on the virtual rig saw anything from 1 to 5" in text
+    assert "its Task 4 designs came up from 2, 0, 6 and 0 of 6" in results
+    assert (min(walked), max(walked)) == (0, 6) and "virtual rig saw anything from none to all 6" in text
     assert "the identified damping ratio read 0.78 and 0.19, the full-torque error 4.33 and 8.80 deg" in results
     assert 0.78 / 0.19 > 1.5 and 8.80 / 4.33 > 1.5 and "its latency, stall torque, damping ratio and" in text
     # the step fit's error is named against the virtual rig's own servo, the preset the lab's rig is made of
