@@ -1,7 +1,9 @@
 """Study: from how many of 6 starts does lab 09's Task 4 design (designed on the twin identified from six
 excitation episodes) come up on the simulated twin of the lab's rig, across identifications? The lab's rig
 (Hitec D645MW at 4.8 V, classroom Wi-Fi), its excitation recorded on the twin (not real time, a different
-noise seed per run), the kit's cost and the lab's 600 evaluations, the kit's swing-up parts and watchdog.
+noise seed per run), the kit's cost and the lab's 600 evaluations, the kit's swing-up parts and watchdog. Beside
+each count, the latency's share: the same identified twin designed for the prior's 10 ms, and the rig's own
+parameters designed for the identified latency.
 
     python benchmarks/studies/lab09_identified_starts.py --runs 5
 """
@@ -16,7 +18,7 @@ import numpy as np
 
 import pendkit
 from pendkit.adapt.excitation import record, schedule
-from pendkit.adapt.identify import identify
+from pendkit.adapt.identify import PRIOR_LATENCY_MS, Identification, identify
 from pendkit.adapt.routes import identified_twin
 from pendkit.control.swingup import SwingUpController
 from pendkit.deploy import run_guarded
@@ -52,18 +54,25 @@ def starts_up(design, starts: int = 6) -> int:
     return came
 
 
+def designed_for(params, latency_ms: float) -> SwingUpController:
+    """The kit's swing-up designed on the twin of `params` behind a fixed `latency_ms`, as lab 09's Task 4 does."""
+    twin = Identification(params, latency_ms, 0.0, 0.0, 0, 0.0)
+    return SwingUpController.for_env(identified_twin(twin, action_mode="continuous", filter_coefficient=0.0))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5)
     args = parser.parse_args()
-    print("run speed_s_per_60deg latency_ms identified_up_of_6")
+    print("run speed_s_per_60deg latency_ms identified_up_of_6 identified_at_10ms_up_of_6 rig_at_identified_latency_up_of_6")
     for run in range(args.runs):
         env = twin_of_the_rig()
         recordings = [record(env, e, seed=100 * run + k) for k, e in enumerate(schedule(6))]
         env.close()
         found = identify(recordings, pendkit.RigParams(), max_evaluations=600, seed=run)
-        design = SwingUpController.for_env(identified_twin(found, action_mode="continuous", filter_coefficient=0.0))
-        print(f"{run} {found.params.servo_speed_s_per_60deg:.3f} {found.latency_ms:.1f} {starts_up(design)}",
+        counts = [starts_up(designed_for(params, latency_ms)) for params, latency_ms in
+                  ((found.params, found.latency_ms), (found.params, PRIOR_LATENCY_MS), (RIG, found.latency_ms))]
+        print(f"{run} {found.params.servo_speed_s_per_60deg:.3f} {found.latency_ms:.1f} {' '.join(map(str, counts))}",
               flush=True)
 
 

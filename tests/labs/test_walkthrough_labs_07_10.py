@@ -255,7 +255,7 @@ def test_lab09_the_gap_chart_shows_every_run_a_last_one_that_never_came_up_too()
         low, high = sorted(axis.get_ylim())
         assert low <= -0.5 and high >= len(results) - 0.5  # every row inside, the last one too
     for axis in (times, errors):  # a run the watchdog stopped is told from one that ran its length without holding
-        assert [(t.get_text(), t.xy[1]) for t in axis.texts] == [("stopped", 1), ("not held", 3)]
+        assert [(t.get_text(), t.xy[1]) for t in axis.texts] == [("stopped", 1), ("not up at the end", 3)]
     # the returns of whole runs, to compare as lab 09's text asks; a stopped run's (partial) has no bar
     assert [(t.get_text(), t.xy[1]) for t in returns.texts] == [("stopped", 1)]
     assert [round(bar.get_width()) for bar in returns.patches if bar.get_width() == bar.get_width()] == \
@@ -361,7 +361,8 @@ def test_lab10_says_what_its_deploy_runs_showed_and_which_model_errors_its_estim
 
 
 def test_lab09_the_gap_charts_labels_do_not_run_into_each_other():
-    """A walk-through saw the two x labels run together: each names its axis alone, the "not held" key above."""
+    """A walk-through saw the two x labels run together: each names its axis alone, the "not up at the end" key
+    above."""
     import matplotlib
 
     matplotlib.use("Agg")
