@@ -64,7 +64,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5)
     args = parser.parse_args()
-    print("run speed_s_per_60deg latency_ms identified_up_of_6 identified_at_10ms_up_of_6 rig_at_identified_latency_up_of_6")
+    print("run speed_s_per_60deg latency_ms identified_up_of_6 identified_at_10ms_up_of_6 "
+          "rig_at_identified_latency_up_of_6")
     for run in range(args.runs):
         env = twin_of_the_rig()
         recordings = [record(env, e, seed=100 * run + k) for k, e in enumerate(schedule(6))]
