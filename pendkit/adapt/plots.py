@@ -31,7 +31,10 @@ def matched_traces(recording: Recording, identification: Identification):
             simulate(identification.params, identification.latency_ms, recording))
 
 
-def plot_identification(recordings: list[Recording], identification: Identification, path: str | Path) -> Path:
+def plot_identification(recordings: list[Recording], identification: Identification, path: str | Path,
+                        cost_name: str = "matching cost") -> Path:
+    """The first `SHOWN` recordings beside the prior and the identified twins, saved at `path`; the title gives
+    the search's cost of each (`cost_name`: whose cost the search ranked by, e.g. a student's)."""
     from matplotlib.figure import Figure
 
     shown = recordings[:SHOWN]
@@ -47,7 +50,7 @@ def plot_identification(recordings: list[Recording], identification: Identificat
         axis.set_ylabel("pendulum (deg)")
     axes[0].legend(loc="upper right")
     axes[-1].set_xlabel("time (s)" if identification.pwm_phase_ms is None else "time (s, the device's clock)")
-    figure.suptitle(f"Excitation episodes: matching cost {identification.prior_cost:.3f} (prior) -> "
+    figure.suptitle(f"Excitation episodes: {cost_name} {identification.prior_cost:.3f} (prior) -> "
                     f"{identification.cost:.3f} (identified)")
     path = Path(path)
     alt = (f"Pendulum angle of the first {len(shown)} of {len(recordings)} excitation episodes on the rig, with "

@@ -53,8 +53,8 @@ def record_on_the_rig(env, excitations: Iterable, record: Callable, attempts: in
 def gap_chart(results: list[dict]):
     """The summary chart of lab 09: time to upright, balance error and return per run (`measured`'s dicts), twins blue,
     rigs orange. A run not upright for its last 2 s (never up, up and fallen, or up too late to hold) has no bar, so
-    it gets a "not up at the end" mark at 0 ("stopped" when the watchdog ended it: `measured`'s "stopped"); the
-    y-limits cover every row (matplotlib's own limits stop at the last finite bar, which drops a last row that
+    it gets a "not up for the last 2 s" mark at 0 ("stopped" when the watchdog ended it: `measured`'s "stopped");
+    the y-limits cover every row (matplotlib's own limits stop at the last finite bar, which drops a last row that
     never came up)."""
     import matplotlib.pyplot as plt
 
@@ -71,8 +71,8 @@ def gap_chart(results: list[dict]):
         for row, value, colour, result in zip(rows, values, colours, results):
             if value != value:  # NaN: not upright for the run's last 2 s (a return: stopped, so not comparable)
                 axis.plot([0.0], [row], marker="x", color=colour, markersize=8, clip_on=False)
-                axis.annotate("stopped" if result.get("stopped") else "not up at the end", (0.0, row), xytext=(8, 0),
-                              textcoords="offset points", va="center", color=colour)
+                axis.annotate("stopped" if result.get("stopped") else "not up for the last 2 s", (0.0, row),
+                              xytext=(8, 0), textcoords="offset points", va="center", color=colour)
         axis.set_ylim(-0.5, len(names) - 0.5)
         axis.invert_yaxis()  # the first run at the top, as the table printed them
         if key == "return":  # returns are negative: bars to the left of 0

@@ -277,12 +277,12 @@ def test_lab09_quotes_the_rig_runs_as_docs_results_records_them():
     latency = [float(row[2]) for row in study]
     rig_at_latency = [int(row[5]) for row in study]
     worst = latency.index(max(latency))
-    assert rig_at_latency[worst] == 0 and "designed for 19.0 ms, even the rig's own servo came up from none of 6" in text
     rest = [n for k, n in enumerate(rig_at_latency) if k != worst]
-    assert sorted(set(rest)) == [4, 5] and f"latency read {min(latency):.1f} to {max(latency):.1f} ms" in text
-    assert "(for 12.0 to 15.0 ms, from 4 or 5)" in text and sorted(latency)[-2] == 15.0
+    assert rig_at_latency[worst] == 0 and sorted(set(rest)) == [4, 5]
+    assert (f"came up from none of 6 where that latency was {max(latency):.1f} ms, and from 4 or 5 where it was "
+            f"{min(latency):.1f} to {sorted(latency)[-2]:.1f} ms") in text
     assert all(rig >= own for rig, own in zip(rig_at_latency, counts))
-    assert "the rig's own servo came up at least as often as the identified one" in text
+    assert "at each latency it came up at least as often as the identified servo did" in text
     # Task 4 reads the servo no closer than the step fit, in the recorded runs
     assert "read the servo at 0.188, 0.320, 0.287 and 0.390 s/60 deg" in results and "0.2845 and 0.3135" in results
     assert "0.392, 0.353, 0.329 and 0.230 s/60 deg" in results  # the fifteenth walk-through's

@@ -255,7 +255,7 @@ def test_lab09_the_gap_chart_shows_every_run_a_last_one_that_never_came_up_too()
         low, high = sorted(axis.get_ylim())
         assert low <= -0.5 and high >= len(results) - 0.5  # every row inside, the last one too
     for axis in (times, errors):  # a run the watchdog stopped is told from one that ran its length without holding
-        assert [(t.get_text(), t.xy[1]) for t in axis.texts] == [("stopped", 1), ("not up at the end", 3)]
+        assert [(t.get_text(), t.xy[1]) for t in axis.texts] == [("stopped", 1), ("not up for the last 2 s", 3)]
     # the returns of whole runs, to compare as lab 09's text asks; a stopped run's (partial) has no bar
     assert [(t.get_text(), t.xy[1]) for t in returns.texts] == [("stopped", 1)]
     assert [round(bar.get_width()) for bar in returns.patches if bar.get_width() == bar.get_width()] == \
@@ -361,8 +361,8 @@ def test_lab10_says_what_its_deploy_runs_showed_and_which_model_errors_its_estim
 
 
 def test_lab09_the_gap_charts_labels_do_not_run_into_each_other():
-    """A walk-through saw the two x labels run together: each names its axis alone, the "not up at the end" key
-    above."""
+    """A walk-through saw the two x labels run together: each names its axis alone, the "not up for the last 2 s"
+    key above."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -433,3 +433,23 @@ def test_lab09_tells_a_student_what_to_expect_in_words_not_other_runs_ranges():
     for quoted in ("walk-through", "kit's five", "kit's latest five", "runs so far", "in the kit's runs"):
         assert quoted not in student, quoted
     assert "Every recorded run is in docs/results/labs.md" in student
+
+
+def test_lab09_the_identification_figure_says_whose_cost_its_title_gives(tmp_path, monkeypatch):
+    """A walk-through read the figure's "matching cost 0.028 (prior) -> 0.002" beside the kit's printed gap of
+    0.0273 and could not tell the two apart: the search ranks by the student's cost, and the title says so."""
+    from matplotlib.figure import Figure
+
+    from pendkit.adapt.excitation import Recording
+    from pendkit.adapt.identify import Identification
+    from pendkit.adapt.plots import plot_identification
+    from pendkit.rig import RigParams
+
+    titles = []
+    monkeypatch.setattr(Figure, "savefig", lambda figure, *a, **k: titles.append(figure.get_suptitle()))
+    recording = Recording([0.5, -0.5] * 5, 0.0, 0.0, pendulum_rad=[0.0] * 10)
+    found = Identification(RigParams(), 10.0, 0.002, 0.028, 0, 0.0)
+    plot_identification([recording], found, tmp_path / "identification.png", cost_name="your matching_cost")
+    assert titles == ["Excitation episodes: your matching_cost 0.028 (prior) -> 0.002 (identified)"]
+    lab = next(c for c in cells("09_deploy.ipynb") if "plot_identification(recordings" in c)
+    assert 'cost_name="your matching_cost"' in lab
