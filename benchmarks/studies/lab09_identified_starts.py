@@ -5,7 +5,9 @@ noise seed per run), the kit's cost and the lab's 600 evaluations, the kit's swi
 each count, the latency's share: the same identified twin designed for the prior's 10 ms, and the rig's own
 parameters designed for the identified latency.
 
-    python benchmarks/studies/lab09_identified_starts.py --runs 5
+    python benchmarks/studies/lab09_identified_starts.py --runs 5 [--searches 3 --evaluations 200]
+
+`--searches`: the best of that many searches (seeds run, run + 10, ...), as `pendkit adapt`'s restarts keep.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import numpy as np
 
 import pendkit
 from pendkit.adapt.excitation import record, schedule
-from pendkit.adapt.identify import PRIOR_LATENCY_MS, Identification, identify
+from pendkit.adapt.identify import PRIOR_LATENCY_MS, Identification, identify_best
 from pendkit.adapt.routes import identified_twin
 from pendkit.control.swingup import SwingUpController
 from pendkit.deploy import run_guarded
@@ -63,6 +65,8 @@ def designed_for(params, latency_ms: float) -> SwingUpController:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5)
+    parser.add_argument("--searches", type=int, default=1, help="searches per identification, the best kept")
+    parser.add_argument("--evaluations", type=int, default=600, help="evaluations per search (the lab's 600)")
     args = parser.parse_args()
     print("run speed_s_per_60deg latency_ms identified_up_of_6 identified_at_10ms_up_of_6 "
           "rig_at_identified_latency_up_of_6")
@@ -70,7 +74,8 @@ def main() -> None:
         env = twin_of_the_rig()
         recordings = [record(env, e, seed=100 * run + k) for k, e in enumerate(schedule(6))]
         env.close()
-        found = identify(recordings, pendkit.RigParams(), max_evaluations=600, seed=run)
+        found = identify_best(recordings, pendkit.RigParams(), max_evaluations=args.evaluations,
+                              seeds=tuple(run + 10 * k for k in range(args.searches)))
         counts = [starts_up(designed_for(params, latency_ms)) for params, latency_ms in
                   ((found.params, found.latency_ms), (found.params, PRIOR_LATENCY_MS), (RIG, found.latency_ms))]
         print(f"{run} {found.params.servo_speed_s_per_60deg:.3f} {found.latency_ms:.1f} {' '.join(map(str, counts))}",
