@@ -84,9 +84,12 @@ def at_the_limits(fn, rng):
         cases.append(((arm, rate, rng.uniform(0, STALE_AFTER_S * 0.99)), False))
     for args, stop in cases:
         got = fn(*args)
-        expect(bool(got) == stop and (got is None or isinstance(got, str)),
-               f"should_stop{tuple(round(a, 4) for a in args)} should {'stop' if stop else 'return None'}, "
-               f"got {shown(got)}")
+        message = (f"should_stop{tuple(round(a, 4) for a in args)} should {'stop' if stop else 'return None'}, "
+                   f"got {shown(got)}")
+        if any(a != a for a in args):  # every comparison with NaN is False: a test for unsafe lets it through
+            message = Diagnosis(message + ": a value that is not a number must stop the rig (test for safe, not "
+                                          "unsafe)")
+        expect(bool(got) == stop and (got is None or isinstance(got, str)), message)
 
 
 @matching.test(points=1, hidden=True, hint="Random swings that cross the wrap, of any length.")
@@ -184,4 +187,7 @@ MISTAKES = [
      "not a number"),
     ("09.should_stop", lambda arm, rate, age: "arm" if arm > 1.6 or rate > 20 or not age <= 0.3 else None,
      "either way"),
+    # the limits tested for safe, the age for unsafe: a NaN age goes on (a twentieth walk-through's slip)
+    ("09.should_stop", lambda arm, rate, age: "arm" if not abs(arm) <= 1.6 or not abs(rate) <= 20 or age > 0.3
+     else None, "age that is not a number", {"each_limit_stops_the_rig"}),
 ]

@@ -120,15 +120,20 @@ def safe_states_go_on(fn, rng):
 
 
 @watchdog.test(points=2, hint="Each limit on its own stops the rig: the arm's angle either way, the pendulum's "
-                              "rate either way, and readings older than STALE_AFTER_S.")
+                              "rate either way, readings older than STALE_AFTER_S, and any of the three not a number.")
 def each_limit_stops_the_rig(fn, rng):
     for args, what in [((1.65, 0.0, 0.05), "the arm past +1.6 rad"), ((-1.65, 0.0, 0.05), "the arm past -1.6 rad"),
                        ((0.0, 21.0, 0.05), "the pendulum turning at +21 rad/s"),
                        ((0.0, -21.0, 0.05), "the pendulum turning at -21 rad/s"),
                        ((0.0, 0.0, 0.5), "readings 0.5 s old (the link is failing)"),
-                       ((0.0, float("nan"), 0.05), "a reading that is not a number")]:
+                       ((float("nan"), 0.0, 0.05), "an arm angle that is not a number"),
+                       ((0.0, float("nan"), 0.05), "a rate that is not a number"),
+                       ((0.0, 0.0, float("nan")), "a reading's age that is not a number")]:
         call = f"should_stop{args}"
-        expect(_stops(fn, call, *args), f"{call}: {what} must stop the rig, got None")
+        message = f"{call}: {what} must stop the rig, got None"
+        if "not a number" in what:  # every comparison with NaN is False: a test for unsafe lets it through
+            message = Diagnosis(message + "; test each value for safe (`not x <= limit`), not for unsafe")
+        expect(_stops(fn, call, *args), message)
 
 
 def _cost(fn, simulated, recorded) -> float:
