@@ -125,12 +125,16 @@ class RigBackend:
             self.link.log = EpisodeLog(self.log_dir / f"episode-{self._episodes:04d}.jsonl")
             if previous is not None:
                 previous.close()
+        # a device built for another servo is refused as soon as its status says so: before any command
+        # reaches it, and without waiting on the readings (a busy laptop's late ones must not hide the cause)
+        self._check_device_config()
         self._configure()
         self._send(command_body(STOP, self.params))
         began = time.monotonic()
         quiet_since = None
         while True:
             time.sleep(HEARTBEAT_S)
+            self._check_device_config()
             self._send("h")
             now = time.monotonic()
             waited = now - began

@@ -72,3 +72,23 @@ def test_reset_waits_for_the_pendulum_to_settle():
         env.close()
     finally:
         rig.stop()
+
+
+def test_a_rig_built_for_another_servo_is_refused_by_name_even_while_its_readings_are_lost():
+    """The servo check reads the device's retained status: a CI run under load lost the readings for a second
+    and got "no observation from rig r01" instead of the two servos named. The status alone now decides."""
+    import dataclasses
+
+    from pendkit.errors import ConfigError
+
+    rig = LocalRig()  # the kit's rig: Hitec D645MW
+    try:
+        rig.virtual.impairment = dataclasses.replace(rig.virtual.impairment, observation_loss_pct=100.0)
+        env = pendkit.make(backend="rig", broker=rig.url, rig=rig.rig,
+                           params=pendkit.RigParams.preset("turnigy-tgy-wp23"))
+        with pytest.raises(ConfigError, match="hitec-d645mw") as refused:
+            env.reset(seed=0)
+        assert "Turnigy TGY-WP23" in str(refused.value)
+        env.close()
+    finally:
+        rig.stop()
